@@ -1,0 +1,34 @@
+# Task runner. Every target bootstraps .venv itself; `make run` and `make test` are the quick start.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: run test lint typecheck unit scen-all clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $(STAMP)
+
+run: $(STAMP)  ## the main job: plan on the bundled example map, printed and explained
+	$(PY) -m planner demo
+
+test: lint typecheck unit  ## the whole suite: ruff, mypy, pytest
+
+lint: $(STAMP)
+	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
+
+typecheck: $(STAMP)
+	$(PY) -m mypy
+
+unit: $(STAMP)
+	$(PY) -m pytest
+
+scen-all: $(STAMP)  ## every line of every Moving AI scenario file in ../shared (slow: minutes)
+	for f in ../shared/maps/movingai/*.scen; do $(PY) -m planner scen "$$f" || exit 1; done
+
+clean:
+	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

@@ -1,0 +1,50 @@
+"""Wide-free-space path planning on 2D occupancy grids.
+
+The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read precisely as
+``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
+(cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
+decision, stepping among dynamic obstacles, and the paper's simulated experiment.
+
+>>> import planner
+>>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
+>>> p.path.tolist()
+[[0, 0], [0, 1], [0, 2], [1, 2], [2, 2], [2, 1], [2, 0]]
+"""
+
+from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
+from planner.analysis import Analysis, Wave, analyse, goal_wave
+from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
+from planner.params import PRESETS, Params, resolve_params
+from planner.planning import Plan, plan
+from planner.session import MOVES, Session, SessionState, Step
+from planner.simulation import Episode, run_episode, simulate
+
+__all__ = [
+    "MOVES",
+    "PRESETS",
+    "Analysis",
+    "Episode",
+    "InvalidInput",
+    "NoValidPath",
+    "Params",
+    "Plan",
+    "PlannerError",
+    "Scenario",
+    "SequenceConflict",
+    "Session",
+    "SessionState",
+    "Step",
+    "Wave",
+    "analyse",
+    "as_grid",
+    "format_map",
+    "goal_wave",
+    "parse_map",
+    "parse_rows",
+    "plan",
+    "read_map",
+    "read_scen",
+    "resolve_params",
+    "run_episode",
+    "simulate",
+]

@@ -1,0 +1,46 @@
+"""The planner's errors: one small hierarchy, each with a stable machine-readable ``code``.
+
+PlannerError
+├── InvalidInput        (also a ValueError) a grid, map text, cell or parameter is unusable
+├── NoValidPath         ``NO_VALID_PATH``: the goal cannot be reached
+└── SequenceConflict    a step's ``seq`` is neither the last one nor the next one
+"""
+
+from __future__ import annotations
+
+__all__ = ["InvalidInput", "NoValidPath", "PlannerError", "SequenceConflict"]
+
+
+class PlannerError(Exception):
+    """Base of every error the planner raises on purpose.
+
+    ``field`` names the input at fault (``"start"``, ``"params.alpha"``...) when there is one.
+    """
+
+    code = "PLANNER_ERROR"
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field
+
+
+class InvalidInput(PlannerError, ValueError):
+    """A grid, map text, scenario, cell or parameter that the planner cannot use."""
+
+    code = "INVALID_INPUT"
+
+
+class NoValidPath(PlannerError):
+    """The goal cannot be reached from the start (the message starts with ``NO_VALID_PATH``)."""
+
+    code = "NO_VALID_PATH"
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(f"NO_VALID_PATH: {message}", field=field)
+
+
+class SequenceConflict(PlannerError):
+    """A step's ``seq`` is neither the last step's (a retry) nor the next one."""
+
+    code = "SEQUENCE_CONFLICT"

@@ -1,0 +1,605 @@
+"""Numba kernels of the planner: private, pure functions over numpy arrays and scalars.
+
+Each kernel has one validating public wrapper elsewhere in the package; nothing here checks its
+input, raises, or touches Python objects. Cells are flat indices ``r * W + c``; the eight moves are
+numbered clockwise from north: N NE E SE S SW W NW.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+# Cell states of an analysed map.
+FREE = 0
+OBSTACLE = 1
+TUNNEL = 2  # a tight-tunnel cell: free, but sealed when ``seal_tunnels`` is on
+
+# Decision outcomes.
+MOVE = 0
+EVADE = 1  # an obstacle entered the robot's cell: step aside, even if not closer
+WAIT = 2
+BLOCKED = 3  # the goal cannot be reached from here, whatever the dynamic obstacles do
+
+MODE_WIDE = 0
+MODE_PAPER = 1
+
+DR = np.array([-1, -1, 0, 1, 1, 1, 0, -1], dtype=np.int64)
+DC = np.array([0, 1, 1, 1, 0, -1, -1, -1], dtype=np.int64)
+
+_CLOSED = -2
+_OUTSIDE = -1
+
+
+# --------------------------------------------------------------------------------------------
+# Map analysis (ALGORITHM.md §1): gates, tight tunnels, the clean field.
+
+
+@njit(cache=True, nogil=True)
+def _classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Cell states (FREE, OBSTACLE, TUNNEL), the gate count and the tunnel count."""
+    H, W = grid.shape
+    state = np.empty((H, W), dtype=np.uint8)
+    tunnels = 0
+    for r in range(H):
+        for c in range(W):
+            if grid[r, c] != 0:
+                state[r, c] = OBSTACLE
+                continue
+            north = r == 0 or grid[r - 1, c] != 0
+            south = r == H - 1 or grid[r + 1, c] != 0
+            west = c == 0 or grid[r, c - 1] != 0
+            east = c == W - 1 or grid[r, c + 1] != 0
+            if (north and south) or (east and west):
+                state[r, c] = TUNNEL
+                tunnels += 1
+            else:
+                state[r, c] = FREE
+    gates = 0
+    for r in range(H - 1):
+        for c in range(W - 1):
+            a = grid[r, c] == 0
+            b = grid[r, c + 1] == 0
+            d = grid[r + 1, c] == 0
+            e = grid[r + 1, c + 1] == 0
+            if (a and e and not b and not d) or (b and d and not a and not e):
+                gates += 1
+    return state, gates, tunnels
+
+
+@njit(cache=True, nogil=True)
+def _gate_cells(grid: np.ndarray) -> np.ndarray:
+    """Every gate as a row ``[r1, c1, r2, c2]``: the two free cells of the diagonal gap."""
+    H, W = grid.shape
+    out = np.empty((max(H - 1, 0) * max(W - 1, 0), 4), dtype=np.int64)
+    n = 0
+    for r in range(H - 1):
+        for c in range(W - 1):
+            a = grid[r, c] == 0
+            b = grid[r, c + 1] == 0
+            d = grid[r + 1, c] == 0
+            e = grid[r + 1, c + 1] == 0
+            if a and e and not b and not d:
+                out[n, 0], out[n, 1], out[n, 2], out[n, 3] = r, c, r + 1, c + 1
+                n += 1
+            elif b and d and not a and not e:
+                out[n, 0], out[n, 1], out[n, 2], out[n, 3] = r, c + 1, r + 1, c
+                n += 1
+    return out[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def _clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndarray:
+    """The clean penalty of every non-obstacle cell.
+
+    Each blocked cell (an obstacle, a sealed tunnel cell, or outside the map) at Chebyshev
+    distance d, 1 <= d <= radius, adds ``weight / d``. Rings are counted from an integral image,
+    so the cost is O(H * W * radius) instead of O(H * W * radius**2).
+    """
+    H, W = state.shape
+    p = radius
+    S = np.zeros((H + 2 * p + 1, W + 2 * p + 1), dtype=np.int32)
+    for i in range(H + 2 * p):
+        r = i - p
+        for j in range(W + 2 * p):
+            c = j - p
+            if r < 0 or r >= H or c < 0 or c >= W:
+                v = 1
+            else:
+                s = state[r, c]
+                v = 1 if (s == OBSTACLE or (seal and s == TUNNEL)) else 0
+            S[i + 1, j + 1] = S[i, j + 1] + S[i + 1, j] - S[i, j] + v
+    out = np.zeros((H, W), dtype=np.float32)
+    for r in range(H):
+        for c in range(W):
+            if state[r, c] == OBSTACLE:
+                continue
+            i = r + p
+            j = c + p
+            s = state[r, c]
+            prev = 1 if (seal and s == TUNNEL) else 0
+            total = 0.0
+            for d in range(1, radius + 1):
+                box = (
+                    S[i + d + 1, j + d + 1]
+                    - S[i - d, j + d + 1]
+                    - S[i + d + 1, j - d]
+                    + S[i - d, j - d]
+                )
+                total += (box - prev) / d
+                prev = box
+            out[r, c] = weight * total
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# An indexed binary min-heap over cell indices (decrease-key in place, no per-push allocation).
+
+
+@njit(cache=True, nogil=True)
+def _sift_up(keys: np.ndarray, items: np.ndarray, pos: np.ndarray, j: int) -> None:
+    key = keys[j]
+    item = items[j]
+    while j > 0:
+        parent = (j - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[j] = keys[parent]
+        items[j] = items[parent]
+        pos[items[j]] = j
+        j = parent
+    keys[j] = key
+    items[j] = item
+    pos[item] = j
+
+
+@njit(cache=True, nogil=True)
+def _sift_down(keys: np.ndarray, items: np.ndarray, pos: np.ndarray, j: int, size: int) -> None:
+    key = keys[j]
+    item = items[j]
+    while True:
+        child = 2 * j + 1
+        if child >= size:
+            break
+        if child + 1 < size and keys[child + 1] < keys[child]:
+            child += 1
+        if keys[child] >= key:
+            break
+        keys[j] = keys[child]
+        items[j] = items[child]
+        pos[items[j]] = j
+        j = child
+    keys[j] = key
+    items[j] = item
+    pos[item] = j
+
+
+@njit(cache=True, nogil=True)
+def _push_or_decrease(
+    keys: np.ndarray, items: np.ndarray, pos: np.ndarray, size: int, item: int, key: float
+) -> int:
+    """Insert ``item`` or lower its key; returns the new heap size."""
+    j = pos[item]
+    if j == _OUTSIDE:
+        keys[size] = key
+        items[size] = item
+        _sift_up(keys, items, pos, size)
+        return size + 1
+    keys[j] = key
+    _sift_up(keys, items, pos, j)
+    return size
+
+
+@njit(cache=True, nogil=True)
+def _pop(keys: np.ndarray, items: np.ndarray, pos: np.ndarray, size: int) -> tuple[int, float, int]:
+    """Remove the least entry; returns (item, key, new size). The item is marked closed."""
+    item = items[0]
+    key = keys[0]
+    size -= 1
+    if size > 0:
+        keys[0] = keys[size]
+        items[0] = items[size]
+        _sift_down(keys, items, pos, 0, size)
+    pos[item] = _CLOSED
+    return item, key, size
+
+
+# --------------------------------------------------------------------------------------------
+# The goal wave (ALGORITHM.md §2): Dijkstra from the goal, best entry expanded first.
+
+
+@njit(cache=True, nogil=True)
+def _wave(
+    passable: np.ndarray, goal: int, diagonal_cost: float, clean: np.ndarray, use_clean: bool
+) -> np.ndarray:
+    """Cost-to-go to ``goal`` of every cell: ``k`` (plain) or, with ``use_clean``, ``kw``.
+
+    A move X -> Y costs 1 straight or ``diagonal_cost`` diagonally, plus ``clean(Y)`` for kw. A
+    diagonal move needs both orthogonal cells it passes between passable. Unreachable: +inf.
+    """
+    H, W = passable.shape
+    n = H * W
+    free = passable.ravel()
+    pen = clean.ravel()
+    dist = np.full(n, np.inf)
+    keys = np.empty(n, dtype=np.float64)
+    items = np.empty(n, dtype=np.int64)
+    pos = np.full(n, _OUTSIDE, dtype=np.int64)
+    dist[goal] = 0.0
+    size = _push_or_decrease(keys, items, pos, 0, goal, 0.0)
+    while size > 0:
+        y, d, size = _pop(keys, items, pos, size)
+        yr = y // W
+        yc = y - yr * W
+        base = d + pen[y] if use_clean else d
+        for i in range(8):
+            xr = yr + DR[i]
+            xc = yc + DC[i]
+            if xr < 0 or xr >= H or xc < 0 or xc >= W:
+                continue
+            x = xr * W + xc
+            if free[x] == 0 or pos[x] == _CLOSED:
+                continue
+            if i & 1:
+                if free[yr * W + xc] == 0 or free[xr * W + yc] == 0:
+                    continue
+                nd = base + diagonal_cost
+            else:
+                nd = base + 1.0
+            if nd < dist[x]:
+                dist[x] = nd
+                size = _push_or_decrease(keys, items, pos, size, x, nd)
+    return dist.reshape(H, W)
+
+
+# --------------------------------------------------------------------------------------------
+# Deciding the next move (ALGORITHM.md §3-4).
+
+
+@njit(cache=True, nogil=True)
+def _legal_moves(passable: np.ndarray, r: int, c: int, dyn: int) -> int:
+    """Bit i set when move i from (r, c) is legal: target passable and not in ``dyn`` (a bit mask
+    of dynamically occupied neighbours), and for a diagonal both orthogonal cells likewise."""
+    H, W = passable.shape
+    ok = 0
+    for i in range(8):
+        yr = r + DR[i]
+        yc = c + DC[i]
+        if yr < 0 or yr >= H or yc < 0 or yc >= W or passable[yr, yc] == 0 or (dyn >> i) & 1:
+            continue
+        if i & 1:
+            # The orthogonal cells beside diagonal i are moves i - 1 and i + 1.
+            a = (i + 7) & 7
+            b = (i + 1) & 7
+            if (dyn >> a) & 1 or (dyn >> b) & 1:
+                continue
+            if passable[r + DR[a], c + DC[a]] == 0 or passable[r + DR[b], c + DC[b]] == 0:
+                continue
+        ok |= 1 << i
+    return ok
+
+
+@njit(cache=True, nogil=True)
+def _wide_value(
+    kw: np.ndarray, clean: np.ndarray, r: int, c: int, i: int, diagonal_cost: float
+) -> float:
+    """``cost(X, Y) + clean(Y) + kw(Y)`` for the move i from X = (r, c)."""
+    yr = r + DR[i]
+    yc = c + DC[i]
+    step = diagonal_cost if i & 1 else 1.0
+    return step + clean[yr, yc] + kw[yr, yc]
+
+
+@njit(cache=True, nogil=True)
+def _cost_here(
+    passable: np.ndarray, kw: np.ndarray, clean: np.ndarray, r: int, c: int, diagonal_cost: float
+) -> float:
+    """``kw`` at (r, c); for a cell off the wave's grid (a sealed start, say), the best
+    ``cost + clean + kw`` over its legal moves."""
+    here = kw[r, c] if passable[r, c] else np.inf
+    static = _legal_moves(passable, r, c, 0)
+    for i in range(8):
+        if (static >> i) & 1:
+            v = _wide_value(kw, clean, r, c, i, diagonal_cost)
+            if v < here:
+                here = v
+    return here
+
+
+@njit(cache=True, nogil=True)
+def _decide_core(
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    r: int,
+    c: int,
+    dyn: int,
+    on_me: bool,
+    contact: np.ndarray,
+    tabu: int,
+    goal_r: int,
+    goal_c: int,
+    mode: int,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
+    target: int,
+) -> tuple[int, int]:
+    """(move index or -1, outcome) for the robot at (r, c).
+
+    ``dyn``: occupied neighbours (bit mask); ``on_me``: an obstacle stands on the robot's cell;
+    ``contact[i]``: obstacles touching neighbour i; ``tabu``: visited neighbours (bit mask, paper
+    decision only); ``target``: the flat index of a detour's next cell, or -1.
+    """
+    W = passable.shape[1]
+    here = _cost_here(passable, kw, clean, r, c, diagonal_cost)
+    if here == np.inf:
+        return -1, BLOCKED
+    feasible = _legal_moves(passable, r, c, dyn)
+
+    chosen = -1
+    if target >= 0:
+        for i in range(8):
+            if (feasible >> i) & 1 and (r + DR[i]) * W + c + DC[i] == target:
+                chosen = i
+    elif mode == MODE_PAPER and feasible & ~tabu:
+        best = np.inf
+        for i in range(8):
+            if not ((feasible >> i) & 1) or (tabu >> i) & 1:
+                continue
+            yr = r + DR[i]
+            yc = c + DC[i]
+            if k[yr, yc] == np.inf:
+                continue
+            h = np.sqrt((yr - goal_r) ** 2.0 + (yc - goal_c) ** 2.0)
+            # Eq. (3): P(Y) = S(Y) / sum(S); the least P is the least S.
+            s = (k[yr, yc] + clean[yr, yc]) ** alpha * h**beta
+            if s < best:
+                best = s
+                chosen = i
+    if chosen < 0 and target < 0:
+        # The wide decision: the feasible neighbour of least cost + clean + kw, if it is closer.
+        best = np.inf
+        for i in range(8):
+            if (feasible >> i) & 1:
+                v = _wide_value(kw, clean, r, c, i, diagonal_cost)
+                if v < best:
+                    best = v
+                    chosen = i
+        if chosen >= 0 and not kw[r + DR[chosen], c + DC[chosen]] < here:
+            chosen = -1
+    if chosen >= 0:
+        return chosen, MOVE
+    if on_me:
+        # Move away, to the neighbour of least contact (then the best by the wide value).
+        best_contact = 1 << 30
+        best = np.inf
+        for i in range(8):
+            if not (feasible >> i) & 1:
+                continue
+            v = _wide_value(kw, clean, r, c, i, diagonal_cost)
+            if v == np.inf:
+                continue
+            if contact[i] < best_contact or (contact[i] == best_contact and v < best):
+                best_contact = contact[i]
+                best = v
+                chosen = i
+        if chosen >= 0:
+            return chosen, EVADE
+    return -1, WAIT
+
+
+@njit(cache=True, nogil=True)
+def _decide(
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    r: int,
+    c: int,
+    obstacles: np.ndarray,
+    tabu: int,
+    goal_r: int,
+    goal_c: int,
+    mode: int,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
+    target: int,
+) -> tuple[int, int]:
+    """One step's decision among dynamic ``obstacles`` (an (m, 2) array of cells)."""
+    dyn = 0
+    on_me = False
+    contact = np.zeros(8, dtype=np.int64)
+    for j in range(obstacles.shape[0]):
+        dr = obstacles[j, 0] - r
+        dc = obstacles[j, 1] - c
+        if abs(dr) > 2 or abs(dc) > 2:
+            continue
+        if dr == 0 and dc == 0:
+            on_me = True
+        for i in range(8):
+            er = dr - DR[i]
+            ec = dc - DC[i]
+            if er == 0 and ec == 0:
+                dyn |= 1 << i
+            elif abs(er) <= 1 and abs(ec) <= 1:
+                contact[i] += 1
+    return _decide_core(
+        passable, k, kw, clean, r, c, dyn, on_me, contact, tabu, goal_r, goal_c, mode, alpha,
+        beta, diagonal_cost, target,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _walk(
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    start: int,
+    goal: int,
+    mode: int,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
+    max_steps: int,
+) -> np.ndarray:
+    """The path (flat indices, start first) the decision follows with no dynamic obstacles.
+
+    Returns an empty array when the goal is not reached within ``max_steps`` moves.
+    """
+    H, W = passable.shape
+    visited = np.zeros(H * W, dtype=np.uint8)
+    path = np.empty(max_steps + 1, dtype=np.int64)
+    contact = np.zeros(8, dtype=np.int64)
+    gr = goal // W
+    gc = goal - gr * W
+    x = start
+    path[0] = x
+    visited[x] = 1
+    n = 1
+    while x != goal:
+        if n > max_steps:
+            return path[:0].copy()
+        r = x // W
+        c = x - r * W
+        tabu = 0
+        if mode == MODE_PAPER:
+            for i in range(8):
+                yr = r + DR[i]
+                yc = c + DC[i]
+                if 0 <= yr < H and 0 <= yc < W and visited[yr * W + yc]:
+                    tabu |= 1 << i
+        i, outcome = _decide_core(
+            passable, k, kw, clean, r, c, 0, False, contact, tabu, gr, gc, mode, alpha, beta,
+            diagonal_cost, -1,
+        )  # fmt: skip
+        if outcome != MOVE:
+            return path[:0].copy()
+        x = (r + DR[i]) * W + c + DC[i]
+        visited[x] = 1
+        path[n] = x
+        n += 1
+    return path[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def _detour(
+    passable: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    start: int,
+    goal: int,
+    diagonal_cost: float,
+    obstacles: np.ndarray,
+) -> np.ndarray:
+    """The replan of §4: A* from ``start`` to ``goal`` with the dynamic ``obstacles`` blocked.
+
+    Costs are the wide ones (move + clean of the cell entered) and the heuristic is ``kw``, the
+    exact cost-to-go without dynamic obstacles: consistent, so the detour is optimal and the
+    search stays near the blocked stretch. Returns the cells after ``start`` up to the goal
+    (flat indices), or an empty array when the obstacles cut the robot off.
+    """
+    H, W = passable.shape
+    n = H * W
+    free = passable.ravel().copy()
+    for j in range(obstacles.shape[0]):
+        r = obstacles[j, 0]
+        c = obstacles[j, 1]
+        if 0 <= r < H and 0 <= c < W:
+            free[r * W + c] = 0
+    h = kw.ravel()
+    pen = clean.ravel()
+    g = np.full(n, np.inf)
+    parent = np.full(n, -1, dtype=np.int64)
+    keys = np.empty(n, dtype=np.float64)
+    items = np.empty(n, dtype=np.int64)
+    pos = np.full(n, _OUTSIDE, dtype=np.int64)
+    g[start] = 0.0
+    size = _push_or_decrease(keys, items, pos, 0, start, h[start] if free[start] else 0.0)
+    found = False
+    while size > 0:
+        x, _, size = _pop(keys, items, pos, size)
+        if x == goal:
+            found = True
+            break
+        xr = x // W
+        xc = x - xr * W
+        for i in range(8):
+            yr = xr + DR[i]
+            yc = xc + DC[i]
+            if yr < 0 or yr >= H or yc < 0 or yc >= W:
+                continue
+            y = yr * W + yc
+            if free[y] == 0 or pos[y] == _CLOSED or h[y] == np.inf:
+                continue
+            if i & 1:
+                if free[xr * W + yc] == 0 or free[yr * W + xc] == 0:
+                    continue
+                ng = g[x] + diagonal_cost + pen[y]
+            else:
+                ng = g[x] + 1.0 + pen[y]
+            if ng < g[y]:
+                g[y] = ng
+                parent[y] = x
+                size = _push_or_decrease(keys, items, pos, size, y, ng + h[y])
+    if not found:
+        return np.empty(0, dtype=np.int64)
+    count = 0
+    x = goal
+    while x != start:
+        count += 1
+        x = parent[x]
+    out = np.empty(count, dtype=np.int64)
+    x = goal
+    for j in range(count - 1, -1, -1):
+        out[j] = x
+        x = parent[x]
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The paper's simulated dynamic obstacles (ALGORITHM.md §5).
+
+
+@njit(cache=True, nogil=True)
+def _move_obstacles(
+    grid: np.ndarray, obstacles: np.ndarray, robot_r: int, robot_c: int, u: np.ndarray
+) -> None:
+    """Move each obstacle in place to a uniformly drawn option among staying and its legal moves
+    (free static cell, no corner cutting, not another obstacle's cell, not the robot's cell).
+
+    ``u`` holds one uniform [0, 1) number per obstacle, drawn by the caller's seeded generator.
+    """
+    H, W = grid.shape
+    m = obstacles.shape[0]
+    options = np.empty(9, dtype=np.int64)
+    for j in range(m):
+        r = obstacles[j, 0]
+        c = obstacles[j, 1]
+        count = 1
+        options[0] = -1
+        for i in range(8):
+            yr = r + DR[i]
+            yc = c + DC[i]
+            if yr < 0 or yr >= H or yc < 0 or yc >= W or grid[yr, yc] != 0:
+                continue
+            if i & 1 and (grid[r, yc] != 0 or grid[yr, c] != 0):
+                continue
+            if yr == robot_r and yc == robot_c:
+                continue
+            taken = False
+            for q in range(m):
+                if q != j and obstacles[q, 0] == yr and obstacles[q, 1] == yc:
+                    taken = True
+                    break
+            if taken:
+                continue
+            options[count] = i
+            count += 1
+        pick = options[min(int(u[j] * count), count - 1)]
+        if pick >= 0:
+            obstacles[j, 0] = r + DR[pick]
+            obstacles[j, 1] = c + DC[pick]

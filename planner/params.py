@@ -1,0 +1,113 @@
+"""Planner parameters and the named presets (ALGORITHM.md §3).
+
+>>> resolve_params("mmas").seal_tunnels
+False
+>>> resolve_params("wide", alpha=4).alpha
+4.0
+>>> resolve_params("wide", gamma=1)
+Traceback (most recent call last):
+...
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, patience, rho, seal_tunnels
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from planner._errors import InvalidInput
+
+__all__ = ["PARAMETER_RANGES", "PRESETS", "Decision", "Params", "resolve_params"]
+
+Decision = Literal["wide", "paper"]
+
+SQRT2 = math.sqrt(2.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Params:
+    """Every knob of the planner. Build one with :func:`resolve_params`, which validates."""
+
+    decision: Decision = "wide"
+    """``wide`` (loop-free descent of ``kw``) or ``paper`` (Eq. 3 with a tabu list)."""
+    seal_tunnels: bool = True
+    """Seal tight-tunnel cells (one-cell corridors) before planning."""
+    clean_weight: float = 0.5
+    """The paper's clean weight: penalty per blocked neighbour."""
+    clean_radius: int = 2
+    """Blocked cells up to this Chebyshev distance d add ``clean_weight / d`` (1: the paper)."""
+    diagonal_cost: float = SQRT2
+    """Cost of a diagonal move (the paper: 1.4)."""
+    alpha: float = 3.0
+    """Pheromone weight of Eq. (3), ``paper`` decision."""
+    beta: float = 1.0
+    """Heuristic weight of Eq. (3), ``paper`` decision."""
+    rho: float = 0.98
+    """MMAS evaporation rate, for the pheromone ``tau = clamp(rho ** k)`` reported beside ``k``."""
+    patience: int = 3
+    """Held-up steps before the robot replans around the dynamic obstacles it sees."""
+    allow_narrow: bool = True
+    """When sealing cuts the start off the goal, plan through the tunnels instead of refusing."""
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+#: Valid ranges (inclusive) of the numeric parameters.
+PARAMETER_RANGES: dict[str, tuple[float, float]] = {
+    "clean_weight": (0.0, 100.0),
+    "clean_radius": (1, 8),
+    "diagonal_cost": (1.0, 2.0),
+    "alpha": (0.0, 20.0),
+    "beta": (0.0, 20.0),
+    "rho": (0.01, 1.0),
+    "patience": (0, 1000),
+}
+
+_PAPER = Params(decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0)
+
+PRESETS: dict[str, Params] = {
+    "wide": Params(),
+    "wfs-mmas": dataclasses.replace(_PAPER, seal_tunnels=True, clean_weight=0.5),
+    "mmas": dataclasses.replace(_PAPER, seal_tunnels=False, clean_weight=0.0),
+    "shortest": Params(decision="wide", seal_tunnels=False, clean_weight=0.0, clean_radius=1),
+}
+
+_FIELDS = {f.name: f for f in dataclasses.fields(Params)}
+
+
+def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:
+    """The preset's parameters with ``overrides`` applied one by one, each validated."""
+    if preset not in PRESETS:
+        msg = f"unknown preset {preset!r}; choose one of {', '.join(sorted(PRESETS))}"
+        raise InvalidInput(msg, field="preset")
+    values = PRESETS[preset].as_dict()
+    for name, value in overrides.items():
+        values[name] = _check(name, value)
+    return Params(**values)
+
+
+def _check(name: str, value: Any) -> Any:
+    field = f"params.{name}"
+    if name not in _FIELDS:
+        msg = f"unknown parameter {name!r}; known: {', '.join(sorted(_FIELDS))}"
+        raise InvalidInput(msg, field=field)
+    if name == "decision":
+        if value not in ("wide", "paper"):
+            raise InvalidInput(f"decision must be 'wide' or 'paper'; got {value!r}", field=field)
+        return value
+    if name in ("seal_tunnels", "allow_narrow"):
+        if not isinstance(value, bool):
+            raise InvalidInput(f"{name} must be true or false; got {value!r}", field=field)
+        return value
+    integral = name in ("clean_radius", "patience")
+    ok_type = isinstance(value, int) if integral else isinstance(value, int | float)
+    if isinstance(value, bool) or not ok_type:
+        kind = "an integer" if integral else "a number"
+        raise InvalidInput(f"{name} must be {kind}; got {value!r}", field=field)
+    low, high = PARAMETER_RANGES[name]
+    if not (math.isfinite(value) and low <= value <= high):
+        raise InvalidInput(f"{name} must be in [{low}, {high}]; got {value!r}", field=field)
+    return int(value) if integral else float(value)

@@ -1,0 +1,195 @@
+"""``plan()``: analysis, goal wave, the narrow fallback, and the path the decision follows."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from planner import _kernels as K
+from planner._errors import InvalidInput, NoValidPath
+from planner.analysis import Analysis, Wave, analyse, goal_wave
+from planner.grids import as_cell
+from planner.params import Params, resolve_params
+
+__all__ = ["Plan", "path_metrics", "plan"]
+
+WaveSource = Callable[[bool], Wave]
+"""Gives the goal wave for ``narrow`` (False: the sealed grid): lets a caller cache waves."""
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class Plan:
+    """A plan: where the robot starts and goes, with what, and the path it would follow with no
+    dynamic obstacles (``path``, an ``(n, 2)`` array of ``[row, col]`` from start to goal)."""
+
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    preset: str
+    params: Params
+    analysis: Analysis
+    wave: Wave
+    path: npt.NDArray[np.int64]
+    length: float
+    arc_cost: float
+    narrow_fallback: bool
+    min_clearance: float
+    mean_clearance: float
+    contact_ratio: float
+    elapsed_ms: float
+
+    @property
+    def gates(self) -> int:
+        return self.analysis.gates
+
+    @property
+    def tunnels(self) -> int:
+        return self.analysis.tunnels
+
+    def summary(self) -> dict[str, Any]:
+        """The plan as plain JSON-ready data."""
+        return {
+            "start": list(self.start),
+            "goal": list(self.goal),
+            "preset": self.preset,
+            "params": self.params.as_dict(),
+            "path": self.path.tolist(),
+            "length": round(self.length, 6),
+            "arc_cost": round(self.arc_cost, 6),
+            "gates": self.gates,
+            "tunnels": self.tunnels,
+            "sealed": self.analysis.sealed,
+            "narrow_fallback": self.narrow_fallback,
+            "min_clearance": round(self.min_clearance, 4),
+            "mean_clearance": round(self.mean_clearance, 4),
+            "contact_ratio": round(self.contact_ratio, 4),
+            "analysis_ms": round(self.analysis.elapsed_ms, 3),
+            "wave_ms": round(self.wave.elapsed_ms, 3),
+            "elapsed_ms": round(self.elapsed_ms, 3),
+        }
+
+
+def plan(
+    grid: Any,
+    start: Any,
+    goal: Any,
+    *,
+    preset: str = "wide",
+    analysis: Analysis | None = None,
+    waves: WaveSource | None = None,
+    **params: Any,
+) -> Plan:
+    """Plan from ``start`` to ``goal`` (``[row, col]`` cells) on a 0/1 occupancy ``grid``.
+
+    ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
+    ``params`` override it one by one (see :class:`planner.Params`). A caller that caches may
+    pass the map's ``analysis`` (then ``grid`` may be None) and a ``waves`` source.
+
+    >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
+    >>> p.path.tolist(), round(p.length, 3)
+    ([[0, 0], [0, 1], [0, 2], [1, 2], [2, 2]], 4.0)
+    >>> plan([[0, 1], [1, 0]], [0, 0], [1, 1])
+    Traceback (most recent call last):
+    ...
+    planner._errors.NoValidPath: NO_VALID_PATH: goal [1, 1] cannot be reached from start [0, 0]
+    """
+    t0 = time.perf_counter()
+    p = resolve_params(preset, **params)
+    if analysis is None:
+        analysis = analyse(
+            grid,
+            seal_tunnels=p.seal_tunnels,
+            clean_weight=p.clean_weight,
+            clean_radius=p.clean_radius,
+        )
+    elif (analysis.seal_tunnels, analysis.clean_weight, analysis.clean_radius) != (
+        p.seal_tunnels,
+        p.clean_weight,
+        p.clean_radius,
+    ):
+        raise ValueError("the analysis given was made with other parameters than the plan's")
+    s = _free_cell(analysis, start, "start")
+    g = _free_cell(analysis, goal, "goal")
+
+    def wave_for(narrow: bool) -> Wave:
+        if waves is not None:
+            return waves(narrow)
+        return goal_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
+
+    wave = wave_for(False)
+    narrow = False
+    if not _reachable(wave, analysis, s) and analysis.sealed:
+        narrow_wave = wave_for(True)
+        if _reachable(narrow_wave, analysis, s):
+            if not p.allow_narrow:
+                msg = (
+                    f"goal {list(g)} can be reached from start {list(s)} only through tight "
+                    "tunnels, and allow_narrow is false"
+                )
+                raise NoValidPath(msg, field="goal")
+            wave, narrow = narrow_wave, True
+    if not _reachable(wave, analysis, s):
+        raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
+
+    W = analysis.shape[1]
+    n_cells = analysis.shape[0] * W
+    flat = K._walk(
+        wave.passable, wave.k, wave.kw, analysis.clean, s[0] * W + s[1], g[0] * W + g[1],
+        K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE, p.alpha, p.beta,
+        p.diagonal_cost, 4 * n_cells + 8,
+    )  # fmt: skip
+    if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
+        raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
+    path = np.stack(np.divmod(flat, W), axis=1)
+    length, arc_cost, min_c, mean_c, contact = path_metrics(path, wave, analysis)
+    return Plan(
+        start=s,
+        goal=g,
+        preset=preset,
+        params=p,
+        analysis=analysis,
+        wave=wave,
+        path=path,
+        length=length,
+        arc_cost=arc_cost,
+        narrow_fallback=narrow,
+        min_clearance=min_c,
+        mean_clearance=mean_c,
+        contact_ratio=contact,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3,
+    )
+
+
+def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
+    r, c = as_cell(cell, analysis.shape, name=name)
+    if analysis.state[r, c] == K.OBSTACLE:
+        raise InvalidInput(f"{name} [{r}, {c}] is on an obstacle", field=name)
+    return r, c
+
+
+def _reachable(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
+    here = K._cost_here(
+        wave.passable, wave.kw, analysis.clean, cell[0], cell[1], wave.diagonal_cost
+    )
+    return bool(np.isfinite(here))
+
+
+def path_metrics(
+    path: npt.NDArray[np.int64], wave: Wave, analysis: Analysis
+) -> tuple[float, float, float, float, float]:
+    """(length, arc cost, min clearance, mean clearance, contact ratio) of a path of cells.
+
+    The arc cost is the paper's ``PathCost``: the sum of ``k`` over the cells entered after the
+    start. The contact ratio is the share of cells whose clearance is below 1.5 (touching an
+    obstacle, diagonally included).
+    """
+    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
+    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost)
+    arc_cost = float(wave.k[path[1:, 0], path[1:, 1]].sum())
+    clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
+    contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
+    return length, arc_cost, float(clearance.min()), float(clearance.mean()), contact

@@ -1,0 +1,297 @@
+"""Stepping among dynamic obstacles (ALGORITHM.md §4): one decision per reported step.
+
+A :class:`Session` pairs a :class:`~planner.planning.Plan` (heavy, cacheable arrays) with a
+:class:`SessionState` (small, plain data that a store can keep as JSON), so a session can be
+rebuilt anywhere from the plan's inputs and its state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from planner import _kernels as K
+from planner._errors import InvalidInput, SequenceConflict
+from planner.grids import as_cell
+from planner.planning import Plan
+
+__all__ = ["MOVES", "Session", "SessionState", "Status", "Step"]
+
+#: Move names by kernel move index; ``WAIT`` stays put.
+MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
+
+Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """The answer to one step: where the robot goes now and how the episode stands."""
+
+    seq: int
+    previous: tuple[int, int]
+    position: tuple[int, int]
+    move: str
+    status: Status
+    iteration: int
+    path_length: float
+    arc_cost: float
+    remaining: float | None
+    """Plain cost-to-go ``k`` from ``position`` (None when the goal cannot be reached)."""
+
+    def as_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["previous"] = list(self.previous)
+        d["position"] = list(self.position)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Step:
+        return cls(**{**d, "previous": tuple(d["previous"]), "position": tuple(d["position"])})
+
+
+@dataclass(slots=True)
+class SessionState:
+    """Everything that changes as the robot steps; JSON-ready through :meth:`as_dict`."""
+
+    position: tuple[int, int]
+    status: Status = "ready"
+    iteration: int = 0
+    path_length: float = 0.0
+    arc_cost: float = 0.0
+    held_up: int = 0
+    replan_at: int = 0
+    waits: int = 0
+    replans: int = 0
+    detour: list[int] = field(default_factory=list)
+    trajectory: list[tuple[int, int]] = field(default_factory=list)
+    last_seq: int | None = None
+    last_step: Step | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "position": list(self.position),
+            "status": self.status,
+            "iteration": self.iteration,
+            "path_length": self.path_length,
+            "arc_cost": self.arc_cost,
+            "held_up": self.held_up,
+            "replan_at": self.replan_at,
+            "waits": self.waits,
+            "replans": self.replans,
+            "detour": list(self.detour),
+            "trajectory": [list(cell) for cell in self.trajectory],
+            "last_seq": self.last_seq,
+            "last_step": None if self.last_step is None else self.last_step.as_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SessionState:
+        last = d.get("last_step")
+        return cls(
+            **{
+                **d,
+                "position": tuple(d["position"]),
+                "detour": list(d["detour"]),
+                "trajectory": [tuple(cell) for cell in d["trajectory"]],
+                "last_step": None if last is None else Step.from_dict(last),
+            }
+        )
+
+
+class Session:
+    """A robot following a plan among dynamic obstacles, one :meth:`step` at a time.
+
+    >>> from planner import plan
+    >>> s = Session(plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest"))
+    >>> s.step([[1, 1]]).move   # the diagonal is taken: go round
+    'E'
+    >>> s.step([]).move, s.step([]).status
+    ('SE', 'arrived')
+    """
+
+    def __init__(self, plan: Plan, state: SessionState | None = None) -> None:
+        self.plan = plan
+        if state is None:
+            state = SessionState(position=plan.start, trajectory=[plan.start])
+        self.state = state
+        self._visited = {r * self._width + c for r, c in state.trajectory}
+        p = plan.params
+        self._mode = K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE
+
+    @property
+    def _width(self) -> int:
+        return self.plan.analysis.shape[1]
+
+    def step(
+        self,
+        dynamic_obstacles: Any = (),
+        *,
+        position: Any = None,
+        seq: int | None = None,
+    ) -> Step:
+        """Decide and record the next move, given the cells dynamic obstacles occupy now.
+
+        ``position`` is where the robot really is, if the client knows better. ``seq``, when
+        given, must be the last step's ``seq`` + 1 (a new step) or the last ``seq`` again (a
+        retry: the same answer, the robot not moved twice); the first step may take any ``seq``.
+        """
+        st = self.state
+        if seq is not None:
+            if isinstance(seq, bool) or not isinstance(seq, int) or seq < 0:
+                raise InvalidInput(f"seq must be a non-negative integer; got {seq!r}", field="seq")
+            if st.last_seq is not None and seq == st.last_seq and st.last_step is not None:
+                return st.last_step
+            if st.last_seq is not None and seq != st.last_seq + 1:
+                msg = f"seq {seq} does not follow the last step's seq {st.last_seq}"
+                raise SequenceConflict(msg, field="seq")
+        else:
+            seq = 0 if st.last_seq is None else st.last_seq + 1
+        obstacles = self._obstacles(dynamic_obstacles)
+        if position is not None:
+            self._relocate(position)
+        step = self._advance(seq, obstacles)
+        st.last_seq = seq
+        st.last_step = step
+        return step
+
+    def _obstacles(self, cells: Any) -> npt.NDArray[np.int64]:
+        try:
+            obstacles = np.asarray(cells, dtype=np.int64)
+        except (TypeError, ValueError):
+            msg = f"dynamic_obstacles must be a list of [row, col] cells; got {cells!r}"
+            raise InvalidInput(msg, field="dynamic_obstacles") from None
+        if obstacles.size == 0:
+            return np.empty((0, 2), dtype=np.int64)
+        if obstacles.ndim != 2 or obstacles.shape[1] != 2:
+            msg = (
+                f"dynamic_obstacles must be a list of [row, col] cells; got shape {obstacles.shape}"
+            )
+            raise InvalidInput(msg, field="dynamic_obstacles")
+        H, W = self.plan.analysis.shape
+        outside = (obstacles[:, 0] < 0) | (obstacles[:, 0] >= H)
+        outside |= (obstacles[:, 1] < 0) | (obstacles[:, 1] >= W)
+        if outside.any():
+            i = int(np.flatnonzero(outside)[0])
+            cell = obstacles[i].tolist()
+            msg = f"dynamic_obstacles[{i}] {cell} is outside the {H} x {W} map"
+            raise InvalidInput(msg, field="dynamic_obstacles")
+        return np.ascontiguousarray(obstacles)
+
+    def _relocate(self, position: Any) -> None:
+        st = self.state
+        r, c = as_cell(position, self.plan.analysis.shape, name="position")
+        if self.plan.analysis.state[r, c] == K.OBSTACLE:
+            raise InvalidInput(f"position [{r}, {c}] is on an obstacle", field="position")
+        if (r, c) != st.position:
+            st.position = (r, c)
+            st.trajectory.append((r, c))
+            self._visited.add(r * self._width + c)
+            st.detour = []
+            st.held_up = st.replan_at = 0
+            if st.status == "arrived" and (r, c) != self.plan.goal:
+                st.status = "moving"
+
+    def _advance(self, seq: int, obstacles: npt.NDArray[np.int64]) -> Step:
+        st = self.state
+        plan = self.plan
+        previous = st.position
+        if previous == plan.goal:
+            st.status = "arrived"
+            return self._answer(seq, previous, "WAIT")
+        st.iteration += 1
+        wave = plan.wave
+        p = plan.params
+        r, c = previous
+        tabu = self._tabu(r, c) if self._mode == K.MODE_PAPER else 0
+        target = st.detour[0] if st.detour else -1
+        i, outcome = K._decide(
+            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles, tabu,
+            plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta, p.diagonal_cost, target,
+        )  # fmt: skip
+        if outcome == K.BLOCKED:
+            st.status = "blocked"
+            return self._answer(seq, previous, "WAIT")
+        status: Status = "moving"
+        if outcome == K.WAIT and st.held_up >= max(p.patience, st.replan_at):
+            detour = K._detour(
+                wave.passable, wave.kw, plan.analysis.clean, r * self._width + c,
+                plan.goal[0] * self._width + plan.goal[1], p.diagonal_cost, obstacles,
+            )  # fmt: skip
+            if detour.size:
+                nxt = int(detour[0])
+                i = MOVES.index(_move_name(previous, divmod(nxt, self._width)))
+                outcome = K.MOVE
+                st.detour = [int(x) for x in detour]
+                st.replans += 1
+                status = "replanned"
+            else:
+                st.replan_at = st.held_up + max(p.patience, 1)
+        if outcome == K.WAIT:
+            st.held_up += 1
+            st.waits += 1
+            st.status = "waiting"
+            return self._answer(seq, previous, "WAIT")
+        if outcome == K.EVADE:
+            st.detour = []
+        elif st.detour:
+            st.detour.pop(0)
+        self._move(i)
+        st.held_up = st.replan_at = 0
+        st.status = "arrived" if st.position == plan.goal else status
+        return self._answer(seq, previous, MOVES[i])
+
+    def _tabu(self, r: int, c: int) -> int:
+        H, W = self.plan.analysis.shape
+        tabu = 0
+        for i in range(8):
+            yr, yc = r + int(K.DR[i]), c + int(K.DC[i])
+            if 0 <= yr < H and 0 <= yc < W and yr * W + yc in self._visited:
+                tabu |= 1 << i
+        return tabu
+
+    def _move(self, i: int) -> None:
+        st = self.state
+        r, c = st.position
+        nr, nc = r + int(K.DR[i]), c + int(K.DC[i])
+        st.position = (nr, nc)
+        st.trajectory.append((nr, nc))
+        self._visited.add(nr * self._width + nc)
+        st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
+        st.arc_cost += float(self.plan.wave.k[nr, nc])
+
+    def _answer(self, seq: int, previous: tuple[int, int], move: str) -> Step:
+        st = self.state
+        return Step(
+            seq=seq,
+            previous=previous,
+            position=st.position,
+            move=move,
+            status=st.status,
+            iteration=st.iteration,
+            path_length=st.path_length,
+            arc_cost=st.arc_cost,
+            remaining=self.remaining(),
+        )
+
+    def remaining(self) -> float | None:
+        """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach."""
+        wave = self.plan.wave
+        r, c = self.state.position
+        zero = np.zeros_like(self.plan.analysis.clean) if not wave.passable[r, c] else None
+        if zero is None:
+            value = float(wave.k[r, c])
+        else:
+            value = K._cost_here(wave.passable, wave.k, zero, r, c, wave.diagonal_cost)
+        return value if np.isfinite(value) else None
+
+
+def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:
+    dr, dc = b[0] - a[0], b[1] - a[1]
+    for i in range(8):
+        if int(K.DR[i]) == dr and int(K.DC[i]) == dc:
+            return MOVES[i]
+    raise AssertionError(f"{a} -> {b} is not a move")
