@@ -1,0 +1,74 @@
+"""``python -m planner``: plan, scen, simulate and demo."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from planner.cli import EXAMPLE_MAP, main
+
+
+def run_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = main(args)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_plan_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run_cli(
+        ["plan", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26", "--param", "alpha=4"],
+        capsys,
+    )
+    assert code == 0
+    result = json.loads(out)
+    assert result["path"][0] == [7, 2]
+    assert result["path"][-1] == [7, 26]
+    assert result["params"]["alpha"] == 4.0
+    assert result["tunnels"] > 0
+    assert {"length", "arc_cost", "gates", "narrow_fallback", "min_clearance"} <= set(result)
+
+
+def test_plan_error_names_the_value(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run_cli(
+        ["plan", str(EXAMPLE_MAP), "--start", "0", "0", "--goal", "7", "26"], capsys
+    )
+    assert code == 2
+    assert "start [0, 0] is on an obstacle" in err
+
+
+def test_simulate_prints_metrics(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["simulate", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26"]
+    code, out, _ = run_cli([*args, "--dynamic", "5", "--seed", "3", "--preset", "wfs-mmas"], capsys)
+    assert code == 0
+    metrics = json.loads(out)
+    assert metrics["collisions"] == 0
+    assert metrics["reached"] is True
+
+
+def test_scen_exits_non_zero_on_a_mismatch(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "m.map").write_text("type octile\nheight 1\nwidth 4\nmap\n....\n")
+    (tmp_path / "m.map.scen").write_text(
+        "version 1\n0\tm.map\t4\t1\t0\t0\t3\t0\t3\n0\tm.map\t4\t1\t0\t0\t2\t0\t9\n"
+    )
+    code, out, _ = run_cli(["scen", str(tmp_path / "m.map.scen")], capsys)
+    summary = json.loads(out)
+    assert code == 1
+    assert (summary["lines"], summary["solved"], summary["mismatches"]) == (2, 2, 1)
+    assert summary["max_abs_error"] == 7.0
+    code, out, _ = run_cli(["scen", str(tmp_path / "m.map.scen"), "--limit", "1"], capsys)
+    assert json.loads(out)["lines"] == 1
+    assert code == 0
+
+
+def test_demo_runs_as_a_module() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "planner", "demo"], capture_output=True, text=True, check=True
+    )
+    assert "shortest" in done.stdout
+    assert "wide" in done.stdout

@@ -1,0 +1,80 @@
+"""The paper's simulated experiment (ALGORITHM.md §5): seeded episodes and their metrics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import planner
+from planner.cli import EXAMPLE_GOAL, EXAMPLE_MAP, EXAMPLE_START
+
+METRICS = {
+    "reached", "status", "iterations", "moves", "waits", "replans", "path_length", "arc_cost",
+    "gates", "tunnels", "narrow_fallback", "min_clearance", "mean_clearance", "contact_ratio",
+    "collisions", "analysis_ms", "step_us",
+}  # fmt: skip
+TIMINGS = {"analysis_ms", "step_us"}
+
+
+def test_a_seeded_episode_is_reproducible() -> None:
+    grid = planner.read_map(str(EXAMPLE_MAP))
+    a = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=5)
+    b = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=5)
+    np.testing.assert_array_equal(a.trajectory, b.trajectory)
+    np.testing.assert_array_equal(a.obstacles, b.obstacles)
+    assert {k: v for k, v in a.metrics.items() if k not in TIMINGS} == {
+        k: v for k, v in b.metrics.items() if k not in TIMINGS
+    }
+    c = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=6)
+    assert not np.array_equal(a.obstacles, c.obstacles)
+
+
+@pytest.mark.parametrize("preset", sorted(planner.PRESETS))
+@pytest.mark.parametrize("seed", range(6))
+def test_episodes_reach_the_goal_without_collisions(preset: str, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((30, 30)) < 0.2).astype(np.uint8)
+    grid[0, 0] = grid[29, 29] = 0
+    try:
+        e = planner.simulate(grid, (0, 0), (29, 29), preset=preset, dynamic=15, seed=seed)
+    except planner.NoValidPath:
+        return
+    m = e.metrics
+    assert set(m) == METRICS
+    assert m["collisions"] == 0
+    assert m["reached"]
+    assert e.trajectory[0].tolist() == [0, 0]
+    assert e.trajectory[-1].tolist() == [29, 29]
+    assert m["moves"] == len(e.trajectory) - 1
+    assert m["iterations"] == m["moves"] + m["waits"]
+    assert e.obstacles.shape == (m["iterations"] + 1, 15, 2)
+    # Obstacles walk on free cells only, one legal move (or none) per step, never onto the robot.
+    assert (grid[e.obstacles[..., 0], e.obstacles[..., 1]] == 0).all()
+    assert np.abs(np.diff(e.obstacles, axis=0)).max() <= 1
+    k = e.plan.wave.k
+    assert m["arc_cost"] == pytest.approx(float(k[e.trajectory[1:, 0], e.trajectory[1:, 1]].sum()))
+    assert 0.0 <= m["contact_ratio"] <= 1.0
+    assert m["min_clearance"] <= m["mean_clearance"]
+
+
+def test_no_dynamic_obstacles_follows_the_preview() -> None:
+    grid = planner.read_map(str(EXAMPLE_MAP))
+    e = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=0)
+    np.testing.assert_array_equal(e.trajectory, e.plan.path)
+    assert e.metrics["path_length"] == pytest.approx(e.plan.length)
+
+
+def test_bad_simulation_inputs_are_named() -> None:
+    grid = np.zeros((3, 3), dtype=np.uint8)
+    with pytest.raises(planner.InvalidInput, match="dynamic_count 8 exceeds the 7 free cells"):
+        planner.simulate(grid, (0, 0), (2, 2), dynamic=8)
+    with pytest.raises(planner.InvalidInput, match="dynamic must be an integer"):
+        planner.simulate(grid, (0, 0), (2, 2), dynamic=-1)
+    with pytest.raises(planner.InvalidInput, match="max_steps must be a positive integer; got 0"):
+        planner.simulate(grid, (0, 0), (2, 2), max_steps=0)
+
+
+def test_max_steps_bounds_an_episode() -> None:
+    e = planner.simulate(np.zeros((1, 20), dtype=np.uint8), (0, 0), (0, 19), dynamic=0, max_steps=5)
+    assert e.metrics["iterations"] == 5
+    assert not e.metrics["reached"]
