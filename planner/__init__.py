@@ -17,7 +17,7 @@ from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, 
 from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan
 from planner.session import MOVES, Session, SessionState, Step
-from planner.simulation import Episode, run_episode, simulate
+from planner.simulation import Episode, run_episode, simulate, warm_up
 
 __all__ = [
     "MOVES",
@@ -47,4 +47,5 @@ __all__ = [
     "resolve_params",
     "run_episode",
     "simulate",
+    "warm_up",
 ]

@@ -18,7 +18,7 @@ from planner.analysis import analyse
 from planner.grids import read_map, read_scen
 from planner.params import PRESETS, resolve_params
 from planner.planning import Plan, plan
-from planner.simulation import simulate
+from planner.simulation import simulate, warm_up
 
 __all__ = ["main"]
 
@@ -31,6 +31,7 @@ TOLERANCE = 1e-3
 def main(argv: Sequence[str] | None = None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
+    warm_up()  # so that the times reported are the planner's, not numba's compiler's
     try:
         result: int = args.run(args)
     except PlannerError as exc:

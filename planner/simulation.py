@@ -20,7 +20,7 @@ from planner._errors import InvalidInput
 from planner.planning import Plan, path_metrics, plan
 from planner.session import Session
 
-__all__ = ["Episode", "run_episode", "simulate"]
+__all__ = ["Episode", "run_episode", "simulate", "warm_up"]
 
 MAX_DYNAMIC = 10_000
 
@@ -129,3 +129,17 @@ def run_episode(
         "step_us": round(step_seconds / max(steps, 1) * 1e6, 3),
     }
     return Episode(plan, trajectory, np.stack(history), metrics)
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel, so no later call pays for it."""
+    grid = np.zeros((6, 6), dtype=np.uint8)
+    grid[2, 1:5] = 1
+    grid[4, 3] = 1
+    for preset in ("wide", "wfs-mmas"):
+        p = plan(grid, (0, 0), (5, 5), preset=preset, patience=0)
+        p.analysis.gate_cells()
+        _ = p.analysis.clearance
+        run_episode(p, dynamic=2, seed=0, max_steps=4)
+        session = Session(p)
+        session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
