@@ -292,15 +292,25 @@ def _wide_value(
 
 @njit(cache=True, nogil=True)
 def _cost_here(
-    passable: np.ndarray, kw: np.ndarray, clean: np.ndarray, r: int, c: int, diagonal_cost: float
+    passable: np.ndarray,
+    field: np.ndarray,
+    clean: np.ndarray,
+    r: int,
+    c: int,
+    diagonal_cost: float,
+    use_clean: bool,
 ) -> float:
-    """``kw`` at (r, c); for a cell off the wave's grid (a sealed start, say), the best
-    ``cost + clean + kw`` over its legal moves."""
-    here = kw[r, c] if passable[r, c] else np.inf
+    """A cost-to-go ``field`` (``kw`` with ``use_clean``, else ``k``) at (r, c); for a cell off
+    the wave's grid (a sealed start, say), the best ``cost (+ clean) + field`` over its moves."""
+    here = field[r, c] if passable[r, c] else np.inf
     static = _legal_moves(passable, r, c, 0)
     for i in range(8):
         if (static >> i) & 1:
-            v = _wide_value(kw, clean, r, c, i, diagonal_cost)
+            yr = r + DR[i]
+            yc = c + DC[i]
+            v = (diagonal_cost if i & 1 else 1.0) + field[yr, yc]
+            if use_clean:
+                v += clean[yr, yc]
             if v < here:
                 here = v
     return here
@@ -333,7 +343,7 @@ def _decide_core(
     decision only); ``target``: the flat index of a detour's next cell, or -1.
     """
     W = passable.shape[1]
-    here = _cost_here(passable, kw, clean, r, c, diagonal_cost)
+    here = _cost_here(passable, kw, clean, r, c, diagonal_cost, True)
     if here == np.inf:
         return -1, BLOCKED
     feasible = _legal_moves(passable, r, c, dyn)
@@ -451,18 +461,24 @@ def _walk(
     Returns an empty array when the goal is not reached within ``max_steps`` moves.
     """
     H, W = passable.shape
-    visited = np.zeros(H * W, dtype=np.uint8)
-    path = np.empty(max_steps + 1, dtype=np.int64)
+    # Only the paper decision keeps a tabu list; the wide one never revisits a cell.
+    visited = np.zeros(H * W if mode == MODE_PAPER else 1, dtype=np.uint8)
+    path = np.empty(min(max_steps + 1, 1024), dtype=np.int64)
     contact = np.zeros(8, dtype=np.int64)
     gr = goal // W
     gc = goal - gr * W
     x = start
     path[0] = x
-    visited[x] = 1
+    if mode == MODE_PAPER:
+        visited[x] = 1
     n = 1
     while x != goal:
         if n > max_steps:
             return path[:0].copy()
+        if n == path.shape[0]:
+            grown = np.empty(min(2 * n, max_steps + 1), dtype=np.int64)
+            grown[:n] = path
+            path = grown
         r = x // W
         c = x - r * W
         tabu = 0
@@ -479,7 +495,8 @@ def _walk(
         if outcome != MOVE:
             return path[:0].copy()
         x = (r + DR[i]) * W + c + DC[i]
-        visited[x] = 1
+        if mode == MODE_PAPER:
+            visited[x] = 1
         path[n] = x
         n += 1
     return path[:n].copy()
@@ -566,12 +583,18 @@ def _detour(
 
 @njit(cache=True, nogil=True)
 def _move_obstacles(
-    grid: np.ndarray, obstacles: np.ndarray, robot_r: int, robot_c: int, u: np.ndarray
+    grid: np.ndarray,
+    occupied: np.ndarray,
+    obstacles: np.ndarray,
+    robot_r: int,
+    robot_c: int,
+    u: np.ndarray,
 ) -> None:
     """Move each obstacle in place to a uniformly drawn option among staying and its legal moves
     (free static cell, no corner cutting, not another obstacle's cell, not the robot's cell).
 
-    ``u`` holds one uniform [0, 1) number per obstacle, drawn by the caller's seeded generator.
+    ``occupied`` counts obstacles per cell and is kept up to date; ``u`` holds one uniform
+    [0, 1) number per obstacle, drawn by the caller's seeded generator.
     """
     H, W = grid.shape
     m = obstacles.shape[0]
@@ -588,18 +611,13 @@ def _move_obstacles(
                 continue
             if i & 1 and (grid[r, yc] != 0 or grid[yr, c] != 0):
                 continue
-            if yr == robot_r and yc == robot_c:
-                continue
-            taken = False
-            for q in range(m):
-                if q != j and obstacles[q, 0] == yr and obstacles[q, 1] == yc:
-                    taken = True
-                    break
-            if taken:
+            if (yr == robot_r and yc == robot_c) or occupied[yr, yc]:
                 continue
             options[count] = i
             count += 1
         pick = options[min(int(u[j] * count), count - 1)]
         if pick >= 0:
+            occupied[r, c] -= 1
             obstacles[j, 0] = r + DR[pick]
             obstacles[j, 1] = c + DC[pick]
+            occupied[r + DR[pick], c + DC[pick]] += 1

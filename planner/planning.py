@@ -173,7 +173,7 @@ def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
 
 def _reachable(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
     here = K._cost_here(
-        wave.passable, wave.kw, analysis.clean, cell[0], cell[1], wave.diagonal_cost
+        wave.passable, wave.kw, analysis.clean, cell[0], cell[1], wave.diagonal_cost, True
     )
     return bool(np.isfinite(here))
 

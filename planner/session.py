@@ -281,11 +281,8 @@ class Session:
         """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach."""
         wave = self.plan.wave
         r, c = self.state.position
-        zero = np.zeros_like(self.plan.analysis.clean) if not wave.passable[r, c] else None
-        if zero is None:
-            value = float(wave.k[r, c])
-        else:
-            value = K._cost_here(wave.passable, wave.k, zero, r, c, wave.diagonal_cost)
+        clean = self.plan.analysis.clean
+        value = K._cost_here(wave.passable, wave.k, clean, r, c, wave.diagonal_cost, False)
         return value if np.isfinite(value) else None
 
 

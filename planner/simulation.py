@@ -33,7 +33,8 @@ class Episode:
     trajectory: npt.NDArray[np.int64]
     """``(n, 2)`` cells the robot stood on, start first (a wait repeats no cell)."""
     obstacles: npt.NDArray[np.int64]
-    """``(steps + 1, m, 2)``: the obstacles' cells at the start and after each of their moves."""
+    """``(steps + 1, m, 2)``: the obstacles' cells at the start and after each of their moves
+    (``(0, m, 2)`` when the episode was run without ``record``)."""
     metrics: dict[str, Any]
 
 
@@ -63,11 +64,17 @@ def simulate(
 
 
 def run_episode(
-    plan: Plan, *, dynamic: int = 10, seed: int = 0, max_steps: int | None = None
+    plan: Plan,
+    *,
+    dynamic: int = 10,
+    seed: int = 0,
+    max_steps: int | None = None,
+    record: bool = True,
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic`` randomly moving obstacles.
 
-    ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode.
+    ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
+    off, the obstacles' cells at each step are not kept (``Episode.obstacles`` is empty).
     """
     grid = plan.analysis.grid
     H, W = grid.shape
@@ -90,21 +97,24 @@ def run_episode(
         raise InvalidInput(msg, field="dynamic_count")
     cells = rng.choice(free, size=dynamic, replace=False)
     obstacles = np.ascontiguousarray(np.stack(np.divmod(cells, W), axis=1).astype(np.int64))
-    history = [obstacles.copy()]
+    occupied = np.zeros((H, W), dtype=np.int32)
+    occupied[obstacles[:, 0], obstacles[:, 1]] = 1
+    history = [obstacles.copy()] if record else []
     session = Session(plan)
     collisions = 0
     step_seconds = 0.0
     steps = 0
     while steps < max_steps and session.state.status not in ("arrived", "blocked"):
         r, c = session.state.position
-        K._move_obstacles(grid, obstacles, r, c, rng.random(dynamic))
-        history.append(obstacles.copy())
+        K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
+        if record:
+            history.append(obstacles.copy())
         t0 = time.perf_counter()
         step = session.step(obstacles)
         step_seconds += time.perf_counter() - t0
         steps += 1
         pr, pc = step.position
-        if dynamic and bool(np.any((obstacles[:, 0] == pr) & (obstacles[:, 1] == pc))):
+        if occupied[pr, pc]:
             collisions += 1
     st = session.state
     trajectory = np.asarray(st.trajectory, dtype=np.int64).reshape(-1, 2)
@@ -128,7 +138,9 @@ def run_episode(
         "analysis_ms": round(plan.analysis.elapsed_ms + plan.wave.elapsed_ms, 3),
         "step_us": round(step_seconds / max(steps, 1) * 1e6, 3),
     }
-    return Episode(plan, trajectory, np.stack(history), metrics)
+    shape = (len(history), dynamic, 2)
+    obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)
+    return Episode(plan, trajectory, obstacle_cells, metrics)
 
 
 def warm_up() -> None:

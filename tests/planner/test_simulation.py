@@ -78,3 +78,13 @@ def test_max_steps_bounds_an_episode() -> None:
     e = planner.simulate(np.zeros((1, 20), dtype=np.uint8), (0, 0), (0, 19), dynamic=0, max_steps=5)
     assert e.metrics["iterations"] == 5
     assert not e.metrics["reached"]
+
+
+def test_many_obstacles_without_recording() -> None:
+    grid = np.zeros((60, 60), dtype=np.uint8)
+    e = planner.run_episode(
+        planner.plan(grid, (0, 0), (59, 59)), dynamic=900, seed=2, record=False, max_steps=400
+    )
+    assert e.obstacles.shape == (0, 900, 2)
+    assert e.metrics["collisions"] == 0
+    assert e.metrics["iterations"] >= 59
