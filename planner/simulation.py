@@ -87,6 +87,7 @@ def run_episode(
         raise InvalidInput(
             f"max_steps must be a positive integer; got {max_steps!r}", field="max_steps"
         )
+    t_start = time.perf_counter()
     rng = np.random.default_rng(seed)
     free = np.flatnonzero(grid.ravel() == 0)
     free = free[
@@ -137,6 +138,7 @@ def run_episode(
         "collisions": collisions,
         "analysis_ms": round(plan.analysis.elapsed_ms + plan.wave.elapsed_ms, 3),
         "step_us": round(step_seconds / max(steps, 1) * 1e6, 3),
+        "episode_ms": round((time.perf_counter() - t_start) * 1e3, 3),
     }
     shape = (len(history), dynamic, 2)
     obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)

@@ -11,9 +11,9 @@ from planner.cli import EXAMPLE_GOAL, EXAMPLE_MAP, EXAMPLE_START
 METRICS = {
     "reached", "status", "iterations", "moves", "waits", "replans", "path_length", "arc_cost",
     "gates", "tunnels", "narrow_fallback", "min_clearance", "mean_clearance", "contact_ratio",
-    "collisions", "analysis_ms", "step_us",
+    "collisions", "analysis_ms", "step_us", "episode_ms",
 }  # fmt: skip
-TIMINGS = {"analysis_ms", "step_us"}
+TIMINGS = {"analysis_ms", "step_us", "episode_ms"}
 
 
 def test_a_seeded_episode_is_reproducible() -> None:
