@@ -209,46 +209,117 @@ def _pop(keys: np.ndarray, items: np.ndarray, pos: np.ndarray, size: int) -> tup
 
 
 @njit(cache=True, nogil=True)
+def _move_masks(passable: np.ndarray) -> np.ndarray:
+    """Bit i of each passable cell set when move i from it is legal (inside the map, target
+    passable, both orthogonal cells of a diagonal passable); 0 for cells that are not passable.
+    The wave reads one byte per cell instead of up to three cells and four bounds per move."""
+    H, W = passable.shape
+    out = np.zeros((H, W), dtype=np.uint8)
+    for r in range(H):
+        for c in range(W):
+            if passable[r, c] == 0:
+                continue
+            n = r > 0 and passable[r - 1, c] != 0
+            s = r < H - 1 and passable[r + 1, c] != 0
+            w = c > 0 and passable[r, c - 1] != 0
+            e = c < W - 1 and passable[r, c + 1] != 0
+            ne = n and e and passable[r - 1, c + 1] != 0
+            se = s and e and passable[r + 1, c + 1] != 0
+            sw = s and w and passable[r + 1, c - 1] != 0
+            nw = n and w and passable[r - 1, c - 1] != 0
+            out[r, c] = n | ne << 1 | e << 2 | se << 3 | s << 4 | sw << 5 | w << 6 | nw << 7
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _wave(
-    passable: np.ndarray, goal: int, diagonal_cost: float, clean: np.ndarray, use_clean: bool
+    masks: np.ndarray, goal: int, diagonal_cost: float, clean: np.ndarray, use_clean: bool
 ) -> np.ndarray:
     """Cost-to-go to ``goal`` of every cell: ``k`` (plain) or, with ``use_clean``, ``kw``.
 
-    A move X -> Y costs 1 straight or ``diagonal_cost`` diagonally, plus ``clean(Y)`` for kw. A
-    diagonal move needs both orthogonal cells it passes between passable. Unreachable: +inf.
+    A move X -> Y costs 1 straight or ``diagonal_cost`` diagonally, plus ``clean(Y)`` for kw;
+    ``masks`` (from :func:`_move_masks`) says which moves are legal. Unreachable: +inf.
+
+    Every move costs at least 1, so cells whose cost-to-go has the same integer part cannot
+    improve one another: a bucket queue of width 1 may settle each bucket's cells in any order
+    and still gives exactly Dijkstra's result, with O(1) pushes, pops and decrease-keys. The
+    buckets are doubly linked lists threaded through two arrays, in a ring of a power of two
+    (larger than the largest move cost) indexed by ``floor(cost)``.
     """
-    H, W = passable.shape
+    H, W = masks.shape
     n = H * W
-    free = passable.ravel()
+    moves = masks.ravel()
     pen = clean.ravel()
+    largest = max(diagonal_cost, 1.0)
+    if use_clean:
+        top = 0.0
+        for i in range(n):
+            if moves[i] and pen[i] > top:
+                top = pen[i]
+        largest += top
+    ring = 1
+    while ring < int(largest) + 2:
+        ring *= 2
+    wrap = ring - 1
+    offset = np.empty(8, dtype=np.int64)
+    step = np.empty(8, dtype=np.float64)
+    for i in range(8):
+        offset[i] = DR[i] * W + DC[i]
+        step[i] = diagonal_cost if i & 1 else 1.0
+    head = np.full(ring, -1, dtype=np.int32)
+    nxt = np.empty(n, dtype=np.int32)
+    prv = np.empty(n, dtype=np.int32)
     dist = np.full(n, np.inf)
-    keys = np.empty(n, dtype=np.float64)
-    items = np.empty(n, dtype=np.int64)
-    pos = np.full(n, _OUTSIDE, dtype=np.int64)
+    state = np.zeros(n, dtype=np.uint8)  # 0 unseen, 1 queued, 2 settled
     dist[goal] = 0.0
-    size = _push_or_decrease(keys, items, pos, 0, goal, 0.0)
-    while size > 0:
-        y, d, size = _pop(keys, items, pos, size)
-        yr = y // W
-        yc = y - yr * W
-        base = d + pen[y] if use_clean else d
-        for i in range(8):
-            xr = yr + DR[i]
-            xc = yc + DC[i]
-            if xr < 0 or xr >= H or xc < 0 or xc >= W:
-                continue
-            x = xr * W + xc
-            if free[x] == 0 or pos[x] == _CLOSED:
-                continue
-            if i & 1:
-                if free[yr * W + xc] == 0 or free[xr * W + yc] == 0:
+    state[goal] = 1
+    head[0] = goal
+    nxt[goal] = -1
+    prv[goal] = -1
+    queued = 1
+    bucket = 0
+    while queued > 0:
+        b = bucket & wrap
+        y = head[b]
+        while y != -1:
+            q = nxt[y]
+            head[b] = q
+            if q != -1:
+                prv[q] = -1
+            queued -= 1
+            state[y] = 2
+            base = dist[y] + pen[y] if use_clean else dist[y]
+            m = moves[y]
+            for i in range(8):
+                if not (m >> i) & 1:
                     continue
-                nd = base + diagonal_cost
-            else:
-                nd = base + 1.0
-            if nd < dist[x]:
-                dist[x] = nd
-                size = _push_or_decrease(keys, items, pos, size, x, nd)
+                x = y + offset[i]
+                if state[x] == 2:
+                    continue
+                nd = base + step[i]
+                if nd < dist[x]:
+                    if state[x] == 1:  # unlink from its old bucket
+                        p = prv[x]
+                        q = nxt[x]
+                        if p == -1:
+                            head[int(dist[x]) & wrap] = q
+                        else:
+                            nxt[p] = q
+                        if q != -1:
+                            prv[q] = p
+                    else:
+                        state[x] = 1
+                        queued += 1
+                    dist[x] = nd
+                    t = int(nd) & wrap
+                    q = head[t]
+                    nxt[x] = q
+                    prv[x] = -1
+                    if q != -1:
+                        prv[q] = x
+                    head[t] = x
+            y = head[b]
+        bucket += 1
     return dist.reshape(H, W)
 
 

@@ -11,9 +11,9 @@ import time
 from functools import cached_property
 from typing import Any
 
+import edt
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from planner import _kernels as K
 from planner._errors import InvalidInput
@@ -80,9 +80,10 @@ class Analysis:
     def clearance(self) -> npt.NDArray[np.float32]:
         """Euclidean distance from each cell to the nearest static obstacle (the map's outside
         counts as one), in cells; 0 on obstacles."""
-        free = np.pad(self.state != K.OBSTACLE, 1, constant_values=False)
-        dist = ndimage.distance_transform_edt(free)[1:-1, 1:-1]
-        out: npt.NDArray[np.float32] = dist.astype(np.float32)
+        free = np.ascontiguousarray(self.state != K.OBSTACLE)
+        out: npt.NDArray[np.float32] = edt.edt(free, black_border=True).astype(
+            np.float32, copy=False
+        )
         out.flags.writeable = False
         return out
 
@@ -213,9 +214,10 @@ def goal_wave(
     passable = analysis.passable(narrow=narrow)
     passable[r, c] = 1
     flat_goal = r * analysis.shape[1] + c
-    k = K._wave(passable, flat_goal, float(diagonal_cost), analysis.clean, False)
+    masks = K._move_masks(passable)
+    k = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, False)
     if analysis.clean_weight > 0:
-        kw = K._wave(passable, flat_goal, float(diagonal_cost), analysis.clean, True)
+        kw = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, True)
     else:
         kw = k
     elapsed = (time.perf_counter() - t0) * 1e3

@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -16,16 +17,20 @@ from planner.analysis import Analysis, Wave, analyse, goal_wave
 from planner.grids import as_cell
 from planner.params import Params, resolve_params
 
-__all__ = ["Plan", "path_metrics", "plan"]
+__all__ = ["Plan", "clearance_metrics", "path_cost", "plan"]
 
 WaveSource = Callable[[bool], Wave]
 """Gives the goal wave for ``narrow`` (False: the sealed grid): lets a caller cache waves."""
 
 
-@dataclass(frozen=True, eq=False, slots=True)
+@dataclass(frozen=True, eq=False)
 class Plan:
     """A plan: where the robot starts and goes, with what, and the path it would follow with no
-    dynamic obstacles (``path``, an ``(n, 2)`` array of ``[row, col]`` from start to goal)."""
+    dynamic obstacles (``path``, an ``(n, 2)`` array of ``[row, col]`` from start to goal).
+
+    The clearance figures are computed on first use: they need the map's distance transform,
+    which the analysis then keeps.
+    """
 
     start: tuple[int, int]
     goal: tuple[int, int]
@@ -37,10 +42,26 @@ class Plan:
     length: float
     arc_cost: float
     narrow_fallback: bool
-    min_clearance: float
-    mean_clearance: float
-    contact_ratio: float
     elapsed_ms: float
+
+    @cached_property
+    def _clearance(self) -> tuple[float, float, float]:
+        return clearance_metrics(self.path, self.analysis)
+
+    @property
+    def min_clearance(self) -> float:
+        """Least distance from a path cell to the nearest static obstacle, in cells."""
+        return self._clearance[0]
+
+    @property
+    def mean_clearance(self) -> float:
+        """Mean distance from the path's cells to the nearest static obstacle, in cells."""
+        return self._clearance[1]
+
+    @property
+    def contact_ratio(self) -> float:
+        """Share of the path's cells touching an obstacle (clearance below 1.5)."""
+        return self._clearance[2]
 
     @property
     def gates(self) -> int:
@@ -145,7 +166,7 @@ def plan(
     if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
         raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
     path = np.stack(np.divmod(flat, W), axis=1)
-    length, arc_cost, min_c, mean_c, contact = path_metrics(path, wave, analysis)
+    length, arc_cost = path_cost(path, wave)
     return Plan(
         start=s,
         goal=g,
@@ -157,9 +178,6 @@ def plan(
         length=length,
         arc_cost=arc_cost,
         narrow_fallback=narrow,
-        min_clearance=min_c,
-        mean_clearance=mean_c,
-        contact_ratio=contact,
         elapsed_ms=(time.perf_counter() - t0) * 1e3,
     )
 
@@ -178,18 +196,19 @@ def _reachable(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
     return bool(np.isfinite(here))
 
 
-def path_metrics(
-    path: npt.NDArray[np.int64], wave: Wave, analysis: Analysis
-) -> tuple[float, float, float, float, float]:
-    """(length, arc cost, min clearance, mean clearance, contact ratio) of a path of cells.
-
-    The arc cost is the paper's ``PathCost``: the sum of ``k`` over the cells entered after the
-    start. The contact ratio is the share of cells whose clearance is below 1.5 (touching an
-    obstacle, diagonally included).
-    """
+def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
+    """(length, arc cost) of a path of cells. The arc cost is the paper's ``PathCost``: the sum
+    of ``k`` over the cells entered after the start."""
     steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
     length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost)
-    arc_cost = float(wave.k[path[1:, 0], path[1:, 1]].sum())
+    return length, float(wave.k[path[1:, 0], path[1:, 1]].sum())
+
+
+def clearance_metrics(
+    path: npt.NDArray[np.int64], analysis: Analysis
+) -> tuple[float, float, float]:
+    """(min clearance, mean clearance, contact ratio) of a path of cells: distances to the
+    nearest static obstacle, and the share of cells below 1.5 (touching one, diagonally too)."""
     clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
     contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
-    return length, arc_cost, float(clearance.min()), float(clearance.mean()), contact
+    return float(clearance.min()), float(clearance.mean()), contact

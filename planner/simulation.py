@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from planner import _kernels as K
 from planner._errors import InvalidInput
-from planner.planning import Plan, path_metrics, plan
+from planner.planning import Plan, clearance_metrics, plan
 from planner.session import Session
 
 __all__ = ["Episode", "run_episode", "simulate", "warm_up"]
@@ -119,7 +119,7 @@ def run_episode(
             collisions += 1
     st = session.state
     trajectory = np.asarray(st.trajectory, dtype=np.int64).reshape(-1, 2)
-    _, _, min_c, mean_c, contact = path_metrics(trajectory, plan.wave, plan.analysis)
+    min_c, mean_c, contact = clearance_metrics(trajectory, plan.analysis)
     metrics: dict[str, Any] = {
         "reached": st.status == "arrived",
         "status": st.status,
