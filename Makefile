@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint typecheck unit scen-all clean
+.PHONY: run test lint typecheck unit scen-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,10 @@ unit: $(STAMP)
 
 scen-all: $(STAMP)  ## every line of every Moving AI scenario file in ../shared (slow: minutes)
 	for f in ../shared/maps/movingai/*.scen; do $(PY) -m planner scen "$$f" || exit 1; done
+
+bench: $(STAMP)  ## side-by-side benchmarks; writes benchmarks/RESULTS.md
+	$(PY) -m pip install --quiet -e '.[dev,bench]'
+	$(PY) benchmarks/run.py
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache
