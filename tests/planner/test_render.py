@@ -48,6 +48,17 @@ def at(image: Image.Image, cell: Sequence[int]) -> tuple[int, int, int]:
     return (int(pixel[0]), int(pixel[1]), int(pixel[2]))
 
 
+def test_colours_are_the_papers() -> None:
+    assert COLOURS["obstacle"] == (0, 0, 0)
+    assert COLOURS["tunnel"][0] == 255  # orange
+    assert 100 <= COLOURS["tunnel"][1] <= 180
+    assert COLOURS["tunnel"][2] == 0
+    assert max(COLOURS["path"]) == COLOURS["path"][1] > 120  # green
+    assert max(COLOURS["dynamic"]) == COLOURS["dynamic"][2] > 200  # blue
+    named = ("free", "obstacle", "tunnel", "gate", "dynamic", "path", "start", "goal", "robot")
+    assert len({COLOURS[name] for name in named}) == len(named)
+
+
 def test_plan_png_colours_at_known_cells() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
     assert p.analysis.state[2, 3] == 2  # the corridor cell is sealed
