@@ -3,7 +3,8 @@
 The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read precisely as
 ``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
 (cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
-decision, stepping among dynamic obstacles, and the paper's simulated experiment.
+decision, stepping among dynamic obstacles, the paper's simulated experiment on its six
+environments, and pictures like its figures.
 
 >>> import planner
 >>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
@@ -13,15 +14,19 @@ decision, stepping among dynamic obstacles, and the paper's simulated experiment
 
 from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
 from planner.analysis import Analysis, Wave, analyse, goal_wave
+from planner.environments import TABLE1, environment
+from planner.experiment import compare, run_experiment
 from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
 from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan
+from planner.render import render_episode, render_map, render_plan
 from planner.session import MOVES, Session, SessionState, Step
 from planner.simulation import Episode, run_episode, simulate, warm_up
 
 __all__ = [
     "MOVES",
     "PRESETS",
+    "TABLE1",
     "Analysis",
     "Episode",
     "InvalidInput",
@@ -37,6 +42,8 @@ __all__ = [
     "Wave",
     "analyse",
     "as_grid",
+    "compare",
+    "environment",
     "format_map",
     "goal_wave",
     "parse_map",
@@ -44,8 +51,12 @@ __all__ = [
     "plan",
     "read_map",
     "read_scen",
+    "render_episode",
+    "render_map",
+    "render_plan",
     "resolve_params",
     "run_episode",
+    "run_experiment",
     "simulate",
     "warm_up",
 ]

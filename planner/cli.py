@@ -1,4 +1,5 @@
-"""``python -m planner``: plan, run Moving AI scenarios, simulate, or show the bundled demo."""
+"""``python -m planner``: plan, run Moving AI scenarios, simulate, run the paper's experiment,
+render pictures, or show the bundled demo."""
 
 from __future__ import annotations
 
@@ -15,10 +16,13 @@ import numpy as np
 
 from planner._errors import PlannerError
 from planner.analysis import analyse
+from planner.environments import DESCRIPTIONS, environment
+from planner.experiment import COMPARISONS, DYNAMIC, compare, run_experiment
 from planner.grids import read_map, read_scen
 from planner.params import PRESETS, resolve_params
 from planner.planning import Plan, plan
-from planner.simulation import simulate, warm_up
+from planner.render import render_episode, render_plan
+from planner.simulation import run_episode, simulate, warm_up
 
 __all__ = ["main"]
 
@@ -65,6 +69,27 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("--seed", type=int, default=0)
     m.add_argument("--max-steps", type=int)
     m.set_defaults(run=_simulate)
+
+    e = sub.add_parser("experiment", help="the paper's experiment: six environments, Table 1")
+    e.add_argument("--episodes", type=int, default=10, help="seeded episodes per row")
+    e.add_argument("--seed", type=int, default=0, help="seeds the maps and the episodes")
+    e.add_argument("--dynamic", type=int, default=DYNAMIC, help="dynamic obstacles per episode")
+    e.add_argument("--json", action="store_true", help="print the rows as one JSON list")
+    e.set_defaults(run=_experiment)
+
+    r = sub.add_parser("render", help="draw a map, its analysis and a plan as PNG (and a GIF)")
+    r.add_argument("map", help="a Moving AI .map file, or envN[:SEED] for generated environment N")
+    r.add_argument("--start", type=int, nargs=2, required=True, metavar=("R", "C"))
+    r.add_argument("--goal", type=int, nargs=2, required=True, metavar=("R", "C"))
+    r.add_argument("--preset", default="wide", choices=sorted(PRESETS))
+    r.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+    r.add_argument("--out", type=Path, required=True, help="the PNG file to write")
+    r.add_argument("--field", choices=["clean", "kw"], help="heat map under the free cells")
+    r.add_argument("--cell", type=int, default=10, help="pixels per map cell")
+    r.add_argument("--animate", type=Path, metavar="FILE.gif", help="also write an episode GIF")
+    r.add_argument("--dynamic", type=int, default=DYNAMIC, help="dynamic obstacles (--animate)")
+    r.add_argument("--seed", type=int, default=0, help="the episode's seed (--animate)")
+    r.set_defaults(run=_render)
     return parser
 
 
@@ -162,6 +187,71 @@ def _scen(args: argparse.Namespace) -> int:
     }
     print(json.dumps(summary))
     return 1 if mismatches and args.preset == "shortest" else 0
+
+
+def _experiment(args: argparse.Namespace) -> int:
+    rows = run_experiment(episodes=args.episodes, seed=args.seed, dynamic=args.dynamic)
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(
+        f"The paper's experiment: 6 environments x 5 start/goal pairs (Table 1) x 4 presets, "
+        f"{args.episodes} episodes each among {args.dynamic} moving obstacles, seed {args.seed}."
+    )
+    for number, text in DESCRIPTIONS.items():
+        print(f"  env {number}: {text}")
+    print("\nMeans over the episodes (collisions: total). time: planning + episode compute, ms.\n")
+    print(_table(rows))
+    print("\nSummary: the change of the averages over all 30 start/goal pairs.")
+    for preset, baseline in COMPARISONS:
+        c = compare(rows, preset, baseline)
+        print(
+            f"  {preset} vs {baseline}: path cost {c['arc_cost']:+.2f}%, "
+            f"iterations {c['iterations']:+.2f}%, length {c['path_length']:+.2f}%, "
+            f"mean clearance {c['mean_clearance']:+.2f}%, min clearance {c['min_clearance']:+.2f}%"
+        )
+    print("  (the paper: wfs-mmas vs mmas path cost +11.35%, iterations +7.10%)")
+    return 0
+
+
+def _table(rows: list[dict[str, Any]]) -> str:
+    head = (
+        f"{'env':>3} {'preset':<9}{'start':>8}{'goal':>8}{'gates':>6}{'tunnels':>8}"
+        f"{'iters':>7}{'arc cost':>10}{'time':>7}{'length':>8}{'min cl':>7}{'mean cl':>8}"
+        f"{'coll':>5}{'success':>8}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in rows:
+        lines.append(
+            f"{r['environment']:>3} {r['preset']:<9}{_pair(r['start']):>8}{_pair(r['goal']):>8}"
+            f"{r['gates']:>6}{r['tunnels']:>8}{r['iterations']:>7.1f}{r['arc_cost']:>10.1f}"
+            f"{r['time_ms']:>7.2f}{r['path_length']:>8.2f}{r['min_clearance']:>7.2f}"
+            f"{r['mean_clearance']:>8.2f}{r['collisions']:>5}{r['success']:>8.0%}"
+        )
+    return "\n".join(lines)
+
+
+def _pair(cell: list[int]) -> str:
+    return f"{cell[0]},{cell[1]}"
+
+
+def _render(args: argparse.Namespace) -> int:
+    grid = _map_or_environment(args.map)
+    result = plan(grid, args.start, args.goal, preset=args.preset, **_params(args.param))
+    args.out.write_bytes(render_plan(result, field=args.field, cell=args.cell))
+    print(f"wrote {args.out}")
+    if args.animate is not None:
+        episode = run_episode(result, dynamic=args.dynamic, seed=args.seed)
+        args.animate.write_bytes(render_episode(episode, cell=args.cell))
+        print(f"wrote {args.animate}: {json.dumps(episode.metrics)}")
+    return 0
+
+
+def _map_or_environment(text: str) -> np.ndarray:
+    name, _, seed = text.partition(":")
+    if name.startswith("env") and name[3:].isdigit() and (not seed or seed.isdigit()):
+        return environment(int(name[3:]), seed=int(seed or 0))
+    return read_map(text)
 
 
 def _demo(args: argparse.Namespace) -> int:

@@ -1,0 +1,256 @@
+"""Pictures like the paper's figures: PNG of a map, a plan or a robot's progress; GIF of an episode.
+
+Colours follow the paper: obstacles black, sealed tight-tunnel cells orange, dynamic obstacles
+blue, the path green; gates are a red line across the diagonal gap, the start a magenta disc and
+the goal a gold disc. Optionally a heat map of ``clean`` or ``kw`` tints the free cells.
+
+>>> from planner import plan
+>>> png = render_plan(plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0]), cell=4)
+>>> png[:8] == b"\\x89PNG\\r\\n\\x1a\\n"
+True
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+from PIL import Image, ImageDraw
+
+from planner._errors import InvalidInput
+from planner.analysis import Analysis, Wave
+from planner.planning import Plan
+from planner.session import Session
+from planner.simulation import Episode
+
+__all__ = [
+    "COLOURS",
+    "Field",
+    "draw",
+    "render_episode",
+    "render_map",
+    "render_plan",
+]
+
+Field = Literal["clean", "kw"]
+
+#: RGB colour of each thing drawn.
+COLOURS: dict[str, tuple[int, int, int]] = {
+    "free": (255, 255, 255),
+    "obstacle": (0, 0, 0),
+    "tunnel": (255, 140, 0),
+    "gate": (220, 0, 0),
+    "dynamic": (0, 60, 255),
+    "path": (0, 170, 0),
+    "preview": (170, 225, 170),
+    "start": (230, 0, 230),
+    "goal": (255, 210, 0),
+    "robot": (0, 90, 0),
+    "grid": (225, 225, 225),
+    "heat": (150, 100, 210),
+    "unreachable": (200, 200, 200),
+}
+
+MAX_CELL = 64
+
+
+def draw(
+    analysis: Analysis,
+    *,
+    path: Any = None,
+    preview: Any = None,
+    dynamic: Any = None,
+    start: Any = None,
+    goal: Any = None,
+    robot: Any = None,
+    field: Field | None = None,
+    wave: Wave | None = None,
+    cell: int = 10,
+) -> Image.Image:
+    """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell.
+
+    ``path`` cells are filled green, ``preview`` cells pale green under them; ``dynamic`` cells
+    blue; ``start``, ``goal`` and the ``robot``'s cell are discs. ``field`` tints free cells by
+    ``analysis.clean`` or by ``wave.kw`` (``wave`` is then required).
+
+    >>> from planner import analyse
+    >>> image = draw(analyse([[0, 1], [1, 0]]), cell=3)   # a gate: the red line across it
+    >>> image.size, image.getpixel((1, 1)), image.getpixel((4, 1))
+    ((6, 6), (220, 0, 0), (0, 0, 0))
+    """
+    if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= MAX_CELL:
+        raise InvalidInput(
+            f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {cell!r}"
+        )
+    H, W = analysis.shape
+    rgb = np.empty((H, W, 3), dtype=np.uint8)
+    rgb[:] = COLOURS["free"]
+    if field is not None:
+        rgb[:] = _heat(analysis, field, wave)
+    rgb[analysis.state == 1] = COLOURS["obstacle"]
+    if analysis.seal_tunnels:  # unsealed tunnel cells are ordinary free cells to the planner
+        rgb[analysis.state == 2] = COLOURS["tunnel"]
+    for cells, colour in ((preview, "preview"), (path, "path"), (dynamic, "dynamic")):
+        if cells is not None:
+            rc = _cells(cells, analysis.shape, colour)
+            rgb[rc[:, 0], rc[:, 1]] = COLOURS[colour]
+    image = Image.fromarray(np.repeat(np.repeat(rgb, cell, axis=0), cell, axis=1), "RGB")
+    pen = ImageDraw.Draw(image)
+    if cell >= 6:  # grid lines only where they leave the cells readable
+        for i in range(1, max(H, W)):
+            pen.line([(0, i * cell), (W * cell, i * cell)], fill=COLOURS["grid"])
+            pen.line([(i * cell, 0), (i * cell, H * cell)], fill=COLOURS["grid"])
+        # Re-fill obstacles so grid lines do not stripe the black.
+        for r, c in np.argwhere(analysis.state == 1):
+            pen.rectangle(_box(int(r), int(c), cell, 0), fill=COLOURS["obstacle"])
+    half = cell / 2
+    for r1, c1, r2, c2 in analysis.gate_cells().tolist():
+        pen.line(
+            [(c1 * cell + half, r1 * cell + half), (c2 * cell + half, r2 * cell + half)],
+            fill=COLOURS["gate"],
+            width=max(1, cell // 4),
+        )
+        for r, c in ((r1, c1), (r2, c2)):  # a dot on each gap cell, visible at any scale
+            pen.rectangle(_box(r, c, cell, cell // 3), fill=COLOURS["gate"])
+    for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
+        if cells is not None:
+            (r, c), *_ = _cells([cells], analysis.shape, colour).tolist()
+            pen.ellipse(
+                _box(r, c, cell, max(cell // 8, 0)), fill=COLOURS[colour], outline=(0, 0, 0)
+            )
+    return image
+
+
+def render_map(
+    analysis: Analysis, *, field: Field | None = None, wave: Wave | None = None, cell: int = 10
+) -> bytes:
+    """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint).
+
+    >>> from planner import analyse
+    >>> render_map(analyse([[0]]), cell=2)[1:4]
+    b'PNG'
+    """
+    return _png(draw(analysis, field=field, wave=wave, cell=cell))
+
+
+def render_plan(
+    plan: Plan,
+    *,
+    trajectory: Any = None,
+    dynamic: Any = None,
+    field: Field | None = None,
+    cell: int = 10,
+) -> bytes:
+    """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
+    so far and the ``dynamic`` obstacles' cells (the plan endpoint).
+
+    With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
+    green and the preview pale green beneath it.
+    """
+    path, preview, robot = plan.path, None, None
+    if trajectory is not None:
+        path = _cells(trajectory, plan.analysis.shape, "trajectory")
+        if len(path) == 0:
+            raise InvalidInput("trajectory must hold at least the start cell; got none")
+        preview, robot = plan.path, path[-1]
+    image = draw(
+        plan.analysis,
+        path=path,
+        preview=preview,
+        dynamic=dynamic,
+        start=plan.start,
+        goal=plan.goal,
+        robot=robot,
+        field=field,
+        wave=plan.wave,
+        cell=cell,
+    )
+    return _png(image)
+
+
+def render_episode(episode: Episode, *, cell: int = 8, frame_ms: int = 80) -> bytes:
+    """Animated GIF bytes of a simulated ``episode``: one frame per step, the robot's trail
+    green, the obstacles blue, the plan's path pale green.
+
+    The robot's position at each step is recovered by replaying the recorded obstacle cells
+    through a fresh :class:`~planner.Session`: the decision is deterministic, so the replay is
+    exact, and it is checked against the episode's trajectory.
+    """
+    if episode.obstacles.shape[0] == 0:
+        raise InvalidInput("the episode was run without record; it has no obstacle cells to draw")
+    if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 10:
+        raise InvalidInput(f"frame_ms must be an integer >= 10; got {frame_ms!r}")
+    plan = episode.plan
+    session = Session(plan)
+    frames = []
+    for t, obstacles in enumerate(episode.obstacles):
+        if t > 0:
+            session.step(obstacles)
+        trail = np.asarray(session.state.trajectory, dtype=np.int64)
+        image = draw(
+            plan.analysis,
+            path=trail,
+            preview=plan.path,
+            dynamic=obstacles,
+            start=plan.start,
+            goal=plan.goal,
+            robot=session.state.position,
+            cell=cell,
+        )
+        frames.append(image.convert("P", palette=Image.Palette.ADAPTIVE))
+    if not np.array_equal(np.asarray(session.state.trajectory), episode.trajectory):
+        raise AssertionError("replaying the episode did not reproduce its trajectory")  # a bug
+    out = io.BytesIO()
+    frames[0].save(
+        out, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0
+    )
+    return out.getvalue()
+
+
+def _heat(analysis: Analysis, field: Field, wave: Wave | None) -> npt.NDArray[np.uint8]:
+    if field == "clean":
+        values = analysis.clean.astype(np.float64)
+    elif field == "kw":
+        if wave is None:
+            raise InvalidInput("field 'kw' needs the goal wave; pass wave=")
+        values = np.asarray(wave.kw, dtype=np.float64)
+    else:
+        raise InvalidInput(f"field must be 'clean' or 'kw'; got {field!r}")
+    finite = np.isfinite(values)
+    top = float(values[finite].max()) if finite.any() else 0.0
+    share = np.where(finite, values, 0.0) / top if top > 0 else np.zeros_like(values)
+    free, heat = np.array(COLOURS["free"], float), np.array(COLOURS["heat"], float)
+    rgb = free + share[..., None] * (heat - free)
+    rgb[~finite] = COLOURS["unreachable"]
+    out: npt.NDArray[np.uint8] = rgb.round().astype(np.uint8)
+    return out
+
+
+def _cells(cells: Any, shape: tuple[int, int], name: str) -> npt.NDArray[np.int64]:
+    try:
+        rc = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} must be [row, col] cells; got {cells!r}") from None
+    inside = (rc >= 0).all(axis=1) & (rc[:, 0] < shape[0]) & (rc[:, 1] < shape[1])
+    if not inside.all():
+        bad = rc[np.flatnonzero(~inside)[0]].tolist()
+        raise InvalidInput(f"{name} cell {bad} is outside the {shape[0]} x {shape[1]} map")
+    return rc
+
+
+def _box(r: int, c: int, cell: int, inset: int) -> Sequence[int]:
+    return (
+        c * cell + inset,
+        r * cell + inset,
+        (c + 1) * cell - 1 - inset,
+        (r + 1) * cell - 1 - inset,
+    )
+
+
+def _png(image: Image.Image) -> bytes:
+    out = io.BytesIO()
+    image.save(out, format="PNG", optimize=True)
+    return out.getvalue()

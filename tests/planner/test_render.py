@@ -1,0 +1,158 @@
+"""The renderer: valid PNG and GIF, the right size, the paper's colours at known cells."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import planner
+from planner.cli import main
+from planner.environments import environment
+from planner.render import COLOURS, draw, render_episode, render_map, render_plan
+from tests.conftest import grid_from
+
+CELL = 8
+
+# A corridor one cell wide (a tunnel cell at (2, 3)), a wide opening at its right, a gate (free
+# (4, 5) and (5, 4) between blocked (4, 4) and (5, 5)), open room elsewhere.
+ROOM = grid_from("""
+    ..........
+    ..........
+    ###.####..
+    ..........
+    ....#.....
+    .....#....
+    ..........
+""")
+
+
+def decode(data: bytes) -> Image.Image:
+    image = Image.open(io.BytesIO(data))
+    image.load()
+    return image
+
+
+def frames(image: Image.Image) -> int:
+    return int(getattr(image, "n_frames", 1))
+
+
+def at(image: Image.Image, cell: Sequence[int]) -> tuple[int, int, int]:
+    r, c = cell
+    pixel = image.convert("RGB").getpixel((c * CELL + CELL // 2, r * CELL + CELL // 2))
+    assert isinstance(pixel, tuple)
+    return (int(pixel[0]), int(pixel[1]), int(pixel[2]))
+
+
+def test_colours_are_the_papers() -> None:
+    assert COLOURS["obstacle"] == (0, 0, 0)
+    assert COLOURS["tunnel"][0] == 255  # orange
+    assert 100 <= COLOURS["tunnel"][1] <= 180
+    assert COLOURS["tunnel"][2] == 0
+    assert max(COLOURS["path"]) == COLOURS["path"][1] > 120  # green
+    assert max(COLOURS["dynamic"]) == COLOURS["dynamic"][2] > 200  # blue
+    named = ("free", "obstacle", "tunnel", "gate", "dynamic", "path", "start", "goal", "robot")
+    assert len({COLOURS[name] for name in named}) == len(named)
+
+
+def test_plan_png_colours_at_known_cells() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
+    assert p.analysis.state[2, 3] == 2  # the corridor cell is sealed
+    image = decode(render_plan(p, dynamic=[[6, 0]], cell=CELL))
+    assert image.format == "PNG"
+    assert image.size == (10 * CELL, 7 * CELL)
+    assert at(image, (2, 0)) == COLOURS["obstacle"]
+    assert at(image, (2, 3)) == COLOURS["tunnel"]
+    middle = tuple(p.path[len(p.path) // 2].tolist())
+    assert at(image, middle) == COLOURS["path"]
+    assert at(image, (6, 0)) == COLOURS["dynamic"]
+    assert at(image, (0, 0)) == COLOURS["start"]
+    assert at(image, (6, 9)) == COLOURS["goal"]
+    assert at(image, (4, 5)) == COLOURS["gate"]  # the line across the gap joins its free cells
+    assert at(image, (5, 4)) == COLOURS["gate"]
+    assert at(image, (4, 4)) == COLOURS["obstacle"]
+    assert at(image, (1, 9)) == COLOURS["free"]
+
+
+def test_unsealed_tunnels_are_not_orange() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="shortest")
+    image = decode(render_plan(p, cell=CELL))
+    assert at(image, (2, 3)) == COLOURS["path"]  # the shortest path takes the corridor
+
+
+def test_trajectory_green_preview_pale() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
+    trail = p.path[:3]
+    image = decode(render_plan(p, trajectory=trail, cell=CELL))
+    assert at(image, tuple(trail[1].tolist())) == COLOURS["path"]
+    assert at(image, tuple(p.path[-3].tolist())) == COLOURS["preview"]
+    assert at(image, tuple(trail[-1].tolist())) == COLOURS["robot"]
+
+
+def test_map_png_on_an_environment() -> None:
+    analysis = planner.analyse(environment(1, seed=0))
+    image = decode(render_map(analysis, cell=3))
+    assert image.size == (150, 150)
+    rgb = np.asarray(image.convert("RGB"))
+    cells = rgb[1::3, 1::3]  # the centre pixel of every cell
+    tunnel = analysis.state == 2
+    gates = analysis.gate_cells().reshape(-1, 2)
+    tunnel[gates[:, 0], gates[:, 1]] = False  # a gate's red line crosses its cells
+    assert tunnel.any()
+    assert (cells[tunnel] == COLOURS["tunnel"]).all()
+    assert (cells[analysis.state == 1] == COLOURS["obstacle"]).all()
+
+
+def test_heat_map_tints_free_cells() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
+    clean = decode(render_map(p.analysis, field="clean", cell=CELL))
+    kw = decode(render_plan(p, field="kw", cell=CELL))
+    assert at(clean, (3, 5)) != COLOURS["free"]  # next to the wall: penalised
+    assert at(kw, (0, 9)) != COLOURS["free"]  # far from the goal
+    with pytest.raises(planner.InvalidInput, match="wave"):
+        render_map(p.analysis, field="kw")
+
+
+@pytest.mark.parametrize("cell", [0, 65, 2.5])
+def test_rejects_bad_cell_size(cell: object) -> None:
+    with pytest.raises(planner.InvalidInput, match="cell must be"):
+        draw(planner.analyse([[0]]), cell=cell)  # type: ignore[arg-type]
+
+
+def test_rejects_cells_outside_the_map() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9))
+    with pytest.raises(planner.InvalidInput, match=r"\[7, 0\] is outside"):
+        render_plan(p, dynamic=[[7, 0]])
+
+
+def test_episode_gif_frames_follow_the_robot() -> None:
+    episode = planner.simulate(ROOM, (0, 0), (6, 9), dynamic=3, seed=2)
+    image = decode(render_episode(episode, cell=CELL))
+    assert image.format == "GIF"
+    assert image.size == (10 * CELL, 7 * CELL)
+    assert frames(image) == len(episode.obstacles)
+    image.seek(frames(image) - 1)
+    last = image.convert("RGB")
+    assert at(last, (6, 9)) == COLOURS["robot"]  # the robot on the goal
+    for r, c in episode.obstacles[-1].tolist():
+        assert at(last, (r, c)) == COLOURS["dynamic"]
+
+
+def test_episode_without_record_is_refused() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9))
+    episode = planner.run_episode(p, dynamic=1, record=False)
+    with pytest.raises(planner.InvalidInput, match="record"):
+        render_episode(episode)
+
+
+def test_render_cli_writes_png_and_gif(tmp_path: Path) -> None:
+    png, gif = tmp_path / "env6.png", tmp_path / "env6.gif"
+    args = ["render", "env6:2", "--start", "0", "0", "--goal", "49", "49", "--out", str(png)]
+    args += ["--animate", str(gif), "--cell", "4", "--field", "clean", "--dynamic", "5"]
+    assert main(args) == 0
+    assert decode(png.read_bytes()).size == (200, 200)
+    assert frames(decode(gif.read_bytes())) > 50
