@@ -18,7 +18,7 @@ from planner.environments import TABLE1, environment
 from planner.experiment import compare, run_experiment
 from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
 from planner.params import PRESETS, Params, resolve_params
-from planner.planning import Plan, plan
+from planner.planning import Plan, plan, reaches
 from planner.render import render_episode, render_map, render_plan
 from planner.session import MOVES, Session, SessionState, Step
 from planner.simulation import Episode, run_episode, simulate, warm_up
@@ -49,6 +49,7 @@ __all__ = [
     "parse_map",
     "parse_rows",
     "plan",
+    "reaches",
     "read_map",
     "read_scen",
     "render_episode",

@@ -127,11 +127,11 @@ def analyse(
     g = as_grid(grid)
     low, high = PARAMETER_RANGES["clean_radius"]
     if not (isinstance(clean_radius, int) and low <= clean_radius <= high):
-        raise InvalidInput(
-            f"clean_radius must be an integer in [{low}, {high}]; got {clean_radius!r}"
-        )
+        msg = f"clean_radius must be an integer in [{low}, {high}]; got {clean_radius!r}"
+        raise InvalidInput(msg, field="params.clean_radius")
     if not clean_weight >= 0:
-        raise InvalidInput(f"clean_weight must be >= 0; got {clean_weight!r}")
+        msg = f"clean_weight must be >= 0; got {clean_weight!r}"
+        raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
     state, gates, tunnels = K._classify(g)
     if clean_weight > 0:
@@ -209,7 +209,8 @@ def goal_wave(
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]
     if not low <= diagonal_cost <= high:
-        raise InvalidInput(f"diagonal_cost must be in [{low}, {high}]; got {diagonal_cost!r}")
+        msg = f"diagonal_cost must be in [{low}, {high}]; got {diagonal_cost!r}"
+        raise InvalidInput(msg, field="params.diagonal_cost")
     t0 = time.perf_counter()
     passable = analysis.passable(narrow=narrow)
     passable[r, c] = 1

@@ -17,7 +17,7 @@ from planner.analysis import Analysis, Wave, analyse, goal_wave
 from planner.grids import as_cell
 from planner.params import Params, resolve_params
 
-__all__ = ["Plan", "clearance_metrics", "path_cost", "plan"]
+__all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
 
 WaveSource = Callable[[bool], Wave]
 """Gives the goal wave for ``narrow`` (False: the sealed grid): lets a caller cache waves."""
@@ -143,9 +143,9 @@ def plan(
 
     wave = wave_for(False)
     narrow = False
-    if not _reachable(wave, analysis, s) and analysis.sealed:
+    if not reaches(wave, analysis, s) and analysis.sealed:
         narrow_wave = wave_for(True)
-        if _reachable(narrow_wave, analysis, s):
+        if reaches(narrow_wave, analysis, s):
             if not p.allow_narrow:
                 msg = (
                     f"goal {list(g)} can be reached from start {list(s)} only through tight "
@@ -153,7 +153,7 @@ def plan(
                 )
                 raise NoValidPath(msg, field="goal")
             wave, narrow = narrow_wave, True
-    if not _reachable(wave, analysis, s):
+    if not reaches(wave, analysis, s):
         raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
 
     W = analysis.shape[1]
@@ -189,7 +189,12 @@ def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
     return r, c
 
 
-def _reachable(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
+def reaches(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
+    """Whether the robot at ``cell`` can reach the wave's goal over the wave's grid.
+
+    A caller that caches waves asks this of the sealed wave to know, before planning, whether
+    the plan will need the narrow one.
+    """
     here = K._cost_here(
         wave.passable, wave.kw, analysis.clean, cell[0], cell[1], wave.diagonal_cost, True
     )

@@ -161,7 +161,7 @@ class Session:
     def _obstacles(self, cells: Any) -> npt.NDArray[np.int64]:
         try:
             obstacles = np.asarray(cells, dtype=np.int64)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             msg = f"dynamic_obstacles must be a list of [row, col] cells; got {cells!r}"
             raise InvalidInput(msg, field="dynamic_obstacles") from None
         if obstacles.size == 0:

@@ -146,14 +146,20 @@ def run_episode(
 
 
 def warm_up() -> None:
-    """Compile (or load from numba's cache) every kernel, so no later call pays for it."""
-    grid = np.zeros((6, 6), dtype=np.uint8)
-    grid[2, 1:5] = 1
-    grid[4, 3] = 1
-    for preset in ("wide", "wfs-mmas"):
-        p = plan(grid, (0, 0), (5, 5), preset=preset, patience=0)
-        p.analysis.gate_cells()
-        _ = p.analysis.clearance
-        run_episode(p, dynamic=2, seed=0, max_steps=4)
-        session = Session(p)
-        session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
+    """Compile (or load from numba's cache) every kernel, so no later call pays for it.
+
+    Numba compiles a kernel apart for read-only arrays (a service keeps its maps read-only), so
+    both kinds of grid are warmed.
+    """
+    for writeable in (True, False):
+        grid = np.zeros((6, 6), dtype=np.uint8)
+        grid[2, 1:5] = 1
+        grid[4, 3] = 1
+        grid.flags.writeable = writeable
+        for preset in ("wide", "wfs-mmas", "mmas"):
+            p = plan(grid, (0, 0), (5, 5), preset=preset, patience=0)
+            p.analysis.gate_cells()
+            _ = p.min_clearance
+            run_episode(p, dynamic=2, seed=0, max_steps=4)
+            session = Session(p)
+            session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
