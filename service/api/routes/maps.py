@@ -32,7 +32,7 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
     return result
 
 
-@router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404))
+@router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     """The `map_id`, `height`, `width` and `free_cells` of an uploaded map."""
     return await engine.get_map(map_id)

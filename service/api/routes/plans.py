@@ -30,7 +30,9 @@ async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
     )
 
 
-@router.get("/plan/{plan_id}", summary="A plan and the robot's progress", responses=responses(404))
+@router.get(
+    "/plan/{plan_id}", summary="A plan and the robot's progress", responses=responses(404, 422)
+)
 async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
     """The plan as created, with the robot's `position`, `status`, `iteration`, `trajectory`
     and the trajectory's metrics."""
@@ -41,7 +43,7 @@ async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
     "/plan/{plan_id}",
     status_code=status.HTTP_204_NO_CONTENT,
     summary="Forget a plan",
-    responses=responses(404),
+    responses=responses(404, 422),
 )
 async def delete_plan(plan_id: str, engine: EngineDep) -> None:
     """Forget the plan now (plans also expire when untouched for `PLANNER_PLAN_TTL_SECONDS`)."""
