@@ -16,9 +16,6 @@ from fastapi import FastAPI
 from service.config import Settings
 from service.main import create_app
 
-#: Small limits, so that the limit tests need small bodies.
-LIMITS = {"max_map_cells": 4096, "max_body_bytes": 65536, "max_dynamic_obstacles": 20}
-
 
 @pytest.fixture
 def anyio_backend() -> str:
@@ -27,7 +24,8 @@ def anyio_backend() -> str:
 
 @pytest.fixture
 def settings() -> Settings:
-    return Settings(pool_size=2, **LIMITS)
+    # Small limits, so that the limit tests need small bodies.
+    return Settings(pool_size=2, max_map_cells=4096, max_body_bytes=65536, max_dynamic_obstacles=20)
 
 
 @pytest.fixture
@@ -56,7 +54,8 @@ def live_url() -> Iterator[str]:
     thread.start()
     deadline = time.monotonic() + 120
     while not server.started:
-        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
+        assert thread.is_alive(), "uvicorn stopped"
+        assert time.monotonic() < deadline, "uvicorn did not start"
         time.sleep(0.02)
     yield f"http://127.0.0.1:{port}"
     server.should_exit = True

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
+import itertools
 
 import httpx
 import numpy as np
@@ -168,7 +169,7 @@ async def test_concurrent_steps_never_lose_or_double_a_move(client: httpx.AsyncC
     assert sorted(s["seq"] for s in steps) == list(range(20))
     assert sorted(s["iteration"] for s in steps) == list(range(1, 21))
     by_seq = sorted(steps, key=lambda s: s["seq"])
-    for before, after in zip(by_seq, by_seq[1:], strict=False):
+    for before, after in itertools.pairwise(by_seq):
         assert after["previous"] == before["position"]
     detail = (await client.get(f"/plan/{plan_id}")).json()
     assert len(detail["trajectory"]) == 21
