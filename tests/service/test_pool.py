@@ -9,6 +9,7 @@ import httpx
 import pytest
 
 from service.config import Settings
+from service.engine import Engine
 from service.main import create_app
 from tests.service.conftest import random_map
 
@@ -16,7 +17,7 @@ pytestmark = pytest.mark.anyio
 
 
 @pytest.fixture
-async def big() -> AsyncIterator[tuple[httpx.AsyncClient, Settings]]:
+async def big() -> AsyncIterator[tuple[httpx.AsyncClient, Engine]]:
     settings = Settings(pool_size=4)
     app = create_app(settings)
     async with app.router.lifespan_context(app):
@@ -25,7 +26,9 @@ async def big() -> AsyncIterator[tuple[httpx.AsyncClient, Settings]]:
             yield c, app.state.engine
 
 
-async def test_healthz_answers_while_four_big_analyses_run(big: tuple) -> None:
+async def test_healthz_answers_while_four_big_analyses_run(
+    big: tuple[httpx.AsyncClient, Engine],
+) -> None:
     client, engine = big
     bodies = []
     for seed in range(4):
