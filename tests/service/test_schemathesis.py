@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import schemathesis
 from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
@@ -28,6 +30,6 @@ CHECKS = [
 @schema.parametrize()
 @settings(max_examples=25, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_answers_every_generated_request_within_its_schema(
-    case: schemathesis.Case[object],
+    case: schemathesis.Case[Any],
 ) -> None:
     case.call_and_validate(checks=CHECKS)
