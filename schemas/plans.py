@@ -34,7 +34,7 @@ PARAMS_DESCRIPTION = (
 )
 
 EXAMPLE_PLAN: dict[str, Any] = {
-    "plan_id": "kq3X0v7mN2c8s1LwQe5r9A",
+    "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
     "map_id": "5f0c1e4f0d2b8a7c9e3d6b1a2c4e8f0a1b3c5d7e9f2a4c6e8b0d2f4a6c8e0b2d",
     "start": [0, 0],
     "goal": [2, 2],

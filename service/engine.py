@@ -106,7 +106,7 @@ class Engine:
         self, map_id: str, start: list[int], goal: list[int], preset: str, params: dict[str, Any]
     ) -> PlanPublic:
         plan, cache_hit = await self._plan(map_id, start, goal, preset, params)
-        plan_id = secrets.token_urlsafe(16)
+        plan_id = secrets.token_hex(16)
         state = planner.Session(plan).state
         record: PlanRecord = {
             "map_id": map_id,

@@ -58,7 +58,7 @@ _PLANNER_STATUS: dict[type[planner.PlannerError], int] = {
 
 _EXAMPLES: dict[int, dict[str, str]] = {
     404: {
-        "detail": "plan_id: no plan 'kq3X0v7m' (unknown, deleted or expired)",
+        "detail": "plan_id: no plan '9f1c2a7b' (unknown, deleted or expired)",
         "field": "plan_id",
         "code": "NOT_FOUND",
     },
