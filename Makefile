@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run test lint typecheck unit scen-all bench clean
+.PHONY: run serve test lint typecheck unit scen-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,6 +14,9 @@ $(STAMP): pyproject.toml
 
 run: $(STAMP)  ## the main job: plan on the bundled example map, printed and explained
 	$(PY) -m planner demo
+
+serve: $(STAMP)  ## the HTTP service on 127.0.0.1:8000 (API docs at /docs)
+	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000
 
 test: lint typecheck unit  ## the whole suite: ruff, mypy, pytest
 

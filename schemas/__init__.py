@@ -1,0 +1,41 @@
+"""The HTTP contract's request and response models (``shared/API.md``), one class per direction.
+
+Pure pydantic: nothing here imports the planner, so clients can reuse these models as they are.
+"""
+
+from schemas.errors import ErrorPublic
+from schemas.maps import MapCreate, MapPublic
+from schemas.plans import (
+    PRESET_NAMES,
+    AnalysisPublic,
+    Cell,
+    PlanCreate,
+    PlanDetail,
+    PlanPublic,
+    PreviewPublic,
+    TrajectoryMetrics,
+)
+from schemas.service import CacheStats, HealthPublic
+from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
+from schemas.steps import StepCreate, StepPublic
+
+__all__ = [
+    "PRESET_NAMES",
+    "AnalysisPublic",
+    "CacheStats",
+    "Cell",
+    "ErrorPublic",
+    "HealthPublic",
+    "MapCreate",
+    "MapPublic",
+    "PlanCreate",
+    "PlanDetail",
+    "PlanPublic",
+    "PreviewPublic",
+    "SimulationCreate",
+    "SimulationMetrics",
+    "SimulationPublic",
+    "StepCreate",
+    "StepPublic",
+    "TrajectoryMetrics",
+]

@@ -1,0 +1,194 @@
+"""Plans: ``POST /plan``, ``GET /plan/{plan_id}``."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = [
+    "PRESET_NAMES",
+    "AnalysisPublic",
+    "Cell",
+    "PlanCreate",
+    "PlanDetail",
+    "PlanPublic",
+    "Preset",
+    "PreviewPublic",
+    "Status",
+    "TrajectoryMetrics",
+]
+
+Coordinate = Annotated[int, Field(ge=0, le=2**31 - 1)]
+Cell = Annotated[list[Coordinate], Field(min_length=2, max_length=2, examples=[[0, 9]])]
+"""A ``[row, col]`` cell, row 0 at the top."""
+
+Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
+PRESET_NAMES: tuple[str, ...] = ("wide", "wfs-mmas", "mmas", "shortest")
+
+Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
+
+PARAMS_DESCRIPTION = (
+    "Overrides of single planner parameters: `alpha`, `beta`, `rho`, `clean_weight`, "
+    "`clean_radius`, `seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`."
+)
+
+EXAMPLE_PLAN: dict[str, Any] = {
+    "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
+    "map_id": "5f0c1e4f0d2b8a7c9e3d6b1a2c4e8f0a1b3c5d7e9f2a4c6e8b0d2f4a6c8e0b2d",
+    "start": [0, 0],
+    "goal": [2, 2],
+    "preset": "wide",
+    "params": {
+        "decision": "wide",
+        "seal_tunnels": True,
+        "clean_weight": 0.5,
+        "clean_radius": 2,
+        "diagonal_cost": 1.4142135623730951,
+        "alpha": 3.0,
+        "beta": 1.0,
+        "rho": 0.98,
+        "patience": 3,
+        "allow_narrow": True,
+    },
+    "status": "ready",
+    "position": [0, 0],
+    "analysis": {
+        "gates": 0,
+        "tunnels": 0,
+        "narrow_fallback": False,
+        "cache_hit": False,
+        "analysis_ms": 0.02,
+    },
+    "preview": {
+        "path": [[0, 0], [0, 1], [0, 2], [1, 2], [2, 2]],
+        "length": 4.0,
+        "arc_cost": 6.0,
+        "min_clearance": 1.0,
+        "mean_clearance": 1.0,
+        "contact_ratio": 1.0,
+    },
+}
+
+EXAMPLE_METRICS: dict[str, Any] = {
+    "iterations": 1,
+    "moves": 1,
+    "waits": 0,
+    "replans": 0,
+    "path_length": 1.0,
+    "arc_cost": 3.0,
+    "min_clearance": 1.0,
+    "mean_clearance": 1.0,
+    "contact_ratio": 1.0,
+}
+
+
+class PlanCreate(BaseModel):
+    """Ask for a plan from ``start`` to ``goal`` on a map already uploaded."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                {
+                    "map_id": EXAMPLE_PLAN["map_id"],
+                    "start": [0, 0],
+                    "goal": [2, 2],
+                    "preset": "wide",
+                    "params": {"clean_weight": 0.5},
+                    "allow_narrow": True,
+                }
+            ]
+        }
+    )
+
+    map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
+    start: Cell
+    goal: Cell
+    preset: Preset = "wide"
+    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
+    allow_narrow: bool | None = Field(
+        default=None,
+        description="Plan through tight tunnels when sealing them cuts the start off the goal "
+        "(the planner parameter `allow_narrow`; default true).",
+    )
+
+
+class AnalysisPublic(BaseModel):
+    """What the map analysis found, and whether this request computed it."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_PLAN["analysis"]]})
+
+    gates: int = Field(ge=0, description="Zero-width diagonal gaps, never crossed.")
+    tunnels: int = Field(ge=0, description="Tight-tunnel cells (one-cell corridors).")
+    narrow_fallback: bool = Field(description="The plan goes through tunnels sealing would shut.")
+    cache_hit: bool = Field(description="The analysis was not computed for this request.")
+    analysis_ms: float = Field(ge=0, description="Time the analysis took when it was computed.")
+
+
+class PreviewPublic(BaseModel):
+    """The path the robot would follow with no dynamic obstacles."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_PLAN["preview"]]})
+
+    path: list[Cell]
+    length: float = Field(ge=0)
+    arc_cost: float = Field(ge=0, description="The paper's total arc cost: sum of `k` entered.")
+    min_clearance: float = Field(ge=0)
+    mean_clearance: float = Field(ge=0)
+    contact_ratio: float = Field(ge=0, le=1, description="Share of cells touching an obstacle.")
+
+
+class PlanPublic(BaseModel):
+    """A plan as created."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_PLAN]})
+
+    plan_id: str
+    map_id: str
+    start: Cell
+    goal: Cell
+    preset: Preset
+    params: dict[str, Any] = Field(description="The effective parameter values.")
+    status: Status
+    position: Cell
+    analysis: AnalysisPublic
+    preview: PreviewPublic
+
+
+class TrajectoryMetrics(BaseModel):
+    """How the robot has fared so far."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_METRICS]})
+
+    iterations: int = Field(ge=0)
+    moves: int = Field(ge=0)
+    waits: int = Field(ge=0)
+    replans: int = Field(ge=0)
+    path_length: float = Field(ge=0)
+    arc_cost: float = Field(ge=0)
+    min_clearance: float = Field(ge=0)
+    mean_clearance: float = Field(ge=0)
+    contact_ratio: float = Field(ge=0, le=1)
+
+
+class PlanDetail(PlanPublic):
+    """A plan as it stands: the created plan plus the robot's progress."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                {
+                    **EXAMPLE_PLAN,
+                    "status": "moving",
+                    "position": [0, 1],
+                    "iteration": 1,
+                    "trajectory": [[0, 0], [0, 1]],
+                    "metrics": EXAMPLE_METRICS,
+                }
+            ]
+        }
+    )
+
+    iteration: int = Field(ge=0)
+    trajectory: list[Cell]
+    metrics: TrajectoryMetrics

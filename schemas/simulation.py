@@ -1,0 +1,94 @@
+"""The paper's experiment: ``POST /maps/{map_id}/simulate``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from schemas.plans import PARAMS_DESCRIPTION, Cell, Preset, Status
+
+__all__ = ["SimulationCreate", "SimulationMetrics", "SimulationPublic"]
+
+EXAMPLE_METRICS: dict[str, Any] = {
+    "reached": True,
+    "status": "arrived",
+    "iterations": 2,
+    "moves": 2,
+    "waits": 0,
+    "replans": 0,
+    "path_length": 2.828427,
+    "arc_cost": 1.414214,
+    "gates": 0,
+    "tunnels": 0,
+    "narrow_fallback": False,
+    "min_clearance": 1.0,
+    "mean_clearance": 1.0,
+    "contact_ratio": 1.0,
+    "collisions": 0,
+    "analysis_ms": 0.05,
+    "step_us": 4.2,
+    "episode_ms": 0.9,
+}
+
+
+class SimulationCreate(BaseModel):
+    """One seeded episode among ``dynamic_count`` randomly moving obstacles."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                {"start": [0, 0], "goal": [2, 2], "preset": "wfs-mmas", "dynamic_count": 1,
+                 "seed": 7, "max_steps": 100}
+            ]
+        }
+    )  # fmt: skip
+
+    start: Cell
+    goal: Cell
+    preset: Preset = "wide"
+    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
+    allow_narrow: bool | None = None
+    dynamic_count: int = Field(default=10, ge=0, description="How many obstacles move about.")
+    seed: int = Field(default=0, ge=0, le=2**63 - 1)
+    max_steps: int | None = Field(
+        default=None, ge=1, le=1_000_000, description="Default: 4 (H + W) + 4 len(path)."
+    )
+
+
+class SimulationMetrics(BaseModel):
+    """The paper's per-episode figures and a robotics user's."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_METRICS]})
+
+    reached: bool
+    status: Status
+    iterations: int = Field(ge=0)
+    moves: int = Field(ge=0)
+    waits: int = Field(ge=0)
+    replans: int = Field(ge=0)
+    path_length: float = Field(ge=0)
+    arc_cost: float = Field(ge=0)
+    gates: int = Field(ge=0)
+    tunnels: int = Field(ge=0)
+    narrow_fallback: bool
+    min_clearance: float = Field(ge=0)
+    mean_clearance: float = Field(ge=0)
+    contact_ratio: float = Field(ge=0, le=1)
+    collisions: int = Field(ge=0, description="Steps ending on an obstacle's cell: always 0.")
+    analysis_ms: float = Field(ge=0)
+    step_us: float = Field(ge=0, description="Mean compute time of one step.")
+    episode_ms: float = Field(ge=0, description="Compute time of the whole episode.")
+
+
+class SimulationPublic(BaseModel):
+    """The robot's cells, start first, and the episode's metrics."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [{"trajectory": [[0, 0], [1, 1], [2, 2]], "metrics": EXAMPLE_METRICS}]
+        }
+    )
+
+    trajectory: list[Cell]
+    metrics: SimulationMetrics

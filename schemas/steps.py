@@ -1,0 +1,66 @@
+"""Stepping: ``POST /plan/{plan_id}/step``."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from schemas.plans import Cell, Status
+
+__all__ = ["Move", "StepCreate", "StepPublic"]
+
+Move = Literal["N", "NE", "E", "SE", "S", "SW", "W", "NW", "WAIT"]
+
+
+class StepCreate(BaseModel):
+    """Where the dynamic obstacles are now (and, optionally, where the robot really is)."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [{"seq": 4, "dynamic_obstacles": [[1, 1], [2, 0]], "position": [3, 6]}]
+        }
+    )
+
+    seq: int | None = Field(
+        default=None,
+        ge=0,
+        le=2**62,
+        description="The last step's `seq` + 1 for a new step; the last `seq` again for a retry.",
+    )
+    dynamic_obstacles: list[Cell] = Field(
+        default_factory=list, description="Cells occupied by dynamic obstacles this step."
+    )
+    position: Cell | None = Field(default=None, description="Where the robot really is.")
+
+
+class StepPublic(BaseModel):
+    """The move to make now."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                {
+                    "seq": 4,
+                    "previous": [3, 6],
+                    "position": [2, 5],
+                    "move": "NW",
+                    "status": "moving",
+                    "iteration": 4,
+                    "path_length": 5.6,
+                    "arc_cost": 48.0,
+                    "remaining": 7.1,
+                }
+            ]
+        }
+    )
+
+    seq: int = Field(ge=0)
+    previous: Cell
+    position: Cell = Field(description="The cell to move to now.")
+    move: Move
+    status: Status
+    iteration: int = Field(ge=0)
+    path_length: float = Field(ge=0)
+    arc_cost: float = Field(ge=0)
+    remaining: float | None = Field(description="Cost-to-go `k`; null when out of reach.")

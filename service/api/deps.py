@@ -1,0 +1,42 @@
+"""Dependencies of the routers, as ``Annotated`` aliases, and the JSON-decoding route class."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Coroutine
+from typing import Annotated, Any, cast
+
+import orjson
+from fastapi import Depends, Request, Response
+from fastapi.routing import APIRoute
+
+from service.engine import Engine
+
+__all__ = ["EngineDep", "OrjsonRoute", "get_engine"]
+
+
+def get_engine(request: Request) -> Engine:
+    return cast(Engine, request.app.state.engine)
+
+
+EngineDep = Annotated[Engine, Depends(get_engine)]
+
+
+class _OrjsonRequest(Request):
+    async def json(self) -> Any:
+        if not hasattr(self, "_json"):
+            # orjson.JSONDecodeError subclasses json.JSONDecodeError, which FastAPI turns
+            # into a 422; it also refuses integers beyond 64 bits that numpy could not hold.
+            self._json = orjson.loads(await self.body())
+        return self._json
+
+
+class OrjsonRoute(APIRoute):
+    """Decodes request bodies with orjson: several times faster than ``json`` on big maps."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        handler = super().get_route_handler()
+
+        async def route_handler(request: Request) -> Response:
+            return await handler(_OrjsonRequest(request.scope, request.receive))
+
+        return route_handler

@@ -1,0 +1,38 @@
+"""``/maps``: upload a map (optionally planning on it at once) and read its metadata."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Response, status
+
+from schemas import MapCreate, MapPublic
+from service.api.deps import EngineDep, OrjsonRoute
+from service.errors import responses
+
+__all__ = ["router"]
+
+ERRORS = responses(404, 413, 422)
+
+router = APIRouter(tags=["maps"], route_class=OrjsonRoute)
+
+
+@router.post(
+    "/maps",
+    status_code=status.HTTP_201_CREATED,
+    summary="Upload a map, and plan on it when start and goal are given",
+    responses={200: {"model": MapPublic, "description": "The map was known already."}, **ERRORS},
+)
+async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> MapPublic:
+    """Upload a map as `grid` (0 free, 1 blocked) or as Moving AI `rows`. Its `map_id` is the
+    hex SHA-256 of its shape and cells: the same whichever encoding was sent. `201` the first
+    time, `200` after. With `start` and `goal` (and `preset`, `params`, `allow_narrow`) a plan
+    is created too and returned under `plan`, as from `POST /plan`."""
+    result, created = await engine.add_map(body)
+    if not created:
+        response.status_code = status.HTTP_200_OK
+    return result
+
+
+@router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
+async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
+    """The `map_id`, `height`, `width` and `free_cells` of an uploaded map."""
+    return await engine.get_map(map_id)

@@ -1,0 +1,63 @@
+"""``/plan``: create, read, delete a plan, and step the robot along it."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, status
+
+from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
+from service.api.deps import EngineDep, OrjsonRoute
+from service.engine import overrides
+from service.errors import responses
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["plans"], route_class=OrjsonRoute)
+
+
+@router.post(
+    "/plan",
+    status_code=status.HTTP_201_CREATED,
+    summary="Plan from start to goal on an uploaded map",
+    responses=responses(404, 413, 422),
+)
+async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
+    """Analyse the map (cached per map and analysis parameters), run the goal wave (cached per
+    goal) and return the plan with its `preview`: the path with no dynamic obstacles. `422`
+    when start or goal is outside the map or blocked, or with `NO_VALID_PATH` when the goal
+    cannot be reached (or only through tight tunnels while `allow_narrow` is false)."""
+    return await engine.create_plan(
+        body.map_id, body.start, body.goal, body.preset, overrides(body)
+    )
+
+
+@router.get(
+    "/plan/{plan_id}", summary="A plan and the robot's progress", responses=responses(404, 422)
+)
+async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
+    """The plan as created, with the robot's `position`, `status`, `iteration`, `trajectory`
+    and the trajectory's metrics."""
+    return await engine.get_plan(plan_id)
+
+
+@router.delete(
+    "/plan/{plan_id}",
+    status_code=status.HTTP_204_NO_CONTENT,
+    summary="Forget a plan",
+    responses=responses(404, 422),
+)
+async def delete_plan(plan_id: str, engine: EngineDep) -> None:
+    """Forget the plan now (plans also expire when untouched for `PLANNER_PLAN_TTL_SECONDS`)."""
+    await engine.delete_plan(plan_id)
+
+
+@router.post(
+    "/plan/{plan_id}/step",
+    summary="Report the dynamic obstacles; get the move to make now",
+    responses=responses(404, 409, 413, 422),
+)
+async def step(plan_id: str, body: StepCreate, engine: EngineDep) -> StepPublic:
+    """Give the cells dynamic obstacles occupy now (and optionally where the robot really is);
+    the answer is the cell to move to, which the service records. `seq`, when given, must be
+    the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
+    robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
+    return await engine.step(plan_id, body)

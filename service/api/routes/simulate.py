@@ -1,0 +1,25 @@
+"""``/maps/{map_id}/simulate``: the paper's experiment, one seeded episode."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from schemas import SimulationCreate, SimulationPublic
+from service.api.deps import EngineDep, OrjsonRoute
+from service.errors import responses
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["simulation"], route_class=OrjsonRoute)
+
+
+@router.post(
+    "/maps/{map_id}/simulate",
+    summary="Run one episode among randomly moving obstacles",
+    responses=responses(404, 413, 422),
+)
+async def simulate(map_id: str, body: SimulationCreate, engine: EngineDep) -> SimulationPublic:
+    """Plan, then run a whole episode among `dynamic_count` obstacles that each step move to a
+    random free neighbouring cell (seeded by `seed`: reproducible). Returns the robot's
+    `trajectory` and the paper's metrics, plus clearance, collisions (always 0) and timings."""
+    return await engine.simulate(map_id, body)

@@ -1,0 +1,48 @@
+"""The service's settings: one class, read once from ``PLANNER_*`` environment variables."""
+
+from __future__ import annotations
+
+import os
+
+from pydantic import Field, field_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+__all__ = ["Settings"]
+
+MIB = 1024 * 1024
+
+
+class Settings(BaseSettings):
+    """Every knob of the service; a bad value stops the service at start."""
+
+    model_config = SettingsConfigDict(env_prefix="PLANNER_", frozen=True)
+
+    store_url: str = Field(
+        default="memory://", description="Where maps and plans live: `memory://` (this process)."
+    )
+    max_map_cells: int = Field(default=4096 * 4096, ge=1, description="Largest map, in cells.")
+    max_body_bytes: int = Field(
+        default=64 * MIB, ge=1024, description="Largest request body, refused before parsing."
+    )
+    max_dynamic_obstacles: int = Field(
+        default=10_000, ge=0, description="Most dynamic obstacles in one step or simulation."
+    )
+    cache_bytes: int = Field(
+        default=512 * MIB, ge=0, description="Bound of the analysis and wave cache."
+    )
+    plan_ttl_seconds: float = Field(
+        default=3600.0, gt=0, description="A plan untouched this long is forgotten."
+    )
+    pool_size: int = Field(
+        default_factory=lambda: os.cpu_count() or 1,
+        ge=1,
+        description="Worker threads running planner kernels (default: the CPU count).",
+    )
+
+    @field_validator("store_url")
+    @classmethod
+    def _known_store(cls, url: str) -> str:
+        if not url.startswith("memory://"):
+            msg = f"store_url must be 'memory://' (the only store so far); got {url!r}"
+            raise ValueError(msg)
+        return url

@@ -1,0 +1,58 @@
+"""The FastAPI application: ``create_app(settings)`` and ``app``, which uvicorn serves."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+
+from service import errors
+from service.api import api_router
+from service.cache import ByteLRU
+from service.config import Settings
+from service.engine import Engine
+from service.middleware import BodyLimit
+from service.pool import Pool
+from service.store import open_store
+
+__all__ = ["app", "create_app"]
+
+DESCRIPTION = """Wide-free-space path planning on occupancy grids, after Hasan, Abdullah & Saleh
+(2023). Upload a map, plan from a start to a goal, then step a robot along the plan while
+reporting the dynamic obstacles it sees; or simulate the paper's whole experiment at once."""
+
+
+@asynccontextmanager
+async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+    """Open the store, the cache and the pool; compile the kernels before the first request."""
+    settings: Settings = app.state.settings
+    store = open_store(settings.store_url, ttl_seconds=settings.plan_ttl_seconds)
+    pool = Pool(settings.pool_size)
+    engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
+    try:
+        await engine.warm()
+        app.state.engine = engine
+        yield
+    finally:
+        pool.close()
+        await store.close()
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """The service configured by ``settings`` (default: from the ``PLANNER_*`` environment)."""
+    settings = settings if settings is not None else Settings()
+    app = FastAPI(
+        title="Wide-free-space path planner",
+        version="1.0.0",
+        description=DESCRIPTION,
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    errors.install(app)
+    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    app.include_router(api_router)
+    return app
+
+
+app = create_app()

@@ -1,0 +1,223 @@
+"""Every endpoint of shared/API.md over httpx, and the rules the contract states."""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import itertools
+
+import httpx
+import numpy as np
+import pytest
+from fastapi import FastAPI
+
+import planner
+import schemas
+from service.store import MemoryStore
+
+pytestmark = pytest.mark.anyio
+
+ROWS = ["......", ".@@...", "......", "...@..", "......"]
+GRID = [[1 if ch == "@" else 0 for ch in row] for row in ROWS]
+
+
+async def test_same_map_same_id_whichever_encoding(client: httpx.AsyncClient) -> None:
+    first = await client.post("/maps", json={"rows": ROWS})
+    again = await client.post("/maps", json={"grid": GRID})
+    assert (first.status_code, again.status_code) == (201, 200)
+    body = first.json()
+    assert again.json() == body
+    expected = hashlib.sha256(b"5x6:" + np.array(GRID, dtype=np.uint8).tobytes()).hexdigest()
+    assert body == {
+        "map_id": expected, "height": 5, "width": 6, "free_cells": 27, "plan": None,
+    }  # fmt: skip
+    shown = await client.get(f"/maps/{expected}")
+    assert shown.status_code == 200
+    assert shown.json() == body
+
+
+async def test_moving_ai_letters(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": [".GS", "@TO", "W.."]})
+    assert r.json()["free_cells"] == 5
+    same = await client.post("/maps", json={"grid": [[0, 0, 0], [1, 1, 1], [1, 0, 0]]})
+    assert same.json()["map_id"] == r.json()["map_id"]
+
+
+async def test_plan_matches_the_planner(client: httpx.AsyncClient) -> None:
+    map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+    body = {"map_id": map_id, "start": [0, 0], "goal": [4, 5], "preset": "wfs-mmas",
+            "params": {"alpha": 4}}  # fmt: skip
+    r = await client.post("/plan", json=body)
+    assert r.status_code == 201
+    got = r.json()
+    want = planner.plan(GRID, [0, 0], [4, 5], preset="wfs-mmas", alpha=4)
+    assert got["preview"]["path"] == want.path.tolist()
+    assert got["preview"]["length"] == pytest.approx(want.length)
+    assert got["params"] == want.params.as_dict()
+    assert (got["status"], got["position"], got["preset"]) == ("ready", [0, 0], "wfs-mmas")
+    assert got["analysis"]["cache_hit"] is False
+    assert got["analysis"]["gates"] == want.gates
+    again = (await client.post("/plan", json=body)).json()
+    assert again["analysis"]["cache_hit"] is True
+    assert again["plan_id"] != got["plan_id"]
+
+
+async def test_allow_narrow_maps_onto_the_planner_parameter(client: httpx.AsyncClient) -> None:
+    corridor = ["........", "........", "@@@.@@@@", "........", "........"]
+    map_id = (await client.post("/maps", json={"rows": corridor})).json()["map_id"]
+    body = {"map_id": map_id, "start": [0, 3], "goal": [4, 3]}
+    narrow = (await client.post("/plan", json=body)).json()
+    assert narrow["analysis"]["narrow_fallback"] is True
+    assert narrow["params"]["allow_narrow"] is True
+    refused = await client.post("/plan", json={**body, "allow_narrow": False})
+    assert refused.status_code == 422
+    assert "NO_VALID_PATH" in refused.json()["detail"]
+
+
+async def test_two_calls_suffice(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [4, 0], "goal": [0, 5]})
+    assert r.status_code == 201
+    plan = r.json()["plan"]
+    path = plan["preview"]["path"]
+    for i in range(1, len(path)):
+        step = await client.post(f"/plan/{plan['plan_id']}/step", json={"dynamic_obstacles": []})
+        assert step.status_code == 200
+        assert step.json()["position"] == path[i]
+    assert step.json()["status"] == "arrived"
+    again = await client.post(f"/plan/{plan['plan_id']}/step", json={"dynamic_obstacles": []})
+    assert (again.json()["status"], again.json()["move"]) == ("arrived", "WAIT")
+
+
+async def test_step_seq_rules(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
+    url = f"/plan/{r.json()['plan']['plan_id']}/step"
+    first = await client.post(url, json={"seq": 7, "dynamic_obstacles": []})
+    assert first.status_code == 200
+    assert first.json()["seq"] == 7
+    retry = await client.post(url, json={"seq": 7, "dynamic_obstacles": [[1, 1]]})
+    assert retry.json() == first.json()
+    gap = await client.post(url, json={"seq": 9, "dynamic_obstacles": []})
+    assert gap.status_code == 409
+    assert "seq 9" in gap.json()["detail"]
+    behind = await client.post(url, json={"seq": 6, "dynamic_obstacles": []})
+    assert behind.status_code == 409
+    nxt = await client.post(url, json={"seq": 8, "dynamic_obstacles": []})
+    assert nxt.status_code == 200
+    assert nxt.json()["previous"] == first.json()["position"]
+    assert nxt.json()["iteration"] == 2
+
+
+async def test_step_reports_position_and_moves_away(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
+    plan_id = r.json()["plan"]["plan_id"]
+    step = await client.post(
+        f"/plan/{plan_id}/step", json={"position": [2, 2], "dynamic_obstacles": [[3, 3]]}
+    )
+    assert step.status_code == 200
+    assert step.json()["previous"] == [2, 2]
+    assert step.json()["position"] != [3, 3]
+    detail = (await client.get(f"/plan/{plan_id}")).json()
+    assert detail["trajectory"][:2] == [[0, 0], [2, 2]]
+    assert detail["position"] == step.json()["position"]
+
+
+async def test_get_plan_shows_progress(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
+    created = r.json()["plan"]
+    for _ in range(3):
+        await client.post(f"/plan/{created['plan_id']}/step", json={"dynamic_obstacles": []})
+    detail = (await client.get(f"/plan/{created['plan_id']}")).json()
+    schemas.PlanDetail.model_validate(detail)
+    assert detail["preview"] == created["preview"]
+    assert detail["iteration"] == 3
+    assert detail["trajectory"] == created["preview"]["path"][:4]
+    assert detail["position"] == detail["trajectory"][-1]
+    assert detail["metrics"]["moves"] == 3
+    assert detail["status"] == "moving"
+
+
+async def test_delete_plan(client: httpx.AsyncClient) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
+    plan_id = r.json()["plan"]["plan_id"]
+    assert (await client.delete(f"/plan/{plan_id}")).status_code == 204
+    assert (await client.get(f"/plan/{plan_id}")).status_code == 404
+    assert (await client.delete(f"/plan/{plan_id}")).status_code == 404
+    step = await client.post(f"/plan/{plan_id}/step", json={"dynamic_obstacles": []})
+    assert step.status_code == 404
+
+
+async def test_plans_expire(app: FastAPI, client: httpx.AsyncClient) -> None:
+    now = [0.0]
+    app.state.engine.store = MemoryStore(ttl_seconds=60, clock=lambda: now[0])
+    r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
+    plan_id = r.json()["plan"]["plan_id"]
+    now[0] = 59.0
+    assert (await client.post(f"/plan/{plan_id}/step", json={})).status_code == 200
+    now[0] = 118.0  # the step restarted the TTL
+    assert (await client.get(f"/plan/{plan_id}")).status_code == 200
+    now[0] = 119.5
+    assert (await client.get(f"/plan/{plan_id}")).status_code == 404
+
+
+async def test_concurrent_steps_never_lose_or_double_a_move(client: httpx.AsyncClient) -> None:
+    grid = [[0] * 30 for _ in range(30)]
+    r = await client.post("/maps", json={"grid": grid, "start": [0, 0], "goal": [29, 29]})
+    plan_id = r.json()["plan"]["plan_id"]
+    url = f"/plan/{plan_id}/step"
+    answers = await asyncio.gather(*(client.post(url, json={}) for _ in range(20)))
+    steps = [a.json() for a in answers]
+    assert sorted(s["seq"] for s in steps) == list(range(20))
+    assert sorted(s["iteration"] for s in steps) == list(range(1, 21))
+    by_seq = sorted(steps, key=lambda s: s["seq"])
+    for before, after in itertools.pairwise(by_seq):
+        assert after["previous"] == before["position"]
+    detail = (await client.get(f"/plan/{plan_id}")).json()
+    assert len(detail["trajectory"]) == 21
+    assert detail["trajectory"] == [by_seq[0]["previous"], *(s["position"] for s in by_seq)]
+
+
+async def test_simulate_is_the_planners_episode(client: httpx.AsyncClient) -> None:
+    map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+    body = {"start": [0, 0], "goal": [4, 5], "preset": "mmas", "dynamic_count": 3, "seed": 5}
+    r = await client.post(f"/maps/{map_id}/simulate", json=body)
+    assert r.status_code == 200
+    got = r.json()
+    want = planner.simulate(GRID, [0, 0], [4, 5], preset="mmas", dynamic=3, seed=5)
+    assert got["trajectory"] == want.trajectory.tolist()
+    timing = {"analysis_ms", "step_us", "episode_ms"}
+    assert {k: v for k, v in got["metrics"].items() if k not in timing} == {
+        k: v for k, v in want.metrics.items() if k not in timing
+    }
+    assert got["metrics"]["collisions"] == 0
+    again = await client.post(f"/maps/{map_id}/simulate", json=body)
+    assert again.json()["trajectory"] == got["trajectory"]
+
+
+async def test_healthz(client: httpx.AsyncClient) -> None:
+    r = await client.get("/healthz")
+    assert r.status_code == 200
+    assert r.json()["status"] == "ok"
+    assert r.json()["cache"]["max_bytes"] > 0
+
+
+async def test_docs_show_a_summary_and_examples_everywhere(client: httpx.AsyncClient) -> None:
+    assert (await client.get("/docs")).status_code == 200
+    spec = (await client.get("/openapi.json")).json()
+    components = spec["components"]["schemas"]
+    for path, operations in spec["paths"].items():
+        for method, op in operations.items():
+            assert op.get("summary"), f"{method} {path} has no summary"
+            assert op.get("description"), f"{method} {path} has no description"
+            refs = [op.get("requestBody", {}).get("content", {}).get("application/json", {})]
+            refs += [
+                r.get("content", {}).get("application/json", {}) for r in op["responses"].values()
+            ]
+            for content in refs:
+                ref = content.get("schema", {}).get("$ref")
+                if ref:
+                    name = ref.rsplit("/", 1)[-1]
+                    assert components[name].get("examples"), f"{name} has no example"
+
+
+def test_presets_match_the_planner() -> None:
+    assert set(schemas.PRESET_NAMES) == set(planner.PRESETS)

@@ -1,0 +1,149 @@
+"""A table of bad requests: each gets a 4xx whose ``detail`` names the field and the value."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from typing import Any
+
+import httpx
+import pytest
+
+pytestmark = pytest.mark.anyio
+
+ROWS = ["......", ".@@...", "......", "...@..", "......"]
+WALLED = ["..@..", "..@..", "..@.."]
+CORRIDOR = ["........", "........", "@@@.@@@@", "........", "........"]
+OK = {"start": [0, 0], "goal": [4, 5]}
+
+# (name, method, url, json body or raw bytes, status, substrings of detail)
+CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
+    ("ragged grid", "POST", "/maps", {"grid": [[0, 0], [0]]}, 422, ["grid", "rectangular"]),
+    ("empty grid", "POST", "/maps", {"grid": []}, 422, ["grid", "(0,)"]),
+    ("empty rows of grid", "POST", "/maps", {"grid": [[], []]}, 422, ["grid", "(2, 0)"]),
+    ("cell 2", "POST", "/maps", {"grid": [[0, 2]]}, 422, ["grid", "found 2 at [0, 1]"]),
+    ("cell 0.5", "POST", "/maps", {"grid": [[0, 0.5]]}, 422, ["grid[0][1]", "0.5"]),
+    ("cell text", "POST", "/maps", {"grid": [[0, "a"]]}, 422, ["grid[0][1]", "'a'"]),
+    ("unknown letter", "POST", "/maps", {"rows": ["..x"]}, 422, ["rows[0]", "'x'", "column 2"]),
+    ("non-ascii letter", "POST", "/maps", {"rows": [".é"]}, 422, ["rows[0]", "'é'"]),
+    ("ragged rows", "POST", "/maps", {"rows": ["...", ".."]}, 422, ["rows[1]", "2 characters"]),
+    ("empty rows", "POST", "/maps", {"rows": []}, 422, ["rows", "empty"]),
+    ("both encodings", "POST", "/maps", {"grid": [[0]], "rows": ["."]}, 422, ["grid", "rows", "both"]),
+    ("neither encoding", "POST", "/maps", {"start": [0, 0]}, 422, ["grid", "rows", "neither"]),
+    ("start without goal", "POST", "/maps", {"rows": ROWS, "start": [0, 0]}, 422, ["'goal'"]),
+    ("too many cells", "POST", "/maps", {"rows": ["." * 65] * 65}, 413, ["rows", "65 x 65", "4225", "4096"]),
+    ("body too large", "POST", "/maps", {"rows": ["." * 60] * 1200}, 413, ["body", "bytes", "65536"]),
+    ("too large, not even parsed", "POST", "/plan", b"{" * 70000, 413, ["body", "70000 bytes"]),
+    ("malformed JSON", "POST", "/plan", b'{"map_id": "x", "start": [0', 422, ["JSON", "character"]),
+    ("body not an object", "POST", "/plan", [1, 2], 422, ["body", "[1, 2]"]),
+    ("start too short", "POST", "/plan", {"map_id": "{map}", "start": [0], "goal": [4, 5]}, 422, ["start", "[0]"]),
+    ("goal too long", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [1, 2, 3]}, 422, ["goal", "[1, 2, 3]"]),
+    ("start not numbers", "POST", "/plan", {"map_id": "{map}", "start": ["a", 0], "goal": [4, 5]}, 422, ["start[0]", "'a'"]),
+    ("start negative", "POST", "/plan", {"map_id": "{map}", "start": [-1, 0], "goal": [4, 5]}, 422, ["start[0]", "-1"]),
+    ("start outside", "POST", "/plan", {"map_id": "{map}", "start": [5, 0], "goal": [4, 5]}, 422, ["start [5, 0]", "outside"]),
+    ("goal outside", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [0, 6]}, 422, ["goal [0, 6]", "outside"]),
+    ("start on obstacle", "POST", "/plan", {"map_id": "{map}", "start": [1, 1], "goal": [4, 5]}, 422, ["start [1, 1]", "obstacle"]),
+    ("goal on obstacle", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [3, 3]}, 422, ["goal [3, 3]", "obstacle"]),
+    ("unknown preset", "POST", "/plan", {"map_id": "{map}", **OK, "preset": "fast"}, 422, ["preset", "'fast'"]),
+    ("unknown parameter", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"gamma": 1}}, 422, ["params.gamma", "'gamma'"]),
+    ("alpha out of range", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"alpha": 99}}, 422, ["alpha", "99"]),
+    ("rho out of range", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"rho": 0}}, 422, ["rho", "got 0"]),
+    ("radius not an integer", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"clean_radius": 1.5}}, 422, ["clean_radius", "1.5"]),
+    ("seal_tunnels mistyped", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"seal_tunnels": "yes"}}, 422, ["seal_tunnels", "'yes'"]),
+    ("params not an object", "POST", "/plan", {"map_id": "{map}", **OK, "params": [1]}, 422, ["params", "[1]"]),
+    ("allow_narrow mistyped", "POST", "/plan", {"map_id": "{map}", **OK, "allow_narrow": "maybe"}, 422, ["allow_narrow", "'maybe'"]),
+    ("huge integer", "POST", "/plan", b'{"map_id": "m", "start": [0, 99999999999999999999999], "goal": [0, 0]}', 422, ["start[1]", "1e+23"]),
+    ("unreachable goal", "POST", "/plan", {"map_id": "{walled}", "start": [0, 0], "goal": [0, 4]}, 422, ["goal", "NO_VALID_PATH", "[0, 4]"]),
+    ("narrow refused", "POST", "/plan", {"map_id": "{corridor}", "start": [0, 3], "goal": [4, 3], "allow_narrow": False}, 422, ["NO_VALID_PATH", "tight tunnels"]),
+    ("unknown map for a plan", "POST", "/plan", {"map_id": "nope", **OK}, 404, ["map_id", "'nope'"]),
+    ("unknown map", "GET", "/maps/nope", None, 404, ["map_id", "'nope'"]),
+    ("unknown map to simulate", "POST", "/maps/nope/simulate", OK, 404, ["map_id", "'nope'"]),
+    ("unknown plan", "GET", "/plan/nope", None, 404, ["plan_id", "'nope'"]),
+    ("unknown plan to delete", "DELETE", "/plan/nope", None, 404, ["plan_id", "'nope'"]),
+    ("unknown plan to step", "POST", "/plan/nope/step", {}, 404, ["plan_id", "'nope'"]),
+    ("obstacle outside", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [[0, 0], [50, 0]]}, 422, ["dynamic_obstacles[1]", "[50, 0]", "outside"]),
+    ("obstacle malformed", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [[1]]}, 422, ["dynamic_obstacles[0]", "[1]"]),
+    ("obstacles not a list", "POST", "/plan/{plan}/step", {"dynamic_obstacles": "here"}, 422, ["dynamic_obstacles", "'here'"]),
+    ("too many obstacles", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [[0, 1]] * 21}, 422, ["dynamic_obstacles", "21", "20"]),
+    ("position outside", "POST", "/plan/{plan}/step", {"position": [9, 9]}, 422, ["position [9, 9]", "outside"]),
+    ("position on obstacle", "POST", "/plan/{plan}/step", {"position": [1, 2]}, 422, ["position [1, 2]", "obstacle"]),
+    ("seq negative", "POST", "/plan/{plan}/step", {"seq": -1}, 422, ["seq", "-1"]),
+    ("seq gap", "POST", "/plan/{stepped}/step", {"seq": 3}, 409, ["seq 3", "seq 1"]),
+    ("seq behind", "POST", "/plan/{stepped}/step", {"seq": 0}, 409, ["seq 0", "seq 1"]),
+    ("too many simulated", "POST", "/maps/{map}/simulate", {**OK, "dynamic_count": 21}, 422, ["dynamic_count", "21"]),
+    ("more than free cells", "POST", "/maps/{walled}/simulate", {"start": [0, 0], "goal": [2, 0], "dynamic_count": 20}, 422, ["dynamic_count", "20"]),
+    ("max_steps zero", "POST", "/maps/{map}/simulate", {**OK, "max_steps": 0}, 422, ["max_steps", "0"]),
+    ("seed mistyped", "POST", "/maps/{map}/simulate", {**OK, "seed": "x"}, 422, ["seed", "'x'"]),
+]  # fmt: skip
+
+
+@pytest.fixture
+async def ids(client: httpx.AsyncClient) -> dict[str, str]:
+    out = {}
+    for name, rows in (("map", ROWS), ("walled", WALLED), ("corridor", CORRIDOR)):
+        out[name] = (await client.post("/maps", json={"rows": rows})).json()["map_id"]
+    for name in ("plan", "stepped"):
+        r = await client.post("/plan", json={"map_id": out["map"], **OK})
+        out[name] = r.json()["plan_id"]
+    # The first step's seq may be any; later steps must follow it.
+    for seq in (0, 1):
+        r = await client.post(f"/plan/{out['stepped']}/step", json={"seq": seq})
+        assert r.status_code == 200
+    return out
+
+
+def _fill(value: Any, ids: dict[str, str]) -> Any:
+    if isinstance(value, str):
+        return value.format(**ids)
+    if isinstance(value, dict):
+        return {k: _fill(v, ids) for k, v in value.items()}
+    return value
+
+
+@pytest.mark.parametrize(
+    ("method", "url", "body", "status", "named"),
+    [case[1:] for case in CASES],
+    ids=[case[0] for case in CASES],
+)
+async def test_bad_request_is_refused_and_named(
+    client: httpx.AsyncClient,
+    ids: dict[str, str],
+    method: str,
+    url: str,
+    body: Any,
+    status: int,
+    named: list[str],
+) -> None:
+    headers = {"content-type": "application/json"}
+    if isinstance(body, bytes):
+        r = await client.request(method, url.format(**ids), content=body, headers=headers)
+    elif body is None:
+        r = await client.request(method, url.format(**ids))
+    else:
+        r = await client.request(method, url.format(**ids), json=_fill(body, ids))
+    assert r.status_code == status, r.text
+    detail = r.json()["detail"]
+    assert isinstance(detail, str)
+    for text in named:
+        assert text in detail, f"{text!r} not in {detail!r}"
+
+
+async def test_streamed_body_over_the_limit_is_refused(client: httpx.AsyncClient) -> None:
+    async def chunks() -> AsyncIterator[bytes]:
+        for _ in range(100):
+            yield b"[" * 1000
+
+    r = await client.post("/maps", content=chunks(), headers={"content-type": "application/json"})
+    assert r.status_code == 413
+    assert "body" in r.json()["detail"]
+
+
+async def test_streamed_body_under_the_limit_is_served(client: httpx.AsyncClient) -> None:
+    body = b'{"rows": ["...", "..."]}'
+
+    async def chunks() -> AsyncIterator[bytes]:
+        for i in range(0, len(body), 5):
+            yield body[i : i + 5]
+
+    r = await client.post("/maps", content=chunks(), headers={"content-type": "application/json"})
+    assert r.status_code == 201
+    assert r.json()["height"] == 2
