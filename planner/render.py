@@ -82,9 +82,8 @@ def draw(
     ((6, 6), (220, 0, 0), (0, 0, 0))
     """
     if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= MAX_CELL:
-        raise InvalidInput(
-            f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {cell!r}"
-        )
+        msg = f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {cell!r}"
+        raise InvalidInput(msg, field="cell")
     H, W = analysis.shape
     rgb = np.empty((H, W, 3), dtype=np.uint8)
     rgb[:] = COLOURS["free"]
@@ -97,15 +96,15 @@ def draw(
         if cells is not None:
             rc = _cells(cells, analysis.shape, colour)
             rgb[rc[:, 0], rc[:, 1]] = COLOURS[colour]
-    image = Image.fromarray(np.repeat(np.repeat(rgb, cell, axis=0), cell, axis=1), "RGB")
+    big = np.repeat(np.repeat(rgb, cell, axis=0), cell, axis=1)
+    if cell >= 6:  # grid lines only where they leave the cells readable, and not over obstacles
+        open_ = np.repeat(np.repeat(analysis.state != 1, cell, axis=0), cell, axis=1)
+        lines = np.zeros(open_.shape, dtype=bool)
+        lines[cell::cell, :] = True
+        lines[:, cell::cell] = True
+        big[lines & open_] = COLOURS["grid"]
+    image = Image.fromarray(big, "RGB")
     pen = ImageDraw.Draw(image)
-    if cell >= 6:  # grid lines only where they leave the cells readable
-        for i in range(1, max(H, W)):
-            pen.line([(0, i * cell), (W * cell, i * cell)], fill=COLOURS["grid"])
-            pen.line([(i * cell, 0), (i * cell, H * cell)], fill=COLOURS["grid"])
-        # Re-fill obstacles so grid lines do not stripe the black.
-        for r, c in np.argwhere(analysis.state == 1):
-            pen.rectangle(_box(int(r), int(c), cell, 0), fill=COLOURS["obstacle"])
     half = cell / 2
     for r1, c1, r2, c2 in analysis.gate_cells().tolist():
         pen.line(
@@ -215,10 +214,10 @@ def _heat(analysis: Analysis, field: Field, wave: Wave | None) -> npt.NDArray[np
         values = analysis.clean.astype(np.float64)
     elif field == "kw":
         if wave is None:
-            raise InvalidInput("field 'kw' needs the goal wave; pass wave=")
+            raise InvalidInput("field 'kw' needs the goal wave; pass wave=", field="field")
         values = np.asarray(wave.kw, dtype=np.float64)
     else:
-        raise InvalidInput(f"field must be 'clean' or 'kw'; got {field!r}")
+        raise InvalidInput(f"field must be 'clean' or 'kw'; got {field!r}", field="field")
     finite = np.isfinite(values)
     top = float(values[finite].max()) if finite.any() else 0.0
     share = np.where(finite, values, 0.0) / top if top > 0 else np.zeros_like(values)

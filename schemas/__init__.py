@@ -12,6 +12,7 @@ from schemas.plans import (
     PlanCreate,
     PlanDetail,
     PlanPublic,
+    Preset,
     PreviewPublic,
     TrajectoryMetrics,
 )
@@ -31,6 +32,7 @@ __all__ = [
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
+    "Preset",
     "PreviewPublic",
     "SimulationCreate",
     "SimulationMetrics",

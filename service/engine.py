@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import secrets
 from collections.abc import Hashable
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -191,17 +191,42 @@ class Engine:
         )
         return plan
 
+    async def _analysis(self, map_id: str, p: planner.Params) -> tuple[planner.Analysis, bool]:
+        """The map's analysis for ``p`` from the cache (computed once on a miss)."""
+        key = ("analysis", map_id, p.seal_tunnels, p.clean_weight, p.clean_radius)
+
+        async def analyse() -> planner.Analysis:
+            return await self.pool.run(_analyse, await self._map(map_id), p)
+
+        return await self.cache.get_or_compute(key, analyse)
+
+    # Pictures
+
+    async def render_map(
+        self, map_id: str, preset: str, field: Literal["clean"] | None, cell: int | None
+    ) -> bytes:
+        analysis, _ = await self._analysis(map_id, planner.resolve_params(preset))
+        size = _cell_size(analysis.shape, cell)
+        return await self.pool.run(planner.render_map, analysis, field=field, cell=size)
+
+    async def render_plan(
+        self, plan_id: str, field: Literal["clean", "kw"] | None, cell: int | None
+    ) -> bytes:
+        record = await self._record(plan_id)
+        plan = await self._rebuild(record)
+        trajectory = planner.SessionState.from_dict(record["state"]).trajectory
+        size = _cell_size(plan.analysis.shape, cell)
+        return await self.pool.run(
+            planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
+        )
+
     async def _plan(
         self, map_id: str, start: Any, goal: list[int], preset: str, params: dict[str, Any]
     ) -> tuple[planner.Plan, bool]:
         """A plan on the cached analysis and waves, and whether the analysis was cached."""
         p = planner.resolve_params(preset, **params)
+        analysis, hit = await self._analysis(map_id, p)
         analysis_key = (map_id, p.seal_tunnels, p.clean_weight, p.clean_radius)
-
-        async def analyse() -> planner.Analysis:
-            return await self.pool.run(_analyse, await self._map(map_id), p)
-
-        analysis, hit = await self.cache.get_or_compute(("analysis", *analysis_key), analyse)
 
         async def wave(narrow: bool) -> planner.Wave:
             key: Hashable = ("wave", *analysis_key, tuple(goal), p.diagonal_cost, narrow)
@@ -220,6 +245,25 @@ class Engine:
             preset=preset, analysis=analysis, waves=waves.__getitem__, **params,
         )  # fmt: skip
         return plan, hit
+
+
+MAX_IMAGE_SIDE = 8192
+"""Pixels on a picture's longer side at most: a 4096 x 4096 map at 2 pixels a cell."""
+
+
+def _cell_size(shape: tuple[int, int], cell: int | None) -> int:
+    """Pixels per cell: the caller's, within the image limit, or one that makes a picture of
+    about 800 pixels (1 to 10 a cell)."""
+    side = max(shape)
+    if cell is None:
+        return max(1, min(10, 800 // side))
+    if side * cell > MAX_IMAGE_SIDE:
+        msg = (
+            f"cell {cell} would draw the {shape[0]} x {shape[1]} map {side * cell} pixels wide; "
+            f"the limit is {MAX_IMAGE_SIDE} (use cell <= {max(1, MAX_IMAGE_SIDE // side)})"
+        )
+        raise planner.InvalidInput(msg, field="cell")
+    return cell
 
 
 def _reaches(wave: planner.Wave, analysis: planner.Analysis, cell: Any) -> bool:

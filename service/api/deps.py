@@ -6,12 +6,12 @@ from collections.abc import Callable, Coroutine
 from typing import Annotated, Any, cast
 
 import orjson
-from fastapi import Depends, Request, Response
+from fastapi import Depends, Query, Request, Response
 from fastapi.routing import APIRoute
 
 from service.engine import Engine
 
-__all__ = ["EngineDep", "OrjsonRoute", "get_engine"]
+__all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "OrjsonRoute", "get_engine"]
 
 
 def get_engine(request: Request) -> Engine:
@@ -19,6 +19,20 @@ def get_engine(request: Request) -> Engine:
 
 
 EngineDep = Annotated[Engine, Depends(get_engine)]
+
+CellQuery = Annotated[
+    int | None,
+    Query(
+        ge=1,
+        le=64,
+        description="Pixels per map cell (default: about 800 pixels across, 1 to 10 a cell); "
+        "the picture may be at most 8192 pixels wide.",
+    ),
+]
+
+PNG_RESPONSE: dict[int | str, dict[str, Any]] = {
+    200: {"content": {"image/png": {}}, "description": "A PNG picture."}
+}
 
 
 class _OrjsonRequest(Request):

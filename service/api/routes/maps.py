@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Response, status
+from typing import Annotated, Literal
 
-from schemas import MapCreate, MapPublic
-from service.api.deps import EngineDep, OrjsonRoute
+from fastapi import APIRouter, Query, Response, status
+
+from schemas import MapCreate, MapPublic, Preset
+from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
 from service.errors import responses
 
 __all__ = ["router"]
@@ -36,3 +38,24 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     """The `map_id`, `height`, `width` and `free_cells` of an uploaded map."""
     return await engine.get_map(map_id)
+
+
+@router.get(
+    "/maps/{map_id}/render.png",
+    summary="A picture of the map and its analysis",
+    response_class=Response,
+    responses={**PNG_RESPONSE, **responses(404, 422)},
+)
+async def render_map(
+    map_id: str,
+    engine: EngineDep,
+    preset: Annotated[Preset, Query(description="Whose analysis to draw.")] = "wide",
+    field: Annotated[
+        Literal["clean"] | None, Query(description="Tint free cells by their clean penalty.")
+    ] = None,
+    cell: CellQuery = None,
+) -> Response:
+    """The map as the paper draws it: obstacles black, tight-tunnel cells orange (when the
+    preset seals them), gates red; with `field=clean`, free cells tinted by their penalty."""
+    png = await engine.render_map(map_id, preset, field, cell)
+    return Response(png, media_type="image/png")

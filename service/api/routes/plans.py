@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, status
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Query, Response, status
 
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
-from service.api.deps import EngineDep, OrjsonRoute
+from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
 from service.engine import overrides
 from service.errors import responses
 
@@ -61,3 +63,24 @@ async def step(plan_id: str, body: StepCreate, engine: EngineDep) -> StepPublic:
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
     return await engine.step(plan_id, body)
+
+
+@router.get(
+    "/plan/{plan_id}/render.png",
+    summary="A picture of the plan and the robot's progress",
+    response_class=Response,
+    responses={**PNG_RESPONSE, **responses(404, 422)},
+)
+async def render_plan(
+    plan_id: str,
+    engine: EngineDep,
+    field: Annotated[
+        Literal["clean", "kw"] | None,
+        Query(description="Tint free cells by their clean penalty or wide cost-to-go `kw`."),
+    ] = None,
+    cell: CellQuery = None,
+) -> Response:
+    """The plan's map with its analysis, the `preview` path (pale green), the robot's
+    trajectory so far (green) and its cell, the start (magenta) and the goal (gold)."""
+    png = await engine.render_plan(plan_id, field, cell)
+    return Response(png, media_type="image/png")

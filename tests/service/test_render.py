@@ -1,0 +1,109 @@
+"""``GET /maps/{map_id}/render.png`` and ``GET /plan/{plan_id}/render.png``."""
+
+from __future__ import annotations
+
+import io
+
+import httpx
+import pytest
+from PIL import Image
+
+from planner.render import COLOURS
+
+pytestmark = pytest.mark.anyio
+
+# A one-cell corridor in row 2 (sealed by `wide`), and an obstacle block.
+ROWS = [
+    "..........",
+    "..........",
+    "@@@@.@@@@@",
+    "..........",
+    "....@@....",
+    "..........",
+]
+
+
+def picture(response: httpx.Response) -> Image.Image:
+    assert response.status_code == 200, response.text
+    assert response.headers["content-type"] == "image/png"
+    image = Image.open(io.BytesIO(response.content))
+    assert image.format == "PNG"
+    return image.convert("RGB")
+
+
+def at(image: Image.Image, r: int, c: int, cell: int) -> tuple[int, int, int]:
+    """The colour at the middle of cell (r, c), away from grid lines and discs' edges."""
+    pixel = image.getpixel((c * cell + cell // 2, r * cell + 1 + cell // 4))
+    assert isinstance(pixel, tuple)
+    return (int(pixel[0]), int(pixel[1]), int(pixel[2]))
+
+
+async def test_map_picture_shows_the_analysis(client: httpx.AsyncClient) -> None:
+    map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+    image = picture(await client.get(f"/maps/{map_id}/render.png", params={"cell": 8}))
+    assert image.size == (10 * 8, 6 * 8)
+    assert at(image, 2, 0, 8) == COLOURS["obstacle"]
+    assert at(image, 2, 4, 8) == COLOURS["tunnel"]  # the sealed corridor cell
+    assert at(image, 0, 0, 8) == COLOURS["free"]
+    # The shortest preset does not seal: the corridor cell is drawn free.
+    plain = picture(
+        await client.get(f"/maps/{map_id}/render.png", params={"cell": 8, "preset": "shortest"})
+    )
+    assert at(plain, 2, 4, 8) == COLOURS["free"]
+    # Default size: about 800 pixels across, at most 10 a cell.
+    assert picture(await client.get(f"/maps/{map_id}/render.png")).size == (100, 60)
+
+
+async def test_plan_picture_shows_the_trajectory_and_preview(client: httpx.AsyncClient) -> None:
+    body = {"rows": ROWS, "start": [0, 0], "goal": [5, 9], "preset": "shortest"}
+    plan = (await client.post("/maps", json=body)).json()["plan"]
+    step = await client.post(f"/plan/{plan['plan_id']}/step", json={"dynamic_obstacles": []})
+    first = step.json()["position"]
+    image = picture(await client.get(f"/plan/{plan['plan_id']}/render.png", params={"cell": 12}))
+    assert image.size == (120, 72)
+    ahead = plan["preview"]["path"][-3]  # on the preview, not yet travelled
+    assert at(image, ahead[0], ahead[1], 12) == COLOURS["preview"]
+    assert at(image, first[0], first[1], 12) != COLOURS["free"]  # the robot's cell is marked
+    tinted = picture(
+        await client.get(f"/plan/{plan['plan_id']}/render.png", params={"cell": 12, "field": "kw"})
+    )
+    assert at(tinted, 0, 9, 12) != at(image, 0, 9, 12)  # free cells tinted by kw
+
+
+@pytest.mark.parametrize(
+    ("path", "params", "status", "field"),
+    [
+        ("/maps/{map_id}/render.png", {"cell": 0}, 422, "cell"),
+        ("/maps/{map_id}/render.png", {"cell": 65}, 422, "cell"),
+        ("/maps/{map_id}/render.png", {"field": "kw"}, 422, "field"),
+        ("/maps/{map_id}/render.png", {"preset": "fast"}, 422, "preset"),
+        ("/maps/{unknown}/render.png", {}, 404, "map_id"),
+        ("/plan/{unknown}/render.png", {}, 404, "plan_id"),
+        ("/plan/{plan_id}/render.png", {"field": "heat"}, 422, "field"),
+    ],
+)
+async def test_bad_picture_requests_are_named(
+    client: httpx.AsyncClient, path: str, params: dict[str, str | int], status: int, field: str
+) -> None:
+    body = {"rows": ROWS, "start": [0, 0], "goal": [5, 9]}
+    created = (await client.post("/maps", json=body)).json()
+    url = path.format(map_id=created["map_id"], plan_id=created["plan"]["plan_id"], unknown="0" * 8)
+    r = await client.get(url, params=params)
+    assert r.status_code == status
+    assert r.json()["field"] == field
+    assert field in r.json()["detail"]
+
+
+async def test_a_picture_too_wide_is_refused(client: httpx.AsyncClient) -> None:
+    map_id = (await client.post("/maps", json={"grid": [[0] * 200] * 20})).json()["map_id"]
+    r = await client.get(f"/maps/{map_id}/render.png", params={"cell": 50})
+    assert r.status_code == 422
+    assert "10000 pixels wide; the limit is 8192 (use cell <= 40)" in r.json()["detail"]
+
+
+async def test_pictures_are_documented_as_png(client: httpx.AsyncClient) -> None:
+    spec = (await client.get("/openapi.json")).json()
+    for path in ("/maps/{map_id}/render.png", "/plan/{plan_id}/render.png"):
+        operation = spec["paths"][path]["get"]
+        assert "image/png" in operation["responses"]["200"]["content"]
+        assert operation["summary"]
