@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run serve test lint typecheck unit scen-all bench clean
+.PHONY: run serve demo test lint typecheck unit scen-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -12,11 +12,13 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-run: $(STAMP)  ## the main job: plan on the bundled example map, printed and explained
-	$(PY) -m planner demo
+run: serve  ## the main job: the service on 127.0.0.1:8000, in-memory store (docs at /docs)
 
 serve: $(STAMP)  ## the HTTP service on 127.0.0.1:8000 (API docs at /docs)
 	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000
+
+demo: $(STAMP)  ## plan on the bundled example map, printed and explained
+	$(PY) -m planner demo
 
 test: lint typecheck unit  ## the whole suite: ruff, mypy, pytest
 
