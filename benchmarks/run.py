@@ -8,15 +8,22 @@ alternating between them, so a noisy shared machine slows both alike. Run it wit
 from __future__ import annotations
 
 import argparse
+import asyncio
 import datetime as dt
 import os
 import platform
+import socket
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
+import httpx
 import numpy as np
 
 import planner
@@ -61,8 +68,8 @@ def bench_field(size: int, repeats: int) -> dict[str, float]:
     tcod_cost = np.where(grid == 0, 1, 0).astype(np.int32)
     mcp_cost = np.where(grid == 0, 1.0, np.inf)
 
-    def ours() -> None:
-        planner.plan(grid, start, goal, preset="wide")
+    def ours() -> object:
+        return planner.plan(grid, start, goal, preset="wide").path  # made on first use
 
     def tcod_field() -> None:
         dist = np.full(grid.shape, np.iinfo(np.int32).max, dtype=np.int32)
@@ -167,6 +174,168 @@ def bench_memory() -> dict[str, float]:
     }
 
 
+class Server:
+    """``uvicorn APP`` in a child process on a free 127.0.0.1 port, stopped on exit."""
+
+    def __init__(self, app: str, env: dict[str, str] | None = None) -> None:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            self.port = int(s.getsockname()[1])
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.started = time.perf_counter()
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "uvicorn", app, "--host", "127.0.0.1", "--port",
+             str(self.port), "--log-level", "warning"],
+            cwd=ROOT, env={**os.environ, **(env or {})},
+        )  # fmt: skip
+
+    def wait(self, path: str = "/docs", timeout: float = 300) -> None:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                httpx.get(self.url + path, timeout=5).raise_for_status()
+                return
+            except httpx.TransportError:
+                if self.process.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"{self.url} did not start") from None
+                time.sleep(0.02)
+
+    def __enter__(self) -> Server:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.process.terminate()
+        self.process.wait(timeout=30)
+
+
+async def load(
+    url: str, requests: list[list[tuple[str, dict[str, Any]]]]
+) -> tuple[float, list[float]]:
+    """Send each client's requests in order, the clients at once; (requests/s, latencies)."""
+    latencies: list[float] = []
+    limits = httpx.Limits(max_connections=len(requests))
+    async with httpx.AsyncClient(base_url=url, limits=limits, timeout=60) as client:
+
+        async def client_loop(queue: list[tuple[str, dict[str, Any]]]) -> None:
+            for path, body in queue:
+                t0 = time.perf_counter()
+                r = await client.post(path, json=body)
+                latencies.append(time.perf_counter() - t0)
+                r.raise_for_status()
+
+        t0 = time.perf_counter()
+        await asyncio.gather(*(client_loop(q) for q in requests))
+        elapsed = time.perf_counter() - t0
+    return sum(map(len, requests)) / elapsed, latencies
+
+
+def bench_http(steps: int) -> list[dict[str, float]]:
+    """Step throughput and latency over HTTP against a bare endpoint echoing a body as large."""
+    grid, start, goal = random_map(1024)
+    rows = ["".join(".@"[v] for v in row) for row in grid.tolist()]
+    rng = np.random.default_rng(2)
+    out = []
+    with Server("service.main:app") as ours, Server("benchmarks.bare_app:app") as bare:
+        ours.wait("/healthz")
+        bare.wait()
+        map_id = httpx.post(ours.url + "/maps", json={"rows": rows}, timeout=120).json()["map_id"]
+        for clients in (1, 16):
+            plans = [
+                httpx.post(
+                    ours.url + "/plan",
+                    json={"map_id": map_id, "start": list(start), "goal": list(goal)},
+                    timeout=120,
+                ).json()["plan_id"]
+                for _ in range(clients)
+            ]
+            per_client = max(steps // clients, 50)
+            step_queues = []
+            for plan_id in plans:
+                queue = []
+                for seq in range(per_client):
+                    cells = rng.integers(0, 1024, size=(10, 2)).tolist()
+                    queue.append(
+                        (f"/plan/{plan_id}/step", {"seq": seq, "dynamic_obstacles": cells})
+                    )
+                step_queues.append(queue)
+            # The same bodies to the echo endpoint: the same bytes in, as many requests.
+            echo_queues = [[("/echo", body) for _, body in q] for q in step_queues]
+            best: dict[str, tuple[float, list[float]]] = {}
+            for _ in range(2):  # alternate, keep each one's better run
+                for name, url, queues in (
+                    ("ours", ours.url, step_queues),
+                    ("bare", bare.url, echo_queues),
+                ):
+                    if name == "ours":  # a fresh copy of the plans each round: seq restarts
+                        queues = _fresh(ours.url, map_id, start, goal, queues)
+                    rate, lat = asyncio.run(load(url, queues))
+                    if name not in best or rate > best[name][0]:
+                        best[name] = (rate, lat)
+            row: dict[str, float] = {"clients": clients}
+            for name, (rate, lat) in best.items():
+                arr = np.asarray(lat) * 1e3
+                row[f"{name}_rps"] = rate
+                row[f"{name}_p50_ms"] = float(np.percentile(arr, 50))
+                row[f"{name}_p99_ms"] = float(np.percentile(arr, 99))
+            row["ratio"] = row["ours_rps"] / row["bare_rps"]
+            out.append(row)
+    return out
+
+
+def _fresh(
+    url: str,
+    map_id: str,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    queues: list[list[tuple[str, dict[str, Any]]]],
+) -> list[list[tuple[str, dict[str, Any]]]]:
+    """The same step bodies, addressed to new plans (each starts at seq 0 again)."""
+    fresh = []
+    for queue in queues:
+        plan_id = httpx.post(
+            url + "/plan", json={"map_id": map_id, "start": list(start), "goal": list(goal)}
+        ).json()["plan_id"]
+        fresh.append([(f"/plan/{plan_id}/step", body) for _, body in queue])
+    return fresh
+
+
+def bench_upload(repeats: int) -> dict[str, float]:
+    """Time for the service to accept a 1024 x 1024 map as rows (loopback, client-observed)."""
+    grid, _, _ = random_map(1024)
+    times = []
+    with Server("service.main:app") as ours:
+        ours.wait("/healthz")
+        with httpx.Client(base_url=ours.url, timeout=120) as client:
+            for i in range(repeats):
+                grid[0, 0] = i % 2  # a new map every other time: both the 201 and the 200 path
+                rows = ["".join(".@"[v] for v in row) for row in grid.tolist()]
+                t0 = time.perf_counter()
+                client.post("/maps", json={"rows": rows}).raise_for_status()
+                times.append(time.perf_counter() - t0)
+    return {"median_s": statistics.median(times), "max_s": max(times)}
+
+
+def bench_cold_start() -> dict[str, float]:
+    """Seconds from starting the service process to the first plan served, numba cache warm
+    (the project's cache, filled by earlier runs) and cold (an empty cache directory)."""
+    body = {"rows": ["......", ".@@@@.", "......"], "start": [0, 0], "goal": [2, 5]}
+    out = {}
+    with tempfile.TemporaryDirectory() as empty:
+        for name, env in (("warm", {}), ("cold", {"NUMBA_CACHE_DIR": empty})):
+            with Server("service.main:app", env) as server:
+                deadline = time.monotonic() + 600
+                while True:
+                    try:
+                        r = httpx.post(server.url + "/maps", json=body, timeout=600)
+                        r.raise_for_status()
+                        break
+                    except httpx.TransportError:
+                        assert time.monotonic() < deadline, "the service did not start"
+                        time.sleep(0.01)
+                out[name] = time.perf_counter() - server.started
+    return out
+
+
 def versions() -> dict[str, str]:
     names = ["numpy", "numba", "edt", "tcod", "scikit-image", "pyastar2d", "fastapi", "uvicorn"]
     out = {}
@@ -195,6 +364,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--queries", type=int, default=60, help="scenario lines per 512 x 512 map")
     parser.add_argument("--steps", type=int, default=20000)
+    parser.add_argument("--http-steps", type=int, default=2000, help="steps per HTTP load run")
     parser.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md")
     args = parser.parse_args()
     planner.warm_up()
@@ -253,12 +423,37 @@ def main() -> None:
     out(f"In-process `Session.step` on a 1024 x 1024 map with 10 dynamic obstacles, {args.steps}")
     out(f"steps: median **{s['median_us']:.1f} us**, p99 {s['p99_us']:.1f} us.")
     out()
+    out("Over HTTP (uvicorn on 127.0.0.1, one worker, the in-memory store; httpx clients in one")
+    out("process): `POST /plan/{id}/step` with 10 obstacles on a 1024 x 1024 map, against a bare")
+    out("FastAPI endpoint echoing the same bodies, alternated; each client steps its own plan.")
+    out()
+    out(
+        "| clients | ours (req/s) | bare (req/s) | ours / bare | ours p50 / p99 (ms) | bare p50 / p99 (ms) |"
+    )
+    out("|---|---|---|---|---|---|")
+    for h in bench_http(args.http_steps):
+        out(
+            f"| {h['clients']:.0f} | {h['ours_rps']:.0f} | {h['bare_rps']:.0f} | **{h['ratio']:.2f}** "
+            f"| {h['ours_p50_ms']:.2f} / {h['ours_p99_ms']:.2f} "
+            f"| {h['bare_p50_ms']:.2f} / {h['bare_p99_ms']:.2f} |"
+        )
+    out()
     out("## 4. Memory")
     out()
     m = bench_memory()
     out("A cached analysis of a 1024 x 1024 map (states, clean, distance transform) holds")
     out(f"**{m['analysis_bytes_per_cell']:.1f} bytes per cell**; a goal wave (k, kw, the grid it")
     out(f"ran over) {m['wave_bytes_per_cell']:.1f} bytes per cell.")
+    out()
+    out("## 5. Upload and cold start")
+    out()
+    u = bench_upload(6)
+    out(f"`POST /maps` with a 1024 x 1024 map as `rows`: median **{u['median_s']:.3f} s**, worst")
+    out(f"{u['max_s']:.3f} s (loopback, client-observed, parsing and hashing included).")
+    out()
+    c = bench_cold_start()
+    out(f"From starting the service process to the first plan served: **{c['warm']:.2f} s** with")
+    out(f"numba's cache warm, {c['cold']:.2f} s cold (every kernel compiled at start-up).")
     out()
     if not args.no_write:
         RESULTS.write_text("\n".join(lines) + "\n")

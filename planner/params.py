@@ -52,7 +52,7 @@ class Params:
     """When sealing cuts the start off the goal, plan through the tunnels instead of refusing."""
 
     def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        return {name: getattr(self, name) for name in _NAMES}
 
 
 #: Valid ranges (inclusive) of the numeric parameters.
@@ -76,6 +76,7 @@ PRESETS: dict[str, Params] = {
 }
 
 _FIELDS = {f.name: f for f in dataclasses.fields(Params)}
+_NAMES = tuple(_FIELDS)
 
 
 def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:

@@ -28,8 +28,9 @@ class Plan:
     """A plan: where the robot starts and goes, with what, and the path it would follow with no
     dynamic obstacles (``path``, an ``(n, 2)`` array of ``[row, col]`` from start to goal).
 
-    The clearance figures are computed on first use: they need the map's distance transform,
-    which the analysis then keeps.
+    The path and its figures are computed on first use, once: a robot stepping along a plan
+    needs only its waves. The clearance figures need the map's distance transform, which the
+    analysis then keeps.
     """
 
     start: tuple[int, int]
@@ -38,11 +39,37 @@ class Plan:
     params: Params
     analysis: Analysis
     wave: Wave
-    path: npt.NDArray[np.int64]
-    length: float
-    arc_cost: float
     narrow_fallback: bool
     elapsed_ms: float
+
+    @cached_property
+    def path(self) -> npt.NDArray[np.int64]:
+        """The cells the decision visits with no dynamic obstacles, start to goal."""
+        a, w, p, s, g = self.analysis, self.wave, self.params, self.start, self.goal
+        W = a.shape[1]
+        flat = K._walk(
+            w.passable, w.k, w.kw, a.clean, s[0] * W + s[1], g[0] * W + g[1],
+            K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE, p.alpha, p.beta,
+            p.diagonal_cost, 4 * a.shape[0] * W + 8,
+        )  # fmt: skip
+        if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
+            raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
+        path: npt.NDArray[np.int64] = np.stack(np.divmod(flat, W), axis=1)
+        return path
+
+    @cached_property
+    def _cost(self) -> tuple[float, float]:
+        return path_cost(self.path, self.wave)
+
+    @property
+    def length(self) -> float:
+        """The path's length: 1 a straight move, ``diagonal_cost`` a diagonal one."""
+        return self._cost[0]
+
+    @property
+    def arc_cost(self) -> float:
+        """The paper's total arc cost: the sum of ``k`` over the cells entered after the start."""
+        return self._cost[1]
 
     @cached_property
     def _clearance(self) -> tuple[float, float, float]:
@@ -155,18 +182,6 @@ def plan(
             wave, narrow = narrow_wave, True
     if not reaches(wave, analysis, s):
         raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
-
-    W = analysis.shape[1]
-    n_cells = analysis.shape[0] * W
-    flat = K._walk(
-        wave.passable, wave.k, wave.kw, analysis.clean, s[0] * W + s[1], g[0] * W + g[1],
-        K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE, p.alpha, p.beta,
-        p.diagonal_cost, 4 * n_cells + 8,
-    )  # fmt: skip
-    if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
-        raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
-    path = np.stack(np.divmod(flat, W), axis=1)
-    length, arc_cost = path_cost(path, wave)
     return Plan(
         start=s,
         goal=g,
@@ -174,9 +189,6 @@ def plan(
         params=p,
         analysis=analysis,
         wave=wave,
-        path=path,
-        length=length,
-        arc_cost=arc_cost,
         narrow_fallback=narrow,
         elapsed_ms=(time.perf_counter() - t0) * 1e3,
     )

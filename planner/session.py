@@ -7,7 +7,6 @@ rebuilt anywhere from the plan's inputs and its state.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -43,10 +42,17 @@ class Step:
     """Plain cost-to-go ``k`` from ``position`` (None when the goal cannot be reached)."""
 
     def as_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
-        d["previous"] = list(self.previous)
-        d["position"] = list(self.position)
-        return d
+        return {
+            "seq": self.seq,
+            "previous": list(self.previous),
+            "position": list(self.position),
+            "move": self.move,
+            "status": self.status,
+            "iteration": self.iteration,
+            "path_length": self.path_length,
+            "arc_cost": self.arc_cost,
+            "remaining": self.remaining,
+        }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Step:
@@ -55,7 +61,9 @@ class Step:
 
 @dataclass(slots=True)
 class SessionState:
-    """Everything that changes as the robot steps; JSON-ready through :meth:`as_dict`."""
+    """Everything that changes as the robot steps; JSON-ready through :meth:`as_dict` (cells as
+    tuples, which every JSON encoder writes as arrays: the trajectory grows with the episode,
+    and a service writes the state back after every step)."""
 
     position: tuple[int, int]
     status: Status = "ready"
@@ -83,7 +91,7 @@ class SessionState:
             "waits": self.waits,
             "replans": self.replans,
             "detour": list(self.detour),
-            "trajectory": [list(cell) for cell in self.trajectory],
+            "trajectory": list(self.trajectory),
             "last_seq": self.last_seq,
             "last_step": None if self.last_step is None else self.last_step.as_dict(),
         }
@@ -96,7 +104,7 @@ class SessionState:
                 **d,
                 "position": tuple(d["position"]),
                 "detour": list(d["detour"]),
-                "trajectory": [tuple(cell) for cell in d["trajectory"]],
+                "trajectory": list(map(tuple, d["trajectory"])),
                 "last_step": None if last is None else Step.from_dict(last),
             }
         )
@@ -118,13 +126,20 @@ class Session:
         if state is None:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
-        self._visited = {r * self._width + c for r, c in state.trajectory}
-        p = plan.params
-        self._mode = K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE
+        self._width = plan.analysis.shape[1]
+        self._mode = K.MODE_PAPER if plan.params.decision == "paper" else K.MODE_WIDE
+        # The tabu list: only the paper's decision reads it.
+        self._visited: set[int] | None = None
+        if self._mode == K.MODE_PAPER:
+            w = self._width
+            self._visited = {r * w + c for r, c in state.trajectory}
 
     @property
-    def _width(self) -> int:
-        return self.plan.analysis.shape[1]
+    def may_replan(self) -> bool:
+        """Whether the next step may run the replan (an A* search, up to the whole map); any
+        other step is a bounded look at the robot's neighbourhood, microseconds of work."""
+        st = self.state
+        return st.held_up >= max(self.plan.params.patience, st.replan_at)
 
     def step(
         self,
@@ -189,7 +204,8 @@ class Session:
         if (r, c) != st.position:
             st.position = (r, c)
             st.trajectory.append((r, c))
-            self._visited.add(r * self._width + c)
+            if self._visited is not None:
+                self._visited.add(r * self._width + c)
             st.detour = []
             st.held_up = st.replan_at = 0
             if st.status == "arrived" and (r, c) != self.plan.goal:
@@ -206,7 +222,7 @@ class Session:
         wave = plan.wave
         p = plan.params
         r, c = previous
-        tabu = self._tabu(r, c) if self._mode == K.MODE_PAPER else 0
+        tabu = self._tabu(r, c) if self._visited is not None else 0
         target = st.detour[0] if st.detour else -1
         i, outcome = K._decide(
             wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles, tabu,
@@ -216,7 +232,7 @@ class Session:
             st.status = "blocked"
             return self._answer(seq, previous, "WAIT")
         status: Status = "moving"
-        if outcome == K.WAIT and st.held_up >= max(p.patience, st.replan_at):
+        if outcome == K.WAIT and self.may_replan:
             detour = K._detour(
                 wave.passable, wave.kw, plan.analysis.clean, r * self._width + c,
                 plan.goal[0] * self._width + plan.goal[1], p.diagonal_cost, obstacles,
@@ -246,10 +262,12 @@ class Session:
 
     def _tabu(self, r: int, c: int) -> int:
         H, W = self.plan.analysis.shape
+        visited = self._visited
+        assert visited is not None
         tabu = 0
         for i in range(8):
             yr, yc = r + int(K.DR[i]), c + int(K.DC[i])
-            if 0 <= yr < H and 0 <= yc < W and yr * W + yc in self._visited:
+            if 0 <= yr < H and 0 <= yc < W and yr * W + yc in visited:
                 tabu |= 1 << i
         return tabu
 
@@ -259,7 +277,8 @@ class Session:
         nr, nc = r + int(K.DR[i]), c + int(K.DC[i])
         st.position = (nr, nc)
         st.trajectory.append((nr, nc))
-        self._visited.add(nr * self._width + nc)
+        if self._visited is not None:
+            self._visited.add(nr * self._width + nc)
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
         st.arc_cost += float(self.plan.wave.k[nr, nc])
 

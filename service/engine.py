@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import secrets
 from collections.abc import Hashable
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -152,11 +152,23 @@ class Engine:
         # Read, step and write back under the plan's lock: concurrent steps never lose a move.
         async with self.store.plan_lock(plan_id):
             record = await self._record(plan_id)
-            plan = await self._rebuild(record)
-            session = planner.Session(plan, planner.SessionState.from_dict(record["state"]))
-            step = await self.pool.run(
-                session.step, body.dynamic_obstacles, position=body.position, seq=body.seq
+            inputs = await self._inputs(
+                record["map_id"],
+                record["start"],
+                record["goal"],
+                record["preset"],
+                record["params"],
             )
+            session = planner.Session(
+                _build(inputs), planner.SessionState.from_dict(record["state"])
+            )
+            obstacles, position, seq = body.dynamic_obstacles, body.position, body.seq
+            if session.may_replan:
+                step = await self.pool.run(session.step, obstacles, position=position, seq=seq)
+            else:
+                # Measured: a step that cannot replan is a few microseconds of bounded work, and
+                # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
+                step = session.step(obstacles, position=position, seq=seq)
             record["state"] = session.state.as_dict()
             await self.store.put_plan(plan_id, record)
         return StepPublic.model_validate(step.as_dict())
@@ -224,6 +236,13 @@ class Engine:
         self, map_id: str, start: Any, goal: list[int], preset: str, params: dict[str, Any]
     ) -> tuple[planner.Plan, bool]:
         """A plan on the cached analysis and waves, and whether the analysis was cached."""
+        inputs = await self._inputs(map_id, start, goal, preset, params)
+        return await self.pool.run(_build, inputs), inputs.cache_hit
+
+    async def _inputs(
+        self, map_id: str, start: Any, goal: list[int], preset: str, params: dict[str, Any]
+    ) -> _Inputs:
+        """What a plan is built from: the request and the cached analysis and waves."""
         p = planner.resolve_params(preset, **params)
         analysis, hit = await self._analysis(map_id, p)
         analysis_key = (map_id, p.seal_tunnels, p.clean_weight, p.clean_radius)
@@ -240,11 +259,24 @@ class Engine:
         waves = {False: await wave(False)}
         if analysis.sealed and not _reaches(waves[False], analysis, start):
             waves[True] = await wave(True)
-        plan = await self.pool.run(
-            planner.plan, None, start, goal,
-            preset=preset, analysis=analysis, waves=waves.__getitem__, **params,
-        )  # fmt: skip
-        return plan, hit
+        return _Inputs(start, goal, preset, params, analysis, waves, hit)
+
+
+class _Inputs(NamedTuple):
+    start: Any
+    goal: list[int]
+    preset: str
+    params: dict[str, Any]
+    analysis: planner.Analysis
+    waves: dict[bool, planner.Wave]
+    cache_hit: bool
+
+
+def _build(i: _Inputs) -> planner.Plan:
+    return planner.plan(
+        None, i.start, i.goal,
+        preset=i.preset, analysis=i.analysis, waves=i.waves.__getitem__, **i.params,
+    )  # fmt: skip
 
 
 MAX_IMAGE_SIDE = 8192

@@ -14,7 +14,8 @@ from service.engine import Engine
 __all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "OrjsonRoute", "get_engine"]
 
 
-def get_engine(request: Request) -> Engine:
+async def get_engine(request: Request) -> Engine:
+    # async: FastAPI runs a plain def dependency in its threadpool, a needless hop per request
     return cast(Engine, request.app.state.engine)
 
 

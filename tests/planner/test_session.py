@@ -190,3 +190,20 @@ def test_state_survives_a_json_round_trip() -> None:
         assert sa == sb
     assert b.state.as_dict() == a.state.as_dict()
     assert a.state.status == "arrived"
+
+
+def test_may_replan_says_when_the_next_step_can_search() -> None:
+    p = planner.plan(CORRIDOR, (6, 0), (6, 29), patience=2)
+    session = planner.Session(p)
+    seen = []
+    for _ in range(40):
+        before = session.may_replan
+        step = session.step(ACROSS)
+        seen.append((before, step.status))
+        if step.status == "replanned":
+            break
+    assert seen[-1] == (True, "replanned")
+    # Only the held-up steps from the patience-th on may search; moving resets it.
+    assert all(not before for before, status in seen[:-1] if status == "moving")
+    assert [status for before, status in seen if before] == ["replanned"]
+    assert not session.may_replan

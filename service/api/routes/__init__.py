@@ -7,5 +7,6 @@ from service.api.routes import health, maps, plans, simulate
 __all__ = ["api_router"]
 
 api_router = APIRouter()
-for module in (maps, plans, simulate, health):
+# Plans first: a step is the hot request, and routes are matched in order.
+for module in (plans, maps, simulate, health):
     api_router.include_router(module.router)
