@@ -15,7 +15,7 @@ from schemas.plans import (
     PreviewPublic,
     TrajectoryMetrics,
 )
-from schemas.service import CacheStats, HealthPublic
+from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
 from schemas.steps import StepCreate, StepPublic
 
@@ -37,5 +37,6 @@ __all__ = [
     "SimulationPublic",
     "StepCreate",
     "StepPublic",
+    "StoreHealth",
     "TrajectoryMetrics",
 ]

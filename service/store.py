@@ -1,7 +1,8 @@
-"""Where maps and plans live: the ``Store`` interface and the in-memory store.
+"""Where maps and plans live: the ``Store`` interface, the in-memory store, ``open_store``.
 
 A plan is kept as plain JSON data (its inputs and ``SessionState.as_dict()``), never as arrays,
-so a networked store can hold it; the arrays are rebuilt from the cached analysis and wave.
+so a networked store (``service/redis_store.py``) can hold it; the arrays are rebuilt from the
+cached analysis and wave.
 """
 
 from __future__ import annotations
@@ -25,7 +26,13 @@ PlanRecord = dict[str, Any]
 
 
 class Store(ABC):
-    """Maps by ``map_id`` (kept) and plans by ``plan_id`` (forgotten after a TTL)."""
+    """Maps by ``map_id`` (kept) and plans by ``plan_id`` (forgotten after a TTL).
+
+    A store that cannot answer raises :class:`service.errors.StoreUnavailable`, never its
+    client's own errors.
+    """
+
+    kind: str
 
     @abstractmethod
     async def put_map(self, map_id: str, grid: Grid) -> bool:
@@ -51,12 +58,18 @@ class Store(ABC):
     def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[None]:
         """An async context manager held while a plan is read, stepped and written back."""
 
+    async def check(self) -> str | None:
+        """None when the store answers, else why it does not (for ``/healthz``)."""
+        return None
+
     async def close(self) -> None:  # noqa: B027 - a store with nothing to release keeps this
         """Release connections."""
 
 
 class MemoryStore(Store):
     """Everything in this process: for one uvicorn worker."""
+
+    kind = "memory"
 
     def __init__(self, *, ttl_seconds: float, clock: Callable[[], float] = time.monotonic) -> None:
         self._ttl = ttl_seconds
@@ -109,7 +122,10 @@ class MemoryStore(Store):
 
 
 def open_store(url: str, *, ttl_seconds: float) -> Store:
-    """The store that ``PLANNER_STORE_URL`` names."""
+    """The store that ``PLANNER_STORE_URL`` names: ``memory://`` or a ``redis://`` URL."""
     if url.startswith("memory://"):
         return MemoryStore(ttl_seconds=ttl_seconds)
-    raise ValueError(f"PLANNER_STORE_URL: no store for {url!r}; use memory://")
+    # Imported here: the Redis store builds on this module's interface.
+    from service.redis_store import RedisStore
+
+    return RedisStore(url, ttl_seconds=ttl_seconds)
