@@ -8,13 +8,14 @@ from collections.abc import AsyncIterator
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from service import redis_store
+from service.config import Settings
 from service.errors import StoreUnavailable
 from service.redis_store import RedisStore
+from service.store import MemoryStore, open_store
 from tests.service.conftest import RedisServer, free_port
-
-pytestmark = pytest.mark.anyio
 
 
 @pytest.fixture
@@ -26,6 +27,7 @@ async def store(redis_server: RedisServer) -> AsyncIterator[RedisStore]:
         await s.close()
 
 
+@pytest.mark.anyio
 async def test_maps_are_kept_once_and_come_back_read_only(store: RedisStore) -> None:
     grid = np.array([[0, 1, 0], [0, 0, 1]], dtype=np.uint8)
     assert await store.put_map("m", grid) is True
@@ -37,6 +39,7 @@ async def test_maps_are_kept_once_and_come_back_read_only(store: RedisStore) -> 
     assert await store.get_map("other") is None
 
 
+@pytest.mark.anyio
 async def test_plans_are_written_read_and_deleted(store: RedisStore) -> None:
     await store.put_plan("p", {"state": {"iteration": 1}})
     await store.put_plan("p", {"state": {"iteration": 2}})
@@ -46,6 +49,7 @@ async def test_plans_are_written_read_and_deleted(store: RedisStore) -> None:
     assert await store.delete_plan("p") is False
 
 
+@pytest.mark.anyio
 async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
     await store.put_map("m", np.zeros((2, 2), dtype=np.uint8))
     await store.put_plan("p", {})
@@ -55,6 +59,7 @@ async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
     assert await store._redis.ttl("planner:map:m") == -1  # maps are kept
 
 
+@pytest.mark.anyio
 async def test_plans_expire_by_redis_ttl(redis_server: RedisServer) -> None:
     store = RedisStore(redis_server.url, ttl_seconds=0.3)
     try:
@@ -69,6 +74,7 @@ async def test_plans_expire_by_redis_ttl(redis_server: RedisServer) -> None:
         await store.close()
 
 
+@pytest.mark.anyio
 async def test_the_lock_admits_one_replica_at_a_time(redis_server: RedisServer) -> None:
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
@@ -90,6 +96,7 @@ async def test_the_lock_admits_one_replica_at_a_time(redis_server: RedisServer) 
         await b.close()
 
 
+@pytest.mark.anyio
 async def test_a_holder_whose_lock_expired_writes_nothing(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -111,6 +118,7 @@ async def test_a_holder_whose_lock_expired_writes_nothing(
         await b.close()
 
 
+@pytest.mark.anyio
 async def test_a_step_waiting_too_long_for_the_lock_gets_503(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -128,6 +136,7 @@ async def test_a_step_waiting_too_long_for_the_lock_gets_503(
         await b.close()
 
 
+@pytest.mark.anyio
 async def test_redis_out_of_reach_is_store_unavailable() -> None:
     port = free_port()  # nothing listens there
     store = RedisStore(f"redis://127.0.0.1:{port}/0", ttl_seconds=60)
@@ -143,3 +152,20 @@ async def test_redis_out_of_reach_is_store_unavailable() -> None:
         assert await store.check() == expected
     finally:
         await store.close()
+
+
+@pytest.mark.parametrize(
+    ("url", "message"),
+    [
+        ("http://redis:6379", "must be memory:// or redis://host:port/db"),
+        ("redis://redis:port/0", "is not a Redis URL"),
+    ],
+)
+def test_a_bad_store_url_stops_the_service_at_start(url: str, message: str) -> None:
+    with pytest.raises(ValidationError, match=message):
+        Settings(store_url=url)
+
+
+def test_the_store_url_picks_the_store() -> None:
+    assert isinstance(open_store("memory://", ttl_seconds=1), MemoryStore)
+    assert isinstance(open_store("redis://127.0.0.1:6379/0", ttl_seconds=1), RedisStore)
