@@ -16,7 +16,7 @@ from schemas.plans import (
     PreviewPublic,
     TrajectoryMetrics,
 )
-from schemas.service import CacheStats, HealthPublic
+from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
 from schemas.steps import StepCreate, StepPublic
 
@@ -39,5 +39,6 @@ __all__ = [
     "SimulationPublic",
     "StepCreate",
     "StepPublic",
+    "StoreHealth",
     "TrajectoryMetrics",
 ]

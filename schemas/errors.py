@@ -30,6 +30,6 @@ class ErrorPublic(BaseModel):
     detail: str = Field(description="What was wrong, naming the field and the value received.")
     field: str | None = Field(default=None, description="The input at fault, e.g. `params.alpha`.")
     code: str = Field(
-        description="`INVALID_INPUT`, `NO_VALID_PATH`, `SEQUENCE_CONFLICT`, `NOT_FOUND` or "
-        "`TOO_LARGE`."
+        description="`INVALID_INPUT`, `NO_VALID_PATH`, `SEQUENCE_CONFLICT`, `NOT_FOUND`, "
+        "`TOO_LARGE` or `STORE_UNAVAILABLE`."
     )

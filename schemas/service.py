@@ -6,7 +6,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["CacheStats", "HealthPublic"]
+__all__ = ["CacheStats", "HealthPublic", "StoreHealth"]
 
 EXAMPLE_CACHE: dict[str, Any] = {
     "entries": 2,
@@ -31,12 +31,37 @@ class CacheStats(BaseModel):
     evictions: int = Field(ge=0)
 
 
-class HealthPublic(BaseModel):
-    """The service is up and answering."""
+EXAMPLE_STORE_DOWN: dict[str, Any] = {
+    "kind": "redis",
+    "up": False,
+    "detail": "store unavailable: redis at redis:6379 refused the connection; retry later",
+}
+
+
+class StoreHealth(BaseModel):
+    """Whether the store of maps and plans answers."""
 
     model_config = ConfigDict(
-        json_schema_extra={"examples": [{"status": "ok", "cache": EXAMPLE_CACHE}]}
+        json_schema_extra={"examples": [{"kind": "redis", "up": True}, EXAMPLE_STORE_DOWN]}
     )
 
-    status: Literal["ok"] = "ok"
+    kind: Literal["memory", "redis"] = Field(description="`PLANNER_STORE_URL`'s kind of store.")
+    up: bool
+    detail: str | None = Field(default=None, description="Why the store does not answer.")
+
+
+class HealthPublic(BaseModel):
+    """The service answers; `ok` (200) when its store does too, else `unavailable` (503)."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                {"status": "ok", "store": {"kind": "memory", "up": True}, "cache": EXAMPLE_CACHE},
+                {"status": "unavailable", "store": EXAMPLE_STORE_DOWN, "cache": EXAMPLE_CACHE},
+            ]
+        }
+    )
+
+    status: Literal["ok", "unavailable"] = "ok"
+    store: StoreHealth
     cache: CacheStats

@@ -6,6 +6,7 @@ import os
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+from redis.asyncio.connection import parse_url
 
 __all__ = ["Settings"]
 
@@ -18,7 +19,9 @@ class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="PLANNER_", frozen=True)
 
     store_url: str = Field(
-        default="memory://", description="Where maps and plans live: `memory://` (this process)."
+        default="memory://",
+        description="Where maps and plans live: `memory://` (this process) or a Redis URL, "
+        "`redis://host:port/db` (shared by replicas; `rediss://` for TLS).",
     )
     max_map_cells: int = Field(default=4096 * 4096, ge=1, description="Largest map, in cells.")
     max_body_bytes: int = Field(
@@ -42,7 +45,13 @@ class Settings(BaseSettings):
     @field_validator("store_url")
     @classmethod
     def _known_store(cls, url: str) -> str:
-        if not url.startswith("memory://"):
-            msg = f"store_url must be 'memory://' (the only store so far); got {url!r}"
+        if url.startswith("memory://"):
+            return url
+        if not url.startswith(("redis://", "rediss://", "unix://")):
+            msg = f"store_url must be memory:// or redis://host:port/db; got {url!r}"
             raise ValueError(msg)
+        try:
+            parse_url(url)
+        except ValueError as exc:
+            raise ValueError(f"store_url {url!r} is not a Redis URL: {exc}") from exc
         return url

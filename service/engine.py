@@ -102,6 +102,7 @@ class Engine:
         plan, cache_hit = await self._plan(map_id, start, goal, preset, params)
         plan_id = secrets.token_hex(16)
         state = planner.Session(plan).state
+        stored = state.as_dict()
         record: PlanRecord = {
             "map_id": map_id,
             "start": list(plan.start),
@@ -109,15 +110,15 @@ class Engine:
             "preset": preset,
             "params": plan.params.as_dict(),
             "cache_hit": cache_hit,
-            "state": state.as_dict(),
+            "state": stored,
         }
-        await self.store.put_plan(plan_id, record)
+        await self.store.put_plan(plan_id, record, append=stored.pop("trajectory"))
         return PlanPublic.model_validate(_plan_public(plan_id, record, plan, state))
 
     async def get_plan(self, plan_id: str) -> PlanDetail:
         record = await self._record(plan_id)
         plan = await self._rebuild(record)
-        state = planner.SessionState.from_dict(record["state"])
+        state = await self._state(plan_id, record)
         trajectory = np.asarray(state.trajectory, dtype=np.int64).reshape(-1, 2)
         min_c, mean_c, contact = clearance_metrics(trajectory, plan.analysis)
         metrics = {
@@ -159,9 +160,15 @@ class Engine:
                 record["preset"],
                 record["params"],
             )
-            session = planner.Session(
-                _build(inputs), planner.SessionState.from_dict(record["state"])
-            )
+            plan = _build(inputs)
+            # The trajectory log is read only for the paper's tabu list: the wide decision
+            # needs none of it, and its step then costs the same at any length of episode.
+            if plan.params.decision == "paper":
+                trajectory = await self.store.get_trajectory(plan_id)
+            else:
+                trajectory = [tuple(record["state"]["position"])]
+            state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
+            session = planner.Session(plan, state)
             obstacles, position, seq = body.dynamic_obstacles, body.position, body.seq
             if session.may_replan:
                 step = await self.pool.run(session.step, obstacles, position=position, seq=seq)
@@ -169,8 +176,9 @@ class Engine:
                 # Measured: a step that cannot replan is a few microseconds of bounded work, and
                 # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
                 step = session.step(obstacles, position=position, seq=seq)
-            record["state"] = session.state.as_dict()
-            await self.store.put_plan(plan_id, record)
+            record["state"] = stored = session.state.as_dict()
+            moved = stored.pop("trajectory")[len(trajectory) :]
+            await self.store.put_plan(plan_id, record, append=moved)
         return StepPublic.model_validate(step.as_dict())
 
     async def simulate(self, map_id: str, body: SimulationCreate) -> SimulationPublic:
@@ -189,6 +197,11 @@ class Engine:
         return SimulationPublic.model_validate(
             {"trajectory": episode.trajectory.tolist(), "metrics": episode.metrics}
         )
+
+    async def _state(self, plan_id: str, record: PlanRecord) -> planner.SessionState:
+        """A stored plan's whole state, its trajectory read back from the store's log."""
+        trajectory = await self.store.get_trajectory(plan_id)
+        return planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
 
     async def _record(self, plan_id: str) -> PlanRecord:
         record = await self.store.get_plan(plan_id)
@@ -226,7 +239,7 @@ class Engine:
     ) -> bytes:
         record = await self._record(plan_id)
         plan = await self._rebuild(record)
-        trajectory = planner.SessionState.from_dict(record["state"]).trajectory
+        trajectory = await self.store.get_trajectory(plan_id)
         size = _cell_size(plan.analysis.shape, cell)
         return await self.pool.run(
             planner.render_plan, plan, trajectory=trajectory, field=field, cell=size

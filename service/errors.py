@@ -5,8 +5,9 @@ PlannerError (planner)                    HTTP
 ├── NoValidPath                           422, detail contains NO_VALID_PATH
 └── SequenceConflict                      409
 ServiceError (here)
-├── NotFound       unknown map or plan    404
-└── TooLarge       body or map too big    413
+├── NotFound          unknown map or plan            404
+├── TooLarge          body or map too big            413
+└── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
 RequestValidationError (FastAPI)          422, first errors with where and what was received
 """
 
@@ -21,7 +22,15 @@ from fastapi.responses import JSONResponse
 import planner
 from schemas import ErrorPublic
 
-__all__ = ["NotFound", "ServiceError", "TooLarge", "install", "problem", "responses"]
+__all__ = [
+    "NotFound",
+    "ServiceError",
+    "StoreUnavailable",
+    "TooLarge",
+    "install",
+    "problem",
+    "responses",
+]
 
 
 class ServiceError(Exception):
@@ -50,13 +59,24 @@ class TooLarge(ServiceError):
     code = "TOO_LARGE"
 
 
+class StoreUnavailable(ServiceError):
+    """The store cannot be reached (or a plan's lock not taken) now; the client may retry.
+
+    The stores raise it in place of their clients' errors (``redis.exceptions``), so nothing
+    outside ``service/store.py`` knows which store runs.
+    """
+
+    status = 503
+    code = "STORE_UNAVAILABLE"
+
+
 _PLANNER_STATUS: dict[type[planner.PlannerError], int] = {
     planner.InvalidInput: 422,
     planner.NoValidPath: 422,
     planner.SequenceConflict: 409,
 }
 
-_EXAMPLES: dict[int, dict[str, str]] = {
+_EXAMPLES: dict[int, dict[str, str | None]] = {
     404: {
         "detail": "plan_id: no plan '9f1c2a7b' (unknown, deleted or expired)",
         "field": "plan_id",
@@ -66,6 +86,11 @@ _EXAMPLES: dict[int, dict[str, str]] = {
         "detail": "seq 7 does not follow the last step's seq 4",
         "field": "seq",
         "code": "SEQUENCE_CONFLICT",
+    },
+    503: {
+        "detail": "store unavailable: redis at redis:6379 refused the connection; retry later",
+        "field": None,
+        "code": "STORE_UNAVAILABLE",
     },
     413: {
         "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 67108864",
@@ -81,13 +106,16 @@ _EXAMPLES: dict[int, dict[str, str]] = {
 
 
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
-    """``responses=`` for a route, so that ``/docs`` and clients know its errors' shape."""
+    """``responses=`` for a route, so that ``/docs`` and clients know its errors' shape.
+
+    Every route reaches the store, so every route may answer 503.
+    """
     return {
         status: {
             "model": ErrorPublic,
             "content": {"application/json": {"example": _EXAMPLES[status]}},
         }
-        for status in statuses
+        for status in (*statuses, 503)
     }
 
 
@@ -96,7 +124,9 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
     if field and field.rsplit(".", 1)[-1] not in message.split(" ", 1)[0]:
         message = f"{field}: {message}"
     body = ErrorPublic(detail=message, field=field, code=code)
-    return JSONResponse(body.model_dump(), status_code=status)
+    # A 503 is transient: say when to come back (RFC 9110, 10.2.3).
+    headers = {"Retry-After": "1"} if status == 503 else None
+    return JSONResponse(body.model_dump(), status_code=status, headers=headers)
 
 
 async def _planner_error(request: Request, exc: Exception) -> JSONResponse:

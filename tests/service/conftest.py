@@ -1,20 +1,30 @@
-"""Fixtures of the service tests: an app over ASGI (lifespan run) and a live uvicorn server."""
+"""Fixtures of the service tests: an app over ASGI (lifespan run), a live uvicorn server, and
+for the shared store a real redis-server and uvicorn processes, all on 127.0.0.1."""
 
 from __future__ import annotations
 
+import os
+import shutil
 import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import AsyncIterator, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import httpx
 import numpy as np
 import pytest
+import redis
 import uvicorn
 from fastapi import FastAPI
 
 from service.config import Settings
 from service.main import create_app
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -69,3 +79,122 @@ def random_map(height: int, width: int, density: float, seed: int) -> np.ndarray
     grid = (rng.random((height, width)) < density).astype(np.uint8)
     grid[0, :] = grid[-1, :] = grid[:, 0] = grid[:, -1] = 0
     return grid
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def redis_server_binary() -> str:
+    """``redis-server``'s path; skips without it, but fails in CI, whose ``.ci/run`` installs it."""
+    path = shutil.which("redis-server")
+    if path is None:
+        msg = "redis-server is not on PATH (apt-get install redis-server; .ci/run does so)"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return path
+
+
+class RedisServer:
+    """A redis-server on 127.0.0.1 in a directory of its own. With ``persistent``, every write
+    is fsynced to an append-only file, so a server killed and started again keeps its data."""
+
+    def __init__(self, directory: Path, *, persistent: bool = False) -> None:
+        self.binary = redis_server_binary()
+        self.directory = directory
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.persistent = persistent
+        self.port = free_port()
+        self.url = f"redis://127.0.0.1:{self.port}/0"
+        self.process: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        aof = ["yes", "--appendfsync", "always"] if self.persistent else ["no"]
+        args = [
+            self.binary, "--port", str(self.port), "--bind", "127.0.0.1", "--dir",
+            str(self.directory), "--save", "", "--appendonly", *aof, "--loglevel", "warning",
+        ]  # fmt: skip
+        with (self.directory / "redis.log").open("ab") as log:
+            self.process = subprocess.Popen(args, stdout=log, stderr=subprocess.STDOUT)
+        client = redis.Redis(host="127.0.0.1", port=self.port, socket_connect_timeout=1)
+        deadline = time.monotonic() + 30
+        try:
+            while True:
+                assert self.process.poll() is None, (self.directory / "redis.log").read_text()
+                assert time.monotonic() < deadline, "redis-server did not answer"
+                try:
+                    if client.ping():
+                        return
+                except redis.exceptions.RedisError:  # refused, or still loading its data
+                    time.sleep(0.02)
+        finally:
+            client.close()
+
+    def stop(self) -> None:
+        """Kill it, as a crash would."""
+        if self.process is not None:
+            self.process.kill()
+            self.process.wait(timeout=30)
+            self.process = None
+
+
+@pytest.fixture
+def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
+    server = RedisServer(tmp_path / "redis")
+    server.start()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
+class Replica:
+    """The service as uvicorn runs it in production, in a process of its own, on 127.0.0.1."""
+
+    def __init__(self, store_url: str, log: Path) -> None:
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.log = log
+        env = {**os.environ, "PLANNER_STORE_URL": store_url, "PLANNER_POOL_SIZE": "1"}
+        args = [sys.executable, "-m", "uvicorn", "service.main:app", "--host", "127.0.0.1"]
+        args += ["--port", str(self.port), "--log-level", "warning"]
+        with log.open("ab") as out:
+            self.process = subprocess.Popen(
+                args, env=env, cwd=ROOT, stdout=out, stderr=subprocess.STDOUT
+            )
+
+    def wait_ready(self) -> None:
+        deadline = time.monotonic() + 120
+        with httpx.Client(base_url=self.url, trust_env=False) as client:
+            while True:
+                assert self.process.poll() is None, self.log.read_text()
+                assert time.monotonic() < deadline, f"uvicorn did not start: {self.log.read_text()}"
+                try:
+                    client.get("/healthz", timeout=5)
+                    return
+                except httpx.TransportError:
+                    time.sleep(0.05)
+
+    def kill(self) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait(timeout=30)
+
+
+@contextmanager
+def replicas(store_url: str, directory: Path, count: int) -> Iterator[list[Replica]]:
+    """``count`` uvicorn processes sharing ``store_url``, stopped on the way out."""
+    started: list[Replica] = []
+    try:
+        for i in range(count):
+            started.append(Replica(store_url, directory / f"uvicorn-{i}.log"))
+        for replica in started:
+            replica.wait_ready()
+        yield started
+    finally:
+        for replica in started:
+            replica.kill()

@@ -197,6 +197,7 @@ async def test_healthz(client: httpx.AsyncClient) -> None:
     r = await client.get("/healthz")
     assert r.status_code == 200
     assert r.json()["status"] == "ok"
+    assert r.json()["store"] == {"kind": "memory", "up": True, "detail": None}
     assert r.json()["cache"]["max_bytes"] > 0
 
 

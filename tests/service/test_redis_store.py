@@ -1,0 +1,171 @@
+"""``RedisStore`` against a real redis-server: maps, plans, TTL, delete, the per-plan lock and
+its fenced write, and Redis out of reach."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+
+from service import redis_store
+from service.config import Settings
+from service.errors import StoreUnavailable
+from service.redis_store import RedisStore
+from service.store import MemoryStore, open_store
+from tests.service.conftest import RedisServer, free_port
+
+
+@pytest.fixture
+async def store(redis_server: RedisServer) -> AsyncIterator[RedisStore]:
+    s = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        yield s
+    finally:
+        await s.close()
+
+
+@pytest.mark.anyio
+async def test_maps_are_kept_once_and_come_back_read_only(store: RedisStore) -> None:
+    grid = np.array([[0, 1, 0], [0, 0, 1]], dtype=np.uint8)
+    assert await store.put_map("m", grid) is True
+    assert await store.put_map("m", grid) is False
+    got = await store.get_map("m")
+    assert got is not None
+    np.testing.assert_array_equal(got, grid)
+    assert not got.flags.writeable
+    assert await store.get_map("other") is None
+
+
+@pytest.mark.anyio
+async def test_plans_are_written_read_and_deleted(store: RedisStore) -> None:
+    await store.put_plan("p", {"state": {"iteration": 1}})
+    await store.put_plan("p", {"state": {"iteration": 2}})
+    assert await store.get_plan("p") == {"state": {"iteration": 2}}
+    assert await store.delete_plan("p") is True
+    assert await store.get_plan("p") is None
+    assert await store.delete_plan("p") is False
+
+
+@pytest.mark.anyio
+async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
+    await store.put_map("m", np.zeros((2, 2), dtype=np.uint8))
+    await store.put_plan("p", {})
+    async with store.plan_lock("p"):
+        keys = sorted(await store._redis.keys("*"))
+    assert keys == [b"planner:lock:p", b"planner:map:m", b"planner:plan:p"]
+    assert await store._redis.ttl("planner:map:m") == -1  # maps are kept
+
+
+@pytest.mark.anyio
+async def test_plans_expire_by_redis_ttl(redis_server: RedisServer) -> None:
+    store = RedisStore(redis_server.url, ttl_seconds=0.3)
+    try:
+        await store.put_plan("p", {"n": 1})
+        assert 0 < await store._redis.pttl("planner:plan:p") <= 300
+        for _ in range(500):
+            if await store.get_plan("p") is None:
+                break
+            await asyncio.sleep(0.02)
+        assert await store.get_plan("p") is None
+    finally:
+        await store.close()
+
+
+@pytest.mark.anyio
+async def test_the_lock_admits_one_replica_at_a_time(redis_server: RedisServer) -> None:
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    order: list[str] = []
+
+    async def hold(store: RedisStore, name: str) -> None:
+        async with store.plan_lock("p"):
+            order.append(f"{name} in")
+            await asyncio.sleep(0.1)  # the other one asks for the lock meanwhile
+            order.append(f"{name} out")
+
+    try:
+        await asyncio.gather(hold(a, "a"), hold(b, "b"), hold(a, "c"))
+        assert [o.split()[1] for o in order] == ["in", "out"] * 3
+        assert [o.split()[0] for o in order[::2]] == [o.split()[0] for o in order[1::2]]
+        assert await a._redis.exists("planner:lock:p") == 0  # released
+    finally:
+        await a.close()
+        await b.close()
+
+
+@pytest.mark.anyio
+async def test_a_holder_whose_lock_expired_writes_nothing(
+    redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        await a.put_plan("p", {"v": 0})
+        monkeypatch.setattr(redis_store, "LOCK_TIMEOUT", 0.2)
+        async with a.plan_lock("p"):
+            while await a._redis.exists("planner:lock:p"):  # a stalls past its lock's timeout
+                await asyncio.sleep(0.02)
+            async with b.plan_lock("p"):
+                await b.put_plan("p", {"v": "b"})
+            with pytest.raises(StoreUnavailable, match="lock expired and nothing was recorded"):
+                await a.put_plan("p", {"v": "a"})
+        assert await a.get_plan("p") == {"v": "b"}
+    finally:
+        await a.close()
+        await b.close()
+
+
+@pytest.mark.anyio
+async def test_a_step_waiting_too_long_for_the_lock_gets_503(
+    redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    monkeypatch.setattr(redis_store, "LOCK_WAIT", 0.1)
+    try:
+        async with a.plan_lock("p"):
+            with pytest.raises(StoreUnavailable, match="plan 'p' is busy") as caught:
+                async with b.plan_lock("p"):
+                    pass
+        assert caught.value.status == 503
+    finally:
+        await a.close()
+        await b.close()
+
+
+@pytest.mark.anyio
+async def test_redis_out_of_reach_is_store_unavailable() -> None:
+    port = free_port()  # nothing listens there
+    store = RedisStore(f"redis://127.0.0.1:{port}/0", ttl_seconds=60)
+    expected = f"store unavailable: redis at 127.0.0.1:{port} refused the connection; retry later"
+    try:
+        for call in (store.get_plan("p"), store.get_map("m"), store.delete_plan("p")):
+            with pytest.raises(StoreUnavailable) as caught:
+                await call
+            assert caught.value.message == expected
+        with pytest.raises(StoreUnavailable):
+            async with store.plan_lock("p"):
+                pass
+        assert await store.check() == expected
+    finally:
+        await store.close()
+
+
+@pytest.mark.parametrize(
+    ("url", "message"),
+    [
+        ("http://redis:6379", "must be memory:// or redis://host:port/db"),
+        ("redis://redis:port/0", "is not a Redis URL"),
+    ],
+)
+def test_a_bad_store_url_stops_the_service_at_start(url: str, message: str) -> None:
+    with pytest.raises(ValidationError, match=message):
+        Settings(store_url=url)
+
+
+def test_the_store_url_picks_the_store() -> None:
+    assert isinstance(open_store("memory://", ttl_seconds=1), MemoryStore)
+    assert isinstance(open_store("redis://127.0.0.1:6379/0", ttl_seconds=1), RedisStore)
