@@ -438,6 +438,13 @@ def main() -> None:
             f"| {h['bare_p50_ms']:.2f} / {h['bare_p99_ms']:.2f} |"
         )
     out()
+    out(
+        "At 16 clients the load generator (one Python process, sharing the 2 cores with the server)"
+    )
+    out(
+        "saturates first, so both columns there are mostly the client's; 1 client is the sharper test."
+    )
+    out()
     out("## 4. Memory")
     out()
     m = bench_memory()
