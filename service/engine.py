@@ -250,7 +250,7 @@ class Engine:
     ) -> tuple[planner.Plan, bool]:
         """A plan on the cached analysis and waves, and whether the analysis was cached."""
         inputs = await self._inputs(map_id, start, goal, preset, params)
-        return await self.pool.run(_build, inputs), inputs.cache_hit
+        return await self.pool.run(_with_preview, inputs), inputs.cache_hit
 
     async def _inputs(
         self, map_id: str, start: Any, goal: list[int], preset: str, params: dict[str, Any]
@@ -290,6 +290,14 @@ def _build(i: _Inputs) -> planner.Plan:
         None, i.start, i.goal,
         preset=i.preset, analysis=i.analysis, waves=i.waves.__getitem__, **i.params,
     )  # fmt: skip
+
+
+def _with_preview(i: _Inputs) -> planner.Plan:
+    """A plan whose preview path and figures are computed now, in the pool: they are made on
+    first use, and the responses that show them are built on the event loop."""
+    plan = _build(i)
+    plan.summary()
+    return plan
 
 
 MAX_IMAGE_SIDE = 8192
