@@ -193,6 +193,7 @@ class Engine:
             dynamic=body.dynamic_count,
             seed=body.seed,
             max_steps=body.max_steps,
+            record=False,  # the answer holds no obstacle cells: keep none
         )
         return SimulationPublic.model_validate(
             {"trajectory": episode.trajectory.tolist(), "metrics": episode.metrics}
