@@ -5,13 +5,16 @@ from __future__ import annotations
 from collections.abc import Callable, Coroutine
 from typing import Annotated, Any, cast
 
+import numpy as np
 import orjson
 from fastapi import Depends, Query, Request, Response
 from fastapi.routing import APIRoute
 
+from service.config import Settings
 from service.engine import Engine
+from service.errors import TooLarge
 
-__all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "OrjsonRoute", "get_engine"]
+__all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "MapRoute", "OrjsonRoute", "get_engine"]
 
 
 async def get_engine(request: Request) -> Engine:
@@ -52,6 +55,37 @@ class OrjsonRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def route_handler(request: Request) -> Response:
-            return await handler(_OrjsonRequest(request.scope, request.receive))
+            request = _OrjsonRequest(request.scope, request.receive)
+            await self.check_body(request)
+            return await handler(request)
 
         return route_handler
+
+    async def check_body(self, request: Request) -> None:
+        """A look at the raw body before it is parsed (errors raised here reach the handlers)."""
+
+
+# Every cell of a map is one byte of the body: a Moving AI letter in `rows`, a 0 or a 1 in
+# `grid`. Counting those bytes bounds the cells from above; a valid body's other fields (start,
+# goal, preset, params) hold at most a few hundred of them, hence the slack.
+_CELL_BYTES = np.zeros(256, dtype=bool)
+_CELL_BYTES[np.frombuffer(b".GS@OTW01", dtype=np.uint8)] = True
+CELL_SLACK = 4096
+
+
+class MapRoute(OrjsonRoute):
+    """Refuses a map over ``PLANNER_MAX_MAP_CELLS`` from its raw bytes, before they become
+    Python objects (the engine checks the exact shape after parsing)."""
+
+    async def check_body(self, request: Request) -> None:
+        if request.method != "POST":
+            return
+        body = await request.body()
+        cells = int(np.count_nonzero(_CELL_BYTES[np.frombuffer(body, dtype=np.uint8)]))
+        limit = cast(Settings, request.app.state.settings).max_map_cells
+        if cells > limit + CELL_SLACK:
+            msg = (
+                f"map: the body holds about {cells} map cells; PLANNER_MAX_MAP_CELLS is {limit} "
+                "(refused before parsing)"
+            )
+            raise TooLarge(msg, field="map")

@@ -147,3 +147,30 @@ async def test_streamed_body_under_the_limit_is_served(client: httpx.AsyncClient
     r = await client.post("/maps", content=chunks(), headers={"content-type": "application/json"})
     assert r.status_code == 201
     assert r.json()["height"] == 2
+
+
+@pytest.mark.parametrize(
+    "body",
+    [{"rows": ["." * 100] * 100}, {"grid": [[0, 1] * 50] * 100}],
+    ids=["rows", "grid"],
+)
+async def test_a_map_far_over_the_cell_limit_is_refused_unparsed(
+    client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch, body: dict[str, Any]
+) -> None:
+    from service.api import deps
+
+    async def never(self: Any) -> Any:
+        raise AssertionError("the body was parsed")
+
+    monkeypatch.setattr(deps._OrjsonRequest, "json", never)
+    r = await client.post("/maps", json=body)  # 10000 cells; the test limit is 4096
+    assert r.status_code == 413, r.text
+    assert "about 10000 map cells" in r.json()["detail"]
+    assert "refused before parsing" in r.json()["detail"]
+
+
+async def test_a_map_at_the_cell_limit_is_served(client: httpx.AsyncClient) -> None:
+    r = await client.post(
+        "/maps", json={"grid": [[0] * 64] * 64, "start": [0, 0], "goal": [63, 63]}
+    )
+    assert r.status_code == 201, r.text

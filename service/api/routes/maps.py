@@ -7,14 +7,14 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Response, status
 
 from schemas import MapCreate, MapPublic, Preset
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
+from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
 
 __all__ = ["router"]
 
 ERRORS = responses(404, 413, 422)
 
-router = APIRouter(tags=["maps"], route_class=OrjsonRoute)
+router = APIRouter(tags=["maps"], route_class=MapRoute)
 
 
 @router.post(
