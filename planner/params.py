@@ -54,6 +54,11 @@ class Params:
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
 
+    @property
+    def analysis_key(self) -> tuple[Any, ...]:
+        """The values the map analysis depends on: equal keys, equal analyses of one map."""
+        return (self.seal_tunnels, self.clean_weight, self.clean_radius)
+
 
 #: Valid ranges (inclusive) of the numeric parameters.
 PARAMETER_RANGES: dict[str, tuple[float, float]] = {

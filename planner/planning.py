@@ -154,12 +154,9 @@ def plan(
             clean_weight=p.clean_weight,
             clean_radius=p.clean_radius,
         )
-    elif (analysis.seal_tunnels, analysis.clean_weight, analysis.clean_radius) != (
-        p.seal_tunnels,
-        p.clean_weight,
-        p.clean_radius,
-    ):
-        raise ValueError("the analysis given was made with other parameters than the plan's")
+    elif (analysis.seal_tunnels, analysis.clean_weight, analysis.clean_radius) != p.analysis_key:
+        msg = "the analysis given was made with other parameters than the plan's"
+        raise InvalidInput(msg, field="analysis")
     s = _free_cell(analysis, start, "start")
     g = _free_cell(analysis, goal, "goal")
 

@@ -1,6 +1,7 @@
-"""The HTTP service of ``shared/API.md`` over the planner: ``uvicorn service.main:app``."""
+"""The HTTP service of the planner: ``uvicorn service.main:app`` serves it.
 
-from service.config import Settings
-from service.main import create_app
+Importing ``service`` builds nothing: the app is made in ``service.main``, its settings live in
+``service.config`` and its stores in ``service.stores``, each importable on its own.
+"""
 
-__all__ = ["Settings", "create_app"]
+__all__: list[str] = []

@@ -1,10 +1,18 @@
-"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once."""
+"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once.
+
+It is used from the event loop (:meth:`ByteLRU.get_or_compute`, whose waiters wait without
+holding a worker) and from worker threads (:meth:`ByteLRU.get_or_compute_sync`, so that a
+planner call running in the pool can fetch what it needs as it goes); both share one table of
+entries and one table of computations under way.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import threading
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Hashable
+from concurrent.futures import Future
 from typing import Any, Protocol, TypeVar, cast
 
 __all__ = ["ByteLRU", "Sized"]
@@ -25,8 +33,8 @@ class ByteLRU:
     >>> cache = ByteLRU(max_bytes=100)
     >>> async def compute() -> np.ndarray: return np.zeros(10, dtype=np.uint8)
     >>> value, hit = asyncio.run(cache.get_or_compute("a", compute))
-    >>> hit, cache.bytes
-    (False, 10)
+    >>> hit, cache.bytes, cache.peek("a") is value
+    (False, 10, True)
     """
 
     def __init__(self, max_bytes: int) -> None:
@@ -34,10 +42,21 @@ class ByteLRU:
         self.bytes = 0
         self.hits = self.misses = self.evictions = 0
         self._entries: OrderedDict[Hashable, tuple[Any, int]] = OrderedDict()
-        self._pending: dict[Hashable, asyncio.Future[Any]] = {}
+        self._pending: dict[Hashable, Future[Any]] = {}
+        self._lock = threading.Lock()
 
     def __len__(self) -> int:
         return len(self._entries)
+
+    def peek(self, key: Hashable) -> Any | None:
+        """The value for ``key`` if it is cached now (counted as a hit), else None."""
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is None:
+                return None
+            self._entries.move_to_end(key)
+            self.hits += 1
+            return entry[0]
 
     async def get_or_compute(
         self, key: Hashable, compute: Callable[[], Awaitable[T]]
@@ -47,31 +66,74 @@ class ByteLRU:
         A call arriving while another computes the same key waits for that result (and counts
         as a hit); a failed computation is not cached, and every waiter gets its error.
         """
-        entry = self._entries.get(key)
-        if entry is not None:
-            self._entries.move_to_end(key)
-            self.hits += 1
-            return cast(T, entry[0]), True
-        pending = self._pending.get(key)
-        hit = pending is not None
-        if pending is None:
-            self.misses += 1
-            pending = asyncio.ensure_future(self._fill(key, compute))
-            # Errors reach the callers; this only keeps a task nobody awaits any more quiet.
-            pending.add_done_callback(lambda f: f.cancelled() or f.exception())
-            self._pending[key] = pending
-        else:
-            self.hits += 1
+        value, future, owner = self._claim(key)
+        if future is None:
+            return cast(T, value), True
+        if owner:
+            task = asyncio.ensure_future(self._fill(key, compute, future))
+            # Errors reach the callers through the future; this keeps the task itself quiet.
+            task.add_done_callback(lambda t: t.cancelled() or t.exception())
         # Shielded: a caller that gives up (a client gone) must not cancel the others' result.
-        return cast(T, await asyncio.shield(pending)), hit
+        return cast(T, await asyncio.shield(asyncio.wrap_future(future))), not owner
 
-    async def _fill(self, key: Hashable, compute: Callable[[], Awaitable[Sized]]) -> Sized:
+    def get_or_compute_sync(self, key: Hashable, compute: Callable[[], T]) -> tuple[T, bool]:
+        """:meth:`get_or_compute` for a worker thread: ``compute`` runs in the calling thread."""
+        value, future, owner = self._claim(key)
+        if future is None:
+            return cast(T, value), True
+        if not owner:
+            return cast(T, future.result()), True
+        try:
+            result = compute()
+        except BaseException as exc:
+            self._settle(key, future, error=exc)
+            raise
+        self._settle(key, future, value=result)
+        return result, False
+
+    def _claim(self, key: Hashable) -> tuple[Any, Future[Any] | None, bool]:
+        """(cached value, None, False), or (None, the computation's future, whether to run it)."""
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is not None:
+                self._entries.move_to_end(key)
+                self.hits += 1
+                return entry[0], None, False
+            future = self._pending.get(key)
+            if future is not None:
+                self.hits += 1
+                return None, future, False
+            self.misses += 1
+            future = self._pending[key] = Future()
+            return None, future, True
+
+    async def _fill(
+        self, key: Hashable, compute: Callable[[], Awaitable[Sized]], future: Future[Any]
+    ) -> None:
         try:
             value = await compute()
-            self._insert(key, value, int(value.nbytes))
-            return value
-        finally:
+        except BaseException as exc:
+            self._settle(key, future, error=exc)
+            raise
+        self._settle(key, future, value=value)
+
+    def _settle(
+        self,
+        key: Hashable,
+        future: Future[Any],
+        *,
+        value: Sized | None = None,
+        error: BaseException | None = None,
+    ) -> None:
+        with self._lock:
             del self._pending[key]
+            if error is None:
+                assert value is not None
+                self._insert(key, value, int(value.nbytes))
+        if error is None:
+            future.set_result(value)
+        else:
+            future.set_exception(error)
 
     def _insert(self, key: Hashable, value: Any, size: int) -> None:
         if size > self.max_bytes:

@@ -63,7 +63,7 @@ class StoreUnavailable(ServiceError):
     """The store cannot be reached (or a plan's lock not taken) now; the client may retry.
 
     The stores raise it in place of their clients' errors (``redis.exceptions``), so nothing
-    outside ``service/store.py`` knows which store runs.
+    outside ``service/stores/`` knows which store runs.
     """
 
     status = 503

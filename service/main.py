@@ -14,7 +14,7 @@ from service.config import Settings
 from service.engine import Engine
 from service.middleware import BodyLimit
 from service.pool import Pool
-from service.store import open_store
+from service.stores import open_store
 
 __all__ = ["app", "create_app"]
 

@@ -13,7 +13,7 @@ from fastapi import FastAPI
 
 import planner
 import schemas
-from service.store import MemoryStore
+from service.stores import MemoryStore
 
 pytestmark = pytest.mark.anyio
 

@@ -10,11 +10,10 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from service import redis_store
 from service.config import Settings
 from service.errors import StoreUnavailable
-from service.redis_store import RedisStore
-from service.store import MemoryStore, open_store
+from service.stores import MemoryStore, RedisStore, open_store
+from service.stores import redis as redis_store
 from tests.service.conftest import RedisServer, free_port
 
 

@@ -9,8 +9,7 @@ import orjson
 import pytest
 from fastapi import FastAPI
 
-from service.redis_store import RedisStore
-from service.store import MemoryStore, Store
+from service.stores import MemoryStore, RedisStore, Store
 from tests.service.conftest import RedisServer
 
 pytestmark = pytest.mark.anyio

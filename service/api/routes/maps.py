@@ -7,6 +7,8 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Response, status
 
 from schemas import MapCreate, MapPublic, Preset
+from service import maps
+from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
 
@@ -28,16 +30,16 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
     hex SHA-256 of its shape and cells: the same whichever encoding was sent. `201` the first
     time, `200` after. With `start` and `goal` (and `preset`, `params`, `allow_narrow`) a plan
     is created too and returned under `plan`, as from `POST /plan`."""
-    result, created = await engine.add_map(body)
+    view, created = await maps.add_map(engine, body)
     if not created:
         response.status_code = status.HTTP_200_OK
-    return result
+    return present.map_public(view)
 
 
 @router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     """The `map_id`, `height`, `width` and `free_cells` of an uploaded map."""
-    return await engine.get_map(map_id)
+    return present.map_public(await maps.get_map(engine, map_id))
 
 
 @router.get(
@@ -57,5 +59,5 @@ async def render_map(
 ) -> Response:
     """The map as the paper draws it: obstacles black, tight-tunnel cells orange (when the
     preset seals them), gates red; with `field=clean`, free cells tinted by their penalty."""
-    png = await engine.render_map(map_id, preset, field, cell)
+    png = await maps.render_map(engine, map_id, preset, field, cell)
     return Response(png, media_type="image/png")

@@ -7,8 +7,9 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Response, status
 
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
+from service import plans
+from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
-from service.engine import overrides
 from service.errors import responses
 
 __all__ = ["router"]
@@ -27,9 +28,7 @@ async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
     goal) and return the plan with its `preview`: the path with no dynamic obstacles. `422`
     when start or goal is outside the map or blocked, or with `NO_VALID_PATH` when the goal
     cannot be reached (or only through tight tunnels while `allow_narrow` is false)."""
-    return await engine.create_plan(
-        body.map_id, body.start, body.goal, body.preset, overrides(body)
-    )
+    return present.plan_public(await plans.create_plan(engine, body))
 
 
 @router.get(
@@ -38,7 +37,7 @@ async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
 async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
     """The plan as created, with the robot's `position`, `status`, `iteration`, `trajectory`
     and the trajectory's metrics."""
-    return await engine.get_plan(plan_id)
+    return present.plan_detail(await plans.get_plan(engine, plan_id))
 
 
 @router.delete(
@@ -49,7 +48,7 @@ async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
 )
 async def delete_plan(plan_id: str, engine: EngineDep) -> None:
     """Forget the plan now (plans also expire when untouched for `PLANNER_PLAN_TTL_SECONDS`)."""
-    await engine.delete_plan(plan_id)
+    await plans.delete_plan(engine, plan_id)
 
 
 @router.post(
@@ -62,7 +61,7 @@ async def step(plan_id: str, body: StepCreate, engine: EngineDep) -> StepPublic:
     the answer is the cell to move to, which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    return await engine.step(plan_id, body)
+    return present.step_public(await plans.step(engine, plan_id, body))
 
 
 @router.get(
@@ -82,5 +81,5 @@ async def render_plan(
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
     trajectory so far (green) and its cell, the start (magenta) and the goal (gold)."""
-    png = await engine.render_plan(plan_id, field, cell)
+    png = await plans.render_plan(engine, plan_id, field, cell)
     return Response(png, media_type="image/png")

@@ -5,6 +5,8 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from schemas import SimulationCreate, SimulationPublic
+from service import simulation
+from service.api import present
 from service.api.deps import EngineDep, OrjsonRoute
 from service.errors import responses
 
@@ -22,4 +24,4 @@ async def simulate(map_id: str, body: SimulationCreate, engine: EngineDep) -> Si
     """Plan, then run a whole episode among `dynamic_count` obstacles that each step move to a
     random free neighbouring cell (seeded by `seed`: reproducible). Returns the robot's
     `trajectory` and the paper's metrics, plus clearance, collisions (always 0) and timings."""
-    return await engine.simulate(map_id, body)
+    return present.simulation_public(await simulation.simulate(engine, map_id, body))

@@ -30,7 +30,7 @@ from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 
 from service.errors import StoreUnavailable
-from service.store import Cells, Grid, PlanRecord, Store, pack, unpack
+from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
 
 __all__ = ["LOCK_TIMEOUT", "LOCK_WAIT", "SOCKET_TIMEOUT", "RedisStore"]
 

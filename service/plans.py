@@ -1,0 +1,121 @@
+"""Plans and steps: create a plan, read it, forget it, and step the robot along it.
+
+A step is load state, decide, save state: the plan's record holds its resolved parameters and
+whether it took the narrow fallback, so the step finds the plan's arrays in the cache by key
+and calls the planner's session step, with nothing resolved or rebuilt on the way.
+"""
+
+from __future__ import annotations
+
+import secrets
+from dataclasses import dataclass
+
+import planner
+from schemas import PlanCreate, StepCreate
+from service.engine import Engine, cell_size, overrides
+from service.errors import NotFound
+from service.stores import PlanRecord
+
+__all__ = ["PlanView", "create_plan", "delete_plan", "get_plan", "render_plan", "step"]
+
+
+@dataclass(frozen=True, slots=True)
+class PlanView:
+    """A stored plan with its arrays and the robot's state: what a response is made of."""
+
+    plan_id: str
+    record: PlanRecord
+    plan: planner.Plan
+    state: planner.SessionState
+
+
+async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
+    plan, cache_hit = await engine.build_plan(
+        body.map_id, body.start, body.goal, body.preset, overrides(body)
+    )
+    plan_id = secrets.token_hex(16)
+    state = planner.Session(plan).state
+    stored = state.as_dict()
+    record: PlanRecord = {
+        "map_id": body.map_id,
+        "start": list(plan.start),
+        "goal": list(plan.goal),
+        "preset": plan.preset,
+        "params": plan.params.as_dict(),
+        "narrow_fallback": plan.narrow_fallback,
+        "cache_hit": cache_hit,
+        "state": stored,
+    }
+    await engine.store.put_plan(plan_id, record, append=stored.pop("trajectory"))
+    return PlanView(plan_id, record, plan, state)
+
+
+async def get_plan(engine: Engine, plan_id: str) -> PlanView:
+    """The plan and the robot's whole state, its trajectory read back from the store's log."""
+    record = await _record(engine, plan_id)
+    plan = await engine.plan_of(record)
+    trajectory = await engine.store.get_trajectory(plan_id)
+    state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
+    return PlanView(plan_id, record, plan, state)
+
+
+async def delete_plan(engine: Engine, plan_id: str) -> None:
+    if not await engine.store.delete_plan(plan_id):
+        raise _unknown_plan(plan_id)
+
+
+async def step(engine: Engine, plan_id: str, body: StepCreate) -> planner.Step:
+    """Load the robot's state, decide its move, save the state: under the plan's lock, so
+    concurrent steps never lose a move."""
+    limit = engine.settings.max_dynamic_obstacles
+    if len(body.dynamic_obstacles) > limit:
+        msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
+        raise planner.InvalidInput(msg, field="dynamic_obstacles")
+    async with engine.store.plan_lock(plan_id):
+        record = await _record(engine, plan_id)
+        plan = await engine.plan_of(record)
+        # The trajectory log is read only for the paper's tabu list: the wide decision needs
+        # none of it, and its step then costs the same at any length of episode.
+        if plan.params.decision == "paper":
+            trajectory = await engine.store.get_trajectory(plan_id)
+        else:
+            trajectory = [tuple(record["state"]["position"])]
+        state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
+        session = planner.Session(plan, state)
+        args = (body.dynamic_obstacles,)
+        if session.may_replan:
+            result = await engine.pool.run(
+                session.step, *args, position=body.position, seq=body.seq
+            )
+        else:
+            # Measured: a step that cannot replan is a few microseconds of bounded work, and
+            # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
+            result = session.step(*args, position=body.position, seq=body.seq)
+        record["state"] = stored = session.state.as_dict()
+        moved = stored.pop("trajectory")[len(trajectory) :]
+        await engine.store.put_plan(plan_id, record, append=moved)
+    return result
+
+
+async def render_plan(
+    engine: Engine, plan_id: str, field: planner.render.Field | None, cell: int | None
+) -> bytes:
+    record = await _record(engine, plan_id)
+    plan = await engine.plan_of(record)
+    trajectory = await engine.store.get_trajectory(plan_id)
+    size = cell_size(plan.analysis.shape, cell)
+    return await engine.pool.run(
+        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
+    )
+
+
+async def _record(engine: Engine, plan_id: str) -> PlanRecord:
+    record = await engine.store.get_plan(plan_id)
+    if record is None:
+        raise _unknown_plan(plan_id)
+    return record
+
+
+def _unknown_plan(plan_id: str) -> NotFound:
+    msg = f"plan_id: no plan {plan_id!r} (unknown, deleted or expired)"
+    return NotFound(msg, field="plan_id")

@@ -1,0 +1,80 @@
+"""The ``Store`` interface that every store of maps and plans implements, and its data formats.
+
+A plan is kept as plain JSON data (its inputs and ``SessionState.as_dict()`` less the
+trajectory), never as arrays, so a networked store (``service/stores/redis.py``) can hold it; the
+arrays are rebuilt from the cached analysis and wave. The trajectory, which grows with every
+move, is kept beside the record as an append-only log of packed cells: a step rewrites a record
+of constant size and appends a cell, whatever the length of the episode.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from contextlib import AbstractAsyncContextManager
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Cells", "Grid", "PlanRecord", "Store", "pack", "unpack"]
+
+Grid = npt.NDArray[np.uint8]
+PlanRecord = dict[str, Any]
+Cells = Sequence[Sequence[int]]
+
+
+def pack(cells: Cells) -> bytes:
+    """Cells as little-endian int32 pairs: the trajectory log's format, in every store."""
+    return np.asarray(cells, dtype="<i4").reshape(-1, 2).tobytes()
+
+
+def unpack(data: bytes) -> list[tuple[int, int]]:
+    """The cells of a trajectory log, in order."""
+    return list(map(tuple, np.frombuffer(data, dtype="<i4").reshape(-1, 2).tolist()))
+
+
+class Store(ABC):
+    """Maps by ``map_id`` (kept) and plans by ``plan_id`` (forgotten after a TTL).
+
+    A store that cannot answer raises :class:`service.errors.StoreUnavailable`, never its
+    client's own errors.
+    """
+
+    kind: str
+
+    @abstractmethod
+    async def put_map(self, map_id: str, grid: Grid) -> bool:
+        """Keep a map; True when it was not known before."""
+
+    @abstractmethod
+    async def get_map(self, map_id: str) -> Grid | None:
+        """The map's 0/1 grid (read-only), or None."""
+
+    @abstractmethod
+    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
+        """Keep (or replace) a plan's record and add ``append`` to its trajectory, both at once;
+        restarts the plan's TTL."""
+
+    @abstractmethod
+    async def get_plan(self, plan_id: str) -> PlanRecord | None:
+        """A copy of the plan's record, or None when unknown, deleted or expired."""
+
+    @abstractmethod
+    async def get_trajectory(self, plan_id: str) -> list[tuple[int, int]]:
+        """Every cell appended to the plan's trajectory, in order (none for an unknown plan)."""
+
+    @abstractmethod
+    async def delete_plan(self, plan_id: str) -> bool:
+        """Forget a plan; True when it existed."""
+
+    @abstractmethod
+    def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[None]:
+        """An async context manager held while a plan is read, stepped and written back."""
+
+    async def check(self) -> str | None:
+        """None when the store answers, else why it does not (for ``/healthz``)."""
+        return None
+
+    async def close(self) -> None:  # noqa: B027 - a store with nothing to release keeps this
+        """Release connections."""
