@@ -8,7 +8,25 @@ PlannerError
 
 from __future__ import annotations
 
-__all__ = ["InvalidInput", "NoValidPath", "PlannerError", "SequenceConflict"]
+__all__ = ["InvalidInput", "NoValidPath", "PlannerError", "SequenceConflict", "quote"]
+
+QUOTE_LIMIT = 100
+"""Characters of a received value that an error message quotes at most."""
+
+
+def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` cut to ``limit`` characters: error messages name what they received
+    without echoing megabytes of it.
+
+    >>> quote("x" * 500)[-12:]
+    '... (502 ch)'
+    >>> quote([1, 2])
+    '[1, 2]'
+    """
+    text = repr(value)
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit - 14]}... ({len(text)} ch)"
 
 
 class PlannerError(Exception):

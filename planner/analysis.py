@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner import _kernels as K
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, SQRT2
 
@@ -127,10 +127,10 @@ def analyse(
     g = as_grid(grid)
     low, high = PARAMETER_RANGES["clean_radius"]
     if not (isinstance(clean_radius, int) and low <= clean_radius <= high):
-        msg = f"clean_radius must be an integer in [{low}, {high}]; got {clean_radius!r}"
+        msg = f"clean_radius must be an integer in [{low}, {high}]; got {quote(clean_radius)}"
         raise InvalidInput(msg, field="params.clean_radius")
     if not clean_weight >= 0:
-        msg = f"clean_weight must be >= 0; got {clean_weight!r}"
+        msg = f"clean_weight must be >= 0; got {quote(clean_weight)}"
         raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
     state, gates, tunnels = K._classify(g)
@@ -209,7 +209,7 @@ def goal_wave(
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]
     if not low <= diagonal_cost <= high:
-        msg = f"diagonal_cost must be in [{low}, {high}]; got {diagonal_cost!r}"
+        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
         raise InvalidInput(msg, field="params.diagonal_cost")
     t0 = time.perf_counter()
     passable = analysis.passable(narrow=narrow)

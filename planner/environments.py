@@ -18,7 +18,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.analysis import analyse, goal_wave
 
 __all__ = ["DESCRIPTIONS", "SIZE", "TABLE1", "Pair", "connected", "environment"]
@@ -75,9 +75,9 @@ def environment(number: int, *, seed: int = 0) -> Grid:
     planner._errors.InvalidInput: environment number must be one of 1-6; got 7
     """
     if isinstance(number, bool) or number not in _GENERATORS:
-        raise InvalidInput(f"environment number must be one of 1-6; got {number!r}")
+        raise InvalidInput(f"environment number must be one of 1-6; got {quote(number)}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InvalidInput(f"seed must be a non-negative integer; got {seed!r}")
+        raise InvalidInput(f"seed must be a non-negative integer; got {quote(seed)}")
     pairs = TABLE1[number]
     for attempt in range(MAX_ATTEMPTS):
         rng = np.random.default_rng([number, seed, attempt])

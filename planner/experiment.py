@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.environments import TABLE1, environment
 from planner.params import PRESETS
 from planner.planning import plan
@@ -66,12 +66,12 @@ def run_experiment(
     obstacles at the start.
     """
     if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise InvalidInput(f"episodes must be a positive integer; got {episodes!r}")
+        raise InvalidInput(f"episodes must be a positive integer; got {quote(episodes)}")
     if not 1 <= pairs <= 5:
-        raise InvalidInput(f"pairs must be in [1, 5]; got {pairs!r}")
+        raise InvalidInput(f"pairs must be in [1, 5]; got {quote(pairs)}")
     unknown = [p for p in presets if p not in PRESETS]
     if unknown:
-        raise InvalidInput(f"unknown preset {unknown[0]!r}; choose from {', '.join(PRESETS)}")
+        raise InvalidInput(f"unknown preset {quote(unknown[0])}; choose from {', '.join(PRESETS)}")
     rows: list[dict[str, Any]] = []
     for number in environments:
         grid = environment(number, seed=seed)

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 
 __all__ = [
     "MAP_BLOCKED",
@@ -73,7 +73,7 @@ def as_grid(grid: Any, *, name: str = "grid") -> Grid:
     if bad.any():
         r, c = (int(v) for v in np.argwhere(bad)[0])
         value = arr[r, c].item()
-        msg = f"{name} must hold only 0 (free) and 1 (blocked); found {value!r} at [{r}, {c}]"
+        msg = f"{name} must hold only 0 (free) and 1 (blocked); found {quote(value)} at [{r}, {c}]"
         raise InvalidInput(msg, field=name)
     return np.ascontiguousarray(arr, dtype=np.uint8)
 
@@ -89,11 +89,11 @@ def as_cell(cell: Any, shape: tuple[int, int], *, name: str) -> tuple[int, int]:
     planner._errors.InvalidInput: goal [3, 0] is outside the 3 x 3 map
     """
     if isinstance(cell, str | bytes) or not isinstance(cell, Sequence | np.ndarray):
-        raise InvalidInput(f"{name} must be a [row, col] pair; got {cell!r}", field=name)
+        raise InvalidInput(f"{name} must be a [row, col] pair; got {quote(cell)}", field=name)
     values = list(cell)
     if len(values) != 2 or not all(_is_int(v) for v in values):
         raise InvalidInput(
-            f"{name} must be a [row, col] pair of integers; got {cell!r}", field=name
+            f"{name} must be a [row, col] pair of integers; got {quote(cell)}", field=name
         )
     r, c = int(values[0]), int(values[1])
     if not (0 <= r < shape[0] and 0 <= c < shape[1]):
@@ -187,7 +187,7 @@ def _header_int(header: dict[str, str], key: str) -> int:
     value = header[key]
     if not value.isdigit() or int(value) == 0:
         raise InvalidInput(
-            f"map header '{key}' must be a positive integer; got {value!r}", field="map"
+            f"map header '{key}' must be a positive integer; got {quote(value)}", field="map"
         )
     return int(value)
 

@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, patience, rho, seal_tunnels
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, patience, seal_tunnels
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 
 __all__ = ["PARAMETER_RANGES", "PRESETS", "Decision", "Params", "resolve_params"]
 
@@ -44,8 +44,6 @@ class Params:
     """Pheromone weight of Eq. (3), ``paper`` decision."""
     beta: float = 1.0
     """Heuristic weight of Eq. (3), ``paper`` decision."""
-    rho: float = 0.98
-    """MMAS evaporation rate, for the pheromone ``tau = clamp(rho ** k)`` reported beside ``k``."""
     patience: int = 3
     """Held-up steps before the robot replans around the dynamic obstacles it sees."""
     allow_narrow: bool = True
@@ -67,7 +65,6 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "diagonal_cost": (1.0, 2.0),
     "alpha": (0.0, 20.0),
     "beta": (0.0, 20.0),
-    "rho": (0.01, 1.0),
     "patience": (0, 1000),
 }
 
@@ -87,7 +84,7 @@ _NAMES = tuple(_FIELDS)
 def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:
     """The preset's parameters with ``overrides`` applied one by one, each validated."""
     if preset not in PRESETS:
-        msg = f"unknown preset {preset!r}; choose one of {', '.join(sorted(PRESETS))}"
+        msg = f"unknown preset {quote(preset)}; choose one of {', '.join(sorted(PRESETS))}"
         raise InvalidInput(msg, field="preset")
     values = PRESETS[preset].as_dict()
     for name, value in overrides.items():
@@ -97,23 +94,31 @@ def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:
 
 def _check(name: str, value: Any) -> Any:
     field = f"params.{name}"
+    if name == "rho":
+        msg = (
+            "rho is not a parameter: the pheromone trail is the goal wave's exact cost-to-go "
+            "k, which evaporation does not change (Wave.tau(rho) gives the MMAS pheromone)"
+        )
+        raise InvalidInput(msg, field=field)
     if name not in _FIELDS:
-        msg = f"unknown parameter {name!r}; known: {', '.join(sorted(_FIELDS))}"
+        msg = f"unknown parameter {quote(name)}; known: {', '.join(sorted(_FIELDS))}"
         raise InvalidInput(msg, field=field)
     if name == "decision":
         if value not in ("wide", "paper"):
-            raise InvalidInput(f"decision must be 'wide' or 'paper'; got {value!r}", field=field)
+            raise InvalidInput(
+                f"decision must be 'wide' or 'paper'; got {quote(value)}", field=field
+            )
         return value
     if name in ("seal_tunnels", "allow_narrow"):
         if not isinstance(value, bool):
-            raise InvalidInput(f"{name} must be true or false; got {value!r}", field=field)
+            raise InvalidInput(f"{name} must be true or false; got {quote(value)}", field=field)
         return value
     integral = name in ("clean_radius", "patience")
     ok_type = isinstance(value, int) if integral else isinstance(value, int | float)
     if isinstance(value, bool) or not ok_type:
         kind = "an integer" if integral else "a number"
-        raise InvalidInput(f"{name} must be {kind}; got {value!r}", field=field)
+        raise InvalidInput(f"{name} must be {kind}; got {quote(value)}", field=field)
     low, high = PARAMETER_RANGES[name]
     if not (math.isfinite(value) and low <= value <= high):
-        raise InvalidInput(f"{name} must be in [{low}, {high}]; got {value!r}", field=field)
+        raise InvalidInput(f"{name} must be in [{low}, {high}]; got {quote(value)}", field=field)
     return int(value) if integral else float(value)

@@ -198,15 +198,23 @@ def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
     return r, c
 
 
-def reaches(wave: Wave, analysis: Analysis, cell: tuple[int, int]) -> bool:
-    """Whether the robot at ``cell`` can reach the wave's goal over the wave's grid.
+def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
+    """Whether the robot at ``cell`` (``[row, col]``) can reach the wave's goal over the
+    wave's grid.
 
-    A caller that caches waves asks this of the sealed wave to know, before planning, whether
-    the plan will need the narrow one.
+    >>> a = analyse([[0, 1], [1, 0]], seal_tunnels=False)
+    >>> reaches(goal_wave(a, [0, 0]), a, [1, 1])
+    False
+    >>> reaches(goal_wave(a, [0, 0]), a, [-1, 0])
+    Traceback (most recent call last):
+    ...
+    planner._errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
     """
-    here = K._cost_here(
-        wave.passable, wave.kw, analysis.clean, cell[0], cell[1], wave.diagonal_cost, True
-    )
+    r, c = as_cell(cell, analysis.shape, name="cell")
+    if wave.passable.shape != analysis.shape:
+        msg = f"the wave's map is {wave.passable.shape}, the analysis's {analysis.shape}"
+        raise InvalidInput(msg, field="wave")
+    here = K._cost_here(wave.passable, wave.kw, analysis.clean, r, c, wave.diagonal_cost, True)
     return bool(np.isfinite(here))
 
 

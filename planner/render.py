@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image, ImageDraw
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.analysis import Analysis, Wave
 from planner.planning import Plan
 from planner.session import Session
@@ -82,7 +82,7 @@ def draw(
     ((6, 6), (220, 0, 0), (0, 0, 0))
     """
     if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= MAX_CELL:
-        msg = f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {cell!r}"
+        msg = f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {quote(cell)}"
         raise InvalidInput(msg, field="cell")
     H, W = analysis.shape
     rgb = np.empty((H, W, 3), dtype=np.uint8)
@@ -181,7 +181,7 @@ def render_episode(episode: Episode, *, cell: int = 8, frame_ms: int = 80) -> by
     if episode.obstacles.shape[0] == 0:
         raise InvalidInput("the episode was run without record; it has no obstacle cells to draw")
     if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 10:
-        raise InvalidInput(f"frame_ms must be an integer >= 10; got {frame_ms!r}")
+        raise InvalidInput(f"frame_ms must be an integer >= 10; got {quote(frame_ms)}")
     plan = episode.plan
     session = Session(plan)
     frames = []
@@ -217,7 +217,7 @@ def _heat(analysis: Analysis, field: Field, wave: Wave | None) -> npt.NDArray[np
             raise InvalidInput("field 'kw' needs the goal wave; pass wave=", field="field")
         values = np.asarray(wave.kw, dtype=np.float64)
     else:
-        raise InvalidInput(f"field must be 'clean' or 'kw'; got {field!r}", field="field")
+        raise InvalidInput(f"field must be 'clean' or 'kw'; got {quote(field)}", field="field")
     finite = np.isfinite(values)
     top = float(values[finite].max()) if finite.any() else 0.0
     share = np.where(finite, values, 0.0) / top if top > 0 else np.zeros_like(values)
@@ -232,11 +232,13 @@ def _cells(cells: Any, shape: tuple[int, int], name: str) -> npt.NDArray[np.int6
     try:
         rc = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
     except (TypeError, ValueError):
-        raise InvalidInput(f"{name} must be [row, col] cells; got {cells!r}") from None
+        msg = f"{name} must be [row, col] cells; got {quote(cells)}"
+        raise InvalidInput(msg, field=name) from None
     inside = (rc >= 0).all(axis=1) & (rc[:, 0] < shape[0]) & (rc[:, 1] < shape[1])
     if not inside.all():
         bad = rc[np.flatnonzero(~inside)[0]].tolist()
-        raise InvalidInput(f"{name} cell {bad} is outside the {shape[0]} x {shape[1]} map")
+        msg = f"{name} cell {bad} is outside the {shape[0]} x {shape[1]} map"
+        raise InvalidInput(msg, field=name)
     return rc
 
 

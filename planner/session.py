@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner import _kernels as K
-from planner._errors import InvalidInput, SequenceConflict
+from planner._errors import InvalidInput, SequenceConflict, quote
 from planner.grids import as_cell
 from planner.planning import Plan
 
@@ -157,7 +157,9 @@ class Session:
         st = self.state
         if seq is not None:
             if isinstance(seq, bool) or not isinstance(seq, int) or seq < 0:
-                raise InvalidInput(f"seq must be a non-negative integer; got {seq!r}", field="seq")
+                raise InvalidInput(
+                    f"seq must be a non-negative integer; got {quote(seq)}", field="seq"
+                )
             if st.last_seq is not None and seq == st.last_seq and st.last_step is not None:
                 return st.last_step
             if st.last_seq is not None and seq != st.last_seq + 1:
@@ -177,7 +179,7 @@ class Session:
         try:
             obstacles = np.asarray(cells, dtype=np.int64)
         except (TypeError, ValueError, OverflowError):
-            msg = f"dynamic_obstacles must be a list of [row, col] cells; got {cells!r}"
+            msg = f"dynamic_obstacles must be a list of [row, col] cells; got {quote(cells)}"
             raise InvalidInput(msg, field="dynamic_obstacles") from None
         if obstacles.size == 0:
             return np.empty((0, 2), dtype=np.int64)

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner import _kernels as K
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.planning import Plan, clearance_metrics, plan
 from planner.session import Session
 
@@ -79,13 +79,13 @@ def run_episode(
     grid = plan.analysis.grid
     H, W = grid.shape
     if isinstance(dynamic, bool) or not isinstance(dynamic, int) or not 0 <= dynamic <= MAX_DYNAMIC:
-        msg = f"dynamic must be an integer in [0, {MAX_DYNAMIC}]; got {dynamic!r}"
+        msg = f"dynamic must be an integer in [0, {MAX_DYNAMIC}]; got {quote(dynamic)}"
         raise InvalidInput(msg, field="dynamic_count")
     if max_steps is None:
         max_steps = 4 * (H + W) + 4 * len(plan.path)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
         raise InvalidInput(
-            f"max_steps must be a positive integer; got {max_steps!r}", field="max_steps"
+            f"max_steps must be a positive integer; got {quote(max_steps)}", field="max_steps"
         )
     t_start = time.perf_counter()
     rng = np.random.default_rng(seed)

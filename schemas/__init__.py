@@ -6,6 +6,8 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 from schemas.errors import ErrorPublic
 from schemas.maps import MapCreate, MapPublic
 from schemas.plans import (
+    EXAMPLE_MAP,
+    EXAMPLE_MAP_ID,
     PRESET_NAMES,
     AnalysisPublic,
     Cell,
@@ -21,6 +23,8 @@ from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPu
 from schemas.steps import StepCreate, StepPublic
 
 __all__ = [
+    "EXAMPLE_MAP",
+    "EXAMPLE_MAP_ID",
     "PRESET_NAMES",
     "AnalysisPublic",
     "CacheStats",

@@ -6,7 +6,16 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from schemas.plans import EXAMPLE_PLAN, PARAMS_DESCRIPTION, Cell, PlanPublic, Preset
+from schemas.plans import (
+    EXAMPLE_MAP,
+    EXAMPLE_MAP_ID,
+    EXAMPLE_PLAN,
+    PARAMS_DESCRIPTION,
+    STRICT,
+    Cell,
+    PlanPublic,
+    Preset,
+)
 
 __all__ = ["MapCreate", "MapPublic"]
 
@@ -16,12 +25,13 @@ class MapCreate(BaseModel):
     ``start`` and ``goal`` that also create a plan."""
 
     model_config = ConfigDict(
+        **STRICT,
         json_schema_extra={
             "examples": [
-                {"rows": ["...", ".@.", "..."], "start": [0, 0], "goal": [2, 2]},
-                {"grid": [[0, 0, 0], [0, 1, 0], [0, 0, 0]]},
+                EXAMPLE_MAP,
+                {"grid": [[1 if ch == "@" else 0 for ch in row] for row in EXAMPLE_MAP["rows"]]},
             ]
-        }
+        },
     )
 
     grid: list[list[int]] | None = Field(
@@ -55,10 +65,10 @@ class MapPublic(BaseModel):
         json_schema_extra={
             "examples": [
                 {
-                    "map_id": EXAMPLE_PLAN["map_id"],
-                    "height": 3,
-                    "width": 3,
-                    "free_cells": 8,
+                    "map_id": EXAMPLE_MAP_ID,
+                    "height": 5,
+                    "width": 6,
+                    "free_cells": 28,
                     "plan": {**EXAMPLE_PLAN, "preview": {**EXAMPLE_PLAN["preview"]}},
                 }
             ]

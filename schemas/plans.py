@@ -7,7 +7,10 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = [
+    "EXAMPLE_MAP",
+    "EXAMPLE_MAP_ID",
     "PRESET_NAMES",
+    "STRICT",
     "AnalysisPublic",
     "Cell",
     "PlanCreate",
@@ -19,6 +22,11 @@ __all__ = [
     "TrajectoryMetrics",
 ]
 
+STRICT = ConfigDict(extra="forbid", strict=True)
+"""Every request model: an unknown field is refused (a typo such as ``obstacles`` for
+``dynamic_obstacles`` must not pass silently), and no value is coerced: integers and cells are
+JSON integers, never booleans, strings or floats."""
+
 Coordinate = Annotated[int, Field(ge=0, le=2**31 - 1)]
 Cell = Annotated[list[Coordinate], Field(min_length=2, max_length=2, examples=[[0, 9]])]
 """A ``[row, col]`` cell, row 0 at the top."""
@@ -29,15 +37,26 @@ PRESET_NAMES: tuple[str, ...] = ("wide", "wfs-mmas", "mmas", "shortest")
 Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
 
 PARAMS_DESCRIPTION = (
-    "Overrides of single planner parameters: `alpha`, `beta`, `rho`, `clean_weight`, "
-    "`clean_radius`, `seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`."
+    "Overrides of single planner parameters, each checked by the planner (an unknown name or a "
+    "value of the wrong type is a 422): `alpha`, `beta`, `clean_weight`, `clean_radius`, "
+    "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`."
 )
+
+EXAMPLE_MAP: dict[str, Any] = {
+    "rows": ["......", "......", "..@@..", "......", "......"],
+    "start": [0, 0],
+    "goal": [4, 5],
+}
+"""The map of every example: a 5 x 6 room with a 2-cell block in the middle."""
+
+EXAMPLE_MAP_ID = "2f68cb9d10f4ad46475d5a3851711826daff07c5d2a4479cee604bc39e2872ca"
+"""``EXAMPLE_MAP``'s real ``map_id`` (a test checks it), so that the examples chain."""
 
 EXAMPLE_PLAN: dict[str, Any] = {
     "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
-    "map_id": "5f0c1e4f0d2b8a7c9e3d6b1a2c4e8f0a1b3c5d7e9f2a4c6e8b0d2f4a6c8e0b2d",
+    "map_id": EXAMPLE_MAP_ID,
     "start": [0, 0],
-    "goal": [2, 2],
+    "goal": [4, 5],
     "preset": "wide",
     "params": {
         "decision": "wide",
@@ -47,7 +66,6 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "diagonal_cost": 1.4142135623730951,
         "alpha": 3.0,
         "beta": 1.0,
-        "rho": 0.98,
         "patience": 3,
         "allow_narrow": True,
     },
@@ -61,11 +79,11 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "analysis_ms": 0.02,
     },
     "preview": {
-        "path": [[0, 0], [0, 1], [0, 2], [1, 2], [2, 2]],
-        "length": 4.0,
-        "arc_cost": 6.0,
+        "path": [[0, 0], [1, 1], [1, 2], [1, 3], [1, 4], [2, 4], [3, 4], [4, 5]],
+        "length": 7.828427,
+        "arc_cost": 23.485281,
         "min_clearance": 1.0,
-        "mean_clearance": 1.0,
+        "mean_clearance": 1.1553,
         "contact_ratio": 1.0,
     },
 }
@@ -76,7 +94,7 @@ EXAMPLE_METRICS: dict[str, Any] = {
     "waits": 0,
     "replans": 0,
     "path_length": 1.0,
-    "arc_cost": 3.0,
+    "arc_cost": 6.828427,
     "min_clearance": 1.0,
     "mean_clearance": 1.0,
     "contact_ratio": 1.0,
@@ -87,18 +105,19 @@ class PlanCreate(BaseModel):
     """Ask for a plan from ``start`` to ``goal`` on a map already uploaded."""
 
     model_config = ConfigDict(
+        **STRICT,
         json_schema_extra={
             "examples": [
                 {
-                    "map_id": EXAMPLE_PLAN["map_id"],
+                    "map_id": EXAMPLE_MAP_ID,
                     "start": [0, 0],
-                    "goal": [2, 2],
+                    "goal": [4, 5],
                     "preset": "wide",
-                    "params": {"clean_weight": 0.5},
+                    "params": {"patience": 3},
                     "allow_narrow": True,
                 }
             ]
-        }
+        },
     )
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
@@ -180,9 +199,9 @@ class PlanDetail(PlanPublic):
                 {
                     **EXAMPLE_PLAN,
                     "status": "moving",
-                    "position": [0, 1],
+                    "position": [1, 0],
                     "iteration": 1,
-                    "trajectory": [[0, 0], [0, 1]],
+                    "trajectory": [[0, 0], [1, 0]],
                     "metrics": EXAMPLE_METRICS,
                 }
             ]

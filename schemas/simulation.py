@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import PARAMS_DESCRIPTION, Cell, Preset, Status
+from schemas.plans import PARAMS_DESCRIPTION, STRICT, Cell, Preset, Status
 
 __all__ = ["SimulationCreate", "SimulationMetrics", "SimulationPublic"]
 
@@ -36,9 +36,10 @@ class SimulationCreate(BaseModel):
     """One seeded episode among ``dynamic_count`` randomly moving obstacles."""
 
     model_config = ConfigDict(
+        **STRICT,
         json_schema_extra={
             "examples": [
-                {"start": [0, 0], "goal": [2, 2], "preset": "wfs-mmas", "dynamic_count": 1,
+                {"start": [0, 0], "goal": [4, 5], "preset": "wfs-mmas", "dynamic_count": 2,
                  "seed": 7, "max_steps": 100}
             ]
         }

@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import Cell, Status
+from schemas.plans import STRICT, Cell, Status
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
@@ -17,9 +17,10 @@ class StepCreate(BaseModel):
     """Where the dynamic obstacles are now (and, optionally, where the robot really is)."""
 
     model_config = ConfigDict(
+        **STRICT,
         json_schema_extra={
-            "examples": [{"seq": 4, "dynamic_obstacles": [[1, 1], [2, 0]], "position": [3, 6]}]
-        }
+            "examples": [{"seq": 0, "dynamic_obstacles": [[1, 1]], "position": [0, 0]}]
+        },
     )
 
     seq: int | None = Field(
@@ -41,15 +42,15 @@ class StepPublic(BaseModel):
         json_schema_extra={
             "examples": [
                 {
-                    "seq": 4,
-                    "previous": [3, 6],
-                    "position": [2, 5],
-                    "move": "NW",
+                    "seq": 0,
+                    "previous": [0, 0],
+                    "position": [1, 0],
+                    "move": "S",
                     "status": "moving",
-                    "iteration": 4,
-                    "path_length": 5.6,
-                    "arc_cost": 48.0,
-                    "remaining": 7.1,
+                    "iteration": 1,
+                    "path_length": 1.0,
+                    "arc_cost": 6.828427,
+                    "remaining": 6.828427,
                 }
             ]
         }

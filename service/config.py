@@ -48,10 +48,12 @@ class Settings(BaseSettings):
         if url.startswith("memory://"):
             return url
         if not url.startswith(("redis://", "rediss://", "unix://")):
-            msg = f"store_url must be memory:// or redis://host:port/db; got {url!r}"
+            scheme = url.partition("://")[0][:20]
+            msg = f"store_url must be memory:// or redis://host:port/db; got scheme {scheme!r}"
             raise ValueError(msg)
         try:
             parse_url(url)
         except ValueError as exc:
-            raise ValueError(f"store_url {url!r} is not a Redis URL: {exc}") from exc
+            # The URL may hold a password: it is not repeated.
+            raise ValueError(f"store_url is not a valid Redis URL: {exc}") from None
         return url

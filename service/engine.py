@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import planner
+from planner._errors import quote
 from schemas import PlanCreate, SimulationCreate
 from service.cache import ByteLRU
 from service.config import Settings
@@ -76,7 +77,9 @@ class Engine:
         """An uploaded map's cells; ``NotFound`` when unknown."""
         grid = await self.store.get_map(map_id)
         if grid is None:
-            raise NotFound(f"map_id: no map {map_id!r}; upload it with POST /maps", field="map_id")
+            raise NotFound(
+                f"map_id: no map {quote(map_id)}; upload it with POST /maps", field="map_id"
+            )
         return grid
 
     async def analysis(self, map_id: str, params: planner.Params) -> tuple[planner.Analysis, bool]:

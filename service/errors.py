@@ -20,6 +20,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 import planner
+from planner._errors import QUOTE_LIMIT, quote
 from schemas import ErrorPublic
 
 __all__ = [
@@ -119,10 +120,19 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     }
 
 
+MAX_DETAIL = 600
+"""Characters of an error's ``detail`` at most: messages quote at most ~100 characters of any
+value received (:func:`planner.quote`); this bounds the whole, whatever raised it."""
+
+
 def problem(status: int, message: str, *, field: str | None, code: str) -> JSONResponse:
     """An error answer whose ``detail`` names the field (when the message does not already)."""
+    if field is not None and len(field) > QUOTE_LIMIT:
+        field = field[: QUOTE_LIMIT - 3] + "..."
     if field and field.rsplit(".", 1)[-1] not in message.split(" ", 1)[0]:
         message = f"{field}: {message}"
+    if len(message) > MAX_DETAIL:
+        message = message[: MAX_DETAIL - 3] + "..."
     body = ErrorPublic(detail=message, field=field, code=code)
     # A 503 is transient: say when to come back (RFC 9110, 10.2.3).
     headers = {"Retry-After": "1"} if status == 503 else None
@@ -148,23 +158,27 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     if len(errors) > 3:
         parts.append(f"and {len(errors) - 3} more errors")
     first = errors[0]["loc"] if errors else ()
-    field = ".".join(str(p) for p in first[1:] if isinstance(p, str)) or None
+    field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")
 
 
 def _describe(error: Any) -> str:
     where = "".join(
-        f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))
+        f"[{p}]" if isinstance(p, int) else (f".{_cut(p)}" if i else _cut(p))
         for i, p in enumerate(error["loc"])
     )
     message = error["msg"]
     ctx = error.get("ctx") or {}
     if error["type"] == "json_invalid":
         return f"{where}: malformed JSON at character {error['loc'][-1]}: {ctx.get('error', '')}"
-    got = repr(error.get("input"))
-    if len(got) > 80:
-        got = got[:77] + "..."
-    return f"{where}: {message}; got {got}"
+    if error["type"] == "extra_forbidden":
+        return f"{where}: unknown field (fields are checked strictly: see the schema)"
+    return f"{where}: {message}; got {quote(error.get('input'))}"
+
+
+def _cut(name: object) -> str:
+    text = str(name)
+    return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
 
 
 def install(app: FastAPI) -> None:

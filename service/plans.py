@@ -11,6 +11,7 @@ import secrets
 from dataclasses import dataclass
 
 import planner
+from planner._errors import quote
 from schemas import PlanCreate, StepCreate
 from service.engine import Engine, cell_size, overrides
 from service.errors import NotFound
@@ -117,5 +118,5 @@ async def _record(engine: Engine, plan_id: str) -> PlanRecord:
 
 
 def _unknown_plan(plan_id: str) -> NotFound:
-    msg = f"plan_id: no plan {plan_id!r} (unknown, deleted or expired)"
+    msg = f"plan_id: no plan {quote(plan_id)} (unknown, deleted or expired)"
     return NotFound(msg, field="plan_id")

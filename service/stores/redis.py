@@ -29,6 +29,7 @@ from redis.asyncio.lock import Lock
 from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 
+from planner._errors import quote
 from service.errors import StoreUnavailable
 from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
 
@@ -116,7 +117,7 @@ class RedisStore(Store):
             written = await self._fenced_set(keys=keys, args=args)
         if not written:
             msg = (
-                f"plan_id: plan {plan_id!r} was held over {LOCK_TIMEOUT:g} s by this step, so "
+                f"plan_id: plan {quote(plan_id)} was held over {LOCK_TIMEOUT:g} s by this step, so "
                 "its lock expired and nothing was recorded; retry the step"
             )
             raise StoreUnavailable(msg, field="plan_id")
@@ -148,7 +149,7 @@ class RedisStore(Store):
             acquired = await lock.acquire(token=token)
         if not acquired:
             msg = (
-                f"plan_id: plan {plan_id!r} is busy: another step held it for over "
+                f"plan_id: plan {quote(plan_id)} is busy: another step held it for over "
                 f"{LOCK_WAIT:g} s; retry later"
             )
             raise StoreUnavailable(msg, field="plan_id")

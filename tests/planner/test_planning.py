@@ -57,7 +57,13 @@ def test_presets_are_the_papers() -> None:
     assert p["wide"].diagonal_cost == pytest.approx(math.sqrt(2))
     assert (p["shortest"].seal_tunnels, p["shortest"].clean_weight) == (False, 0.0)
     for params in p.values():
-        assert (params.alpha, params.beta, params.rho) == (3.0, 1.0, 0.98)
+        assert (params.alpha, params.beta) == (3.0, 1.0)
+
+
+def test_rho_is_refused_with_the_reason() -> None:
+    with pytest.raises(planner.InvalidInput, match="rho is not a parameter") as info:
+        planner.resolve_params("wfs-mmas", rho=0.5)
+    assert info.value.field == "params.rho"
 
 
 def test_parameters_override_one_by_one() -> None:

@@ -32,10 +32,13 @@ def anyio_backend() -> str:
     return "asyncio"
 
 
+SMALL = Settings(pool_size=2, max_map_cells=4096, max_body_bytes=65536, max_dynamic_obstacles=20)
+"""Small limits, so that the limit tests need small bodies."""
+
+
 @pytest.fixture
 def settings() -> Settings:
-    # Small limits, so that the limit tests need small bodies.
-    return Settings(pool_size=2, max_map_cells=4096, max_body_bytes=65536, max_dynamic_obstacles=20)
+    return SMALL
 
 
 @pytest.fixture

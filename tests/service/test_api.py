@@ -222,3 +222,34 @@ async def test_docs_show_a_summary_and_examples_everywhere(client: httpx.AsyncCl
 
 def test_presets_match_the_planner() -> None:
     assert set(schemas.PRESET_NAMES) == set(planner.PRESETS)
+
+
+async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
+    """The examples of /docs, posted in order: map, plan on it, step that plan, simulate."""
+    components = (await client.get("/openapi.json")).json()["components"]["schemas"]
+
+    def example(name: str) -> dict[str, object]:
+        return dict(components[name]["examples"][0])
+
+    shown_map = example("MapPublic")
+    r = await client.post("/maps", json=example("MapCreate"))
+    assert r.status_code == 201, r.text
+    assert r.json()["map_id"] == shown_map["map_id"] == schemas.EXAMPLE_MAP_ID
+    assert {k: r.json()[k] for k in ("height", "width", "free_cells")} == {
+        k: shown_map[k] for k in ("height", "width", "free_cells")
+    }
+    r = await client.post("/plan", json=example("PlanCreate"))
+    assert r.status_code == 201, r.text
+    plan = r.json()
+    shown_plan = example("PlanPublic")
+    assert plan["preview"] == shown_plan["preview"]
+    assert plan["params"] == shown_plan["params"]
+    assert plan["analysis"]["narrow_fallback"] is False
+    r = await client.post(f"/plan/{plan['plan_id']}/step", json=example("StepCreate"))
+    assert r.status_code == 200, r.text
+    answer, shown = r.json(), example("StepPublic")
+    for key in ("path_length", "arc_cost", "remaining"):
+        assert answer.pop(key) == pytest.approx(shown.pop(key))
+    assert answer == shown
+    r = await client.post(f"/maps/{plan['map_id']}/simulate", json=example("SimulationCreate"))
+    assert r.status_code == 200, r.text

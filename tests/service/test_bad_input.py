@@ -8,7 +8,26 @@ from typing import Any
 import httpx
 import pytest
 
+from service.main import create_app
+from tests.service.conftest import SMALL
+
 pytestmark = pytest.mark.anyio
+
+
+@pytest.fixture(scope="module")
+def anyio_backend() -> str:
+    return "asyncio"
+
+
+@pytest.fixture(scope="module")
+async def client() -> AsyncIterator[httpx.AsyncClient]:
+    """One app for the whole table: no case changes what another case sees."""
+    app = create_app(SMALL)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
+            yield c
+
 
 ROWS = ["......", ".@@...", "......", "...@..", "......"]
 WALLED = ["..@..", "..@..", "..@.."]
@@ -46,7 +65,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("unknown preset", "POST", "/plan", {"map_id": "{map}", **OK, "preset": "fast"}, 422, ["preset", "'fast'"]),
     ("unknown parameter", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"gamma": 1}}, 422, ["params.gamma", "'gamma'"]),
     ("alpha out of range", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"alpha": 99}}, 422, ["alpha", "99"]),
-    ("rho out of range", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"rho": 0}}, 422, ["rho", "got 0"]),
+    ("rho is no parameter", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"rho": 0.5}}, 422, ["rho is not a parameter"]),
     ("radius not an integer", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"clean_radius": 1.5}}, 422, ["clean_radius", "1.5"]),
     ("seal_tunnels mistyped", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"seal_tunnels": "yes"}}, 422, ["seal_tunnels", "'yes'"]),
     ("params not an object", "POST", "/plan", {"map_id": "{map}", **OK, "params": [1]}, 422, ["params", "[1]"]),
@@ -73,10 +92,26 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("more than free cells", "POST", "/maps/{walled}/simulate", {"start": [0, 0], "goal": [2, 0], "dynamic_count": 20}, 422, ["dynamic_count", "20"]),
     ("max_steps zero", "POST", "/maps/{map}/simulate", {**OK, "max_steps": 0}, 422, ["max_steps", "0"]),
     ("seed mistyped", "POST", "/maps/{map}/simulate", {**OK, "seed": "x"}, 422, ["seed", "'x'"]),
+    # Strict: unknown fields are refused, and nothing is coerced.
+    ("unknown field in a step", "POST", "/plan/{plan}/step", {"obstacles": [[1, 1]]}, 422, ["obstacles", "unknown field"]),
+    ("unknown field in a plan", "POST", "/plan", {"map_id": "{map}", **OK, "colour": "red"}, 422, ["colour", "unknown field"]),
+    ("unknown field in a map", "POST", "/maps", {"rows": ROWS, "name": "hall"}, 422, ["name", "unknown field"]),
+    ("unknown field to simulate", "POST", "/maps/{map}/simulate", {**OK, "dynamic": 3}, 422, ["dynamic", "unknown field"]),
+    ("goal of booleans", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [False, 0]}, 422, ["goal[0]", "False"]),
+    ("start of strings", "POST", "/plan", {"map_id": "{map}", "start": ["0", "0"], "goal": [4, 5]}, 422, ["start[0]", "'0'"]),
+    ("start of floats", "POST", "/plan", {"map_id": "{map}", "start": [0.0, 0.0], "goal": [4, 5]}, 422, ["start[0]", "0.0"]),
+    ("seq boolean", "POST", "/plan/{plan}/step", {"seq": True}, 422, ["seq", "True"]),
+    ("seq float", "POST", "/plan/{plan}/step", {"seq": 1.0}, 422, ["seq", "1.0"]),
+    ("position of floats", "POST", "/plan/{plan}/step", {"position": [0.0, 1]}, 422, ["position[0]", "0.0"]),
+    ("obstacle of strings", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [["1", "1"]]}, 422, ["dynamic_obstacles[0][0]", "'1'"]),
+    ("grid of booleans", "POST", "/maps", {"grid": [[True, False]]}, 422, ["grid[0][0]", "True"]),
+    ("dynamic_count float", "POST", "/maps/{map}/simulate", {**OK, "dynamic_count": 2.0}, 422, ["dynamic_count", "2.0"]),
+    ("allow_narrow integer", "POST", "/plan", {"map_id": "{map}", **OK, "allow_narrow": 1}, 422, ["allow_narrow", "1"]),
+    ("preset not text", "POST", "/plan", {"map_id": "{map}", **OK, "preset": 1}, 422, ["preset", "1"]),
 ]  # fmt: skip
 
 
-@pytest.fixture
+@pytest.fixture(scope="module")
 async def ids(client: httpx.AsyncClient) -> dict[str, str]:
     out = {}
     for name, rows in (("map", ROWS), ("walled", WALLED), ("corridor", CORRIDOR)):
@@ -125,6 +160,28 @@ async def test_bad_request_is_refused_and_named(
     assert isinstance(detail, str)
     for text in named:
         assert text in detail, f"{text!r} not in {detail!r}"
+
+
+@pytest.mark.parametrize(
+    ("method", "url", "body"),
+    [
+        ("POST", "/plan/{plan}/step", {"x" * 30_000: 1}),
+        ("POST", "/plan", {"map_id": "m" * 30_000, **OK}),
+        ("POST", "/plan", {"map_id": "{map}", **OK, "params": {"p" * 30_000: 1}}),
+        ("POST", "/plan", {"map_id": "{map}", **OK, "preset": "w" * 30_000}),
+        ("GET", "/plan/" + "q" * 16_000, None),
+        ("POST", "/maps", {"rows": ["." * 50, "é" * 50]}),
+    ],
+    ids=["field name", "map_id", "parameter name", "preset", "plan id", "map row"],
+)
+async def test_errors_quote_at_most_100_characters_of_a_value(
+    client: httpx.AsyncClient, ids: dict[str, str], method: str, url: str, body: Any
+) -> None:
+    r = await client.request(method, url.format(**ids), json=_fill(body, ids))
+    assert r.status_code in (404, 422), r.text
+    error = r.json()
+    assert len(error["detail"]) < 400, error["detail"]
+    assert error["field"] is None or len(error["field"]) <= 100
 
 
 async def test_streamed_body_over_the_limit_is_refused(client: httpx.AsyncClient) -> None:

@@ -157,7 +157,7 @@ async def test_redis_out_of_reach_is_store_unavailable() -> None:
     ("url", "message"),
     [
         ("http://redis:6379", "must be memory:// or redis://host:port/db"),
-        ("redis://redis:port/0", "is not a Redis URL"),
+        ("redis://redis:port/0", "is not a valid Redis URL"),
     ],
 )
 def test_a_bad_store_url_stops_the_service_at_start(url: str, message: str) -> None:
