@@ -114,3 +114,56 @@ def reachable(passable: np.ndarray, start: tuple[int, int], goal: tuple[int, int
                 seen.add((r + dr, c + dc))
                 queue.append((r + dr, c + dc))
     return False
+
+
+def gate_cells(grid: np.ndarray) -> set[frozenset[tuple[int, int]]]:
+    """Pairs of diagonal free cells whose two shared orthogonal cells are both blocked."""
+    H, W = grid.shape
+    out = set()
+    for r in range(H - 1):
+        for c in range(W - 1):
+            for x, y, s1, s2 in (
+                ((r, c), (r + 1, c + 1), (r, c + 1), (r + 1, c)),
+                ((r, c + 1), (r + 1, c), (r, c), (r + 1, c + 1)),
+            ):
+                if not grid[x] and not grid[y] and grid[s1] and grid[s2]:
+                    out.add(frozenset((x, y)))
+    return out
+
+
+def legal_moves(passable: np.ndarray, r: int, c: int, dynamic: set[tuple[int, int]]) -> int:
+    """Bit i set when move i is legal with the ``dynamic`` cells blocked too."""
+    grid = passable.copy()
+    H, W = grid.shape
+    for r_, c_ in dynamic:
+        if 0 <= r_ < H and 0 <= c_ < W:
+            grid[r_, c_] = 0
+    return sum(1 << i for i, (dr, dc) in enumerate(MOVES) if legal(grid, r, c, dr, dc))
+
+
+def cost_here(
+    passable: np.ndarray, field: np.ndarray, clean: np.ndarray, r: int, c: int, diagonal: float
+) -> float:
+    """``field`` at (r, c) if passable, or better through a legal move (paying clean there)."""
+    best = float(field[r, c]) if passable[r, c] else math.inf
+    for dr, dc in MOVES:
+        if legal(passable, r, c, dr, dc):
+            step = diagonal if dr and dc else 1.0
+            best = min(best, step + float(clean[r + dr, c + dc]) + float(field[r + dr, c + dc]))
+    return best
+
+
+def move_obstacles(
+    grid: np.ndarray, obstacles: list[tuple[int, int]], robot: tuple[int, int], u: list[float]
+) -> list[tuple[int, int]]:
+    """Each obstacle in turn: stay or take a legal move (free static cell, no corner cutting,
+    not the robot's cell, not a cell another obstacle holds now), the option ``u`` picks."""
+    cells = list(obstacles)
+    for j, (r, c) in enumerate(cells):
+        options: list[tuple[int, int]] = [(r, c)]
+        for dr, dc in MOVES:
+            y = (r + dr, c + dc)
+            if legal(1 - grid, r, c, dr, dc) and y != robot and y not in cells:
+                options.append(y)
+        cells[j] = options[min(int(u[j] * len(options)), len(options) - 1)]
+    return cells
