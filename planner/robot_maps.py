@@ -534,9 +534,9 @@ def _channels(
     has_alpha = image.mode in ("LA", "La", "PA", "RGBA", "RGBa") or "transparency" in image.info
     if image.mode == "L":
         return np.asarray(image)[..., None], None, 255.0
-    if image.mode == "LA":
+    if image.mode == "LA":  # grey counts three times, as red, green and blue
         arr = np.asarray(image)
-        return arr[..., :1], arr[..., 1], 255.0
+        return np.repeat(arr[..., :1], 3, axis=2), arr[..., 1], 255.0
     rgb = np.asarray(image.convert("RGBA" if has_alpha else "RGB"))
     if has_alpha:
         return rgb[..., :3], rgb[..., 3], 255.0
