@@ -319,7 +319,7 @@ def analysis_key(robot_map: RobotMap, params: Params) -> tuple[Hashable, ...]:
     >>> analysis_key(m, resolve_params("wide"))[1:]
     (0.0, 'blocked', None, True, 'cells', 0.5, 2)
     >>> analysis_key(m, resolve_params("wide", robot_radius=0.5))[1:]
-    (0.5, 'blocked', None, True, 'meters', 1.5, 1.0)
+    (0.5, 'blocked', None, True, 'meters', 80.0, 0.6)
     """
     return (robot_map.map_id, *analysis_params(params, robot_map))
 

@@ -29,7 +29,7 @@ from planner.robot_maps import RobotMap, point_xy, quote
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
 
 #: Shape of the metric wall term: ``(1 - s / wide_distance) ** WIDE_EXPONENT``.
-WIDE_EXPONENT = 2.0
+WIDE_EXPONENT = 4.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +110,7 @@ def configuration_space(
 def wide_clean(cspace: CSpace, *, weight: float, wide_distance: float) -> npt.NDArray[np.float32]:
     """The ``wide`` preset's wall term in meters: for a traversable cell whose clearance beyond
     the robot's radius is ``s = distance_m - robot_radius``,
-    ``weight * (1 - s / wide_distance) ** 2`` while ``s < wide_distance``, else 0 (0 on cells
+    ``weight * (1 - s / wide_distance) ** 4`` while ``s < wide_distance``, else 0 (0 on cells
     that are not traversable). Entering a cell pays it on top of the move's length in cells."""
     s = cspace.distance_m - cspace.robot_radius
     share = np.clip(1.0 - s / wide_distance, 0.0, 1.0) if wide_distance > 0 else np.zeros_like(s)

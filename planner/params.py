@@ -69,13 +69,13 @@ class Params:
     """A cell is blocked when its occupancy (0..100) is at least this."""
     wall_cost: WallCost = "cells"
     """The wall term: ``cells`` (the paper's ``clean``, ``clean_weight`` per blocked cell within
-    ``clean_radius``), ``meters`` (``wide_weight * (1 - s / wide_distance) ** 2`` for a clearance
+    ``clean_radius``), ``meters`` (``wide_weight * (1 - s / wide_distance) ** 4`` for a clearance
     ``s`` beyond the robot's radius below ``wide_distance`` meters), or ``auto`` (``cells`` on a
     plain 0/1 grid in the default frame with a point robot, ``meters`` on any other map)."""
-    wide_weight: float = 1.5
+    wide_weight: float = 80.0
     """The metric wall term's weight, at the edge of the configuration space (per cell entered,
     where a move costs 1 a cell)."""
-    wide_distance: float = 1.0
+    wide_distance: float = 0.6
     """Meters of clearance beyond the robot's radius at which the metric wall term reaches 0."""
 
     def as_dict(self) -> dict[str, Any]:
@@ -93,7 +93,7 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "patience": (0, 1000),
     "robot_radius": (0.0, 100.0),
     "occupied_threshold": (1, 100),
-    "wide_weight": (0.0, 100.0),
+    "wide_weight": (0.0, 1000.0),
     "wide_distance": (0.0, 100.0),
 }
 
