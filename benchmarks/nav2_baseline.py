@@ -36,6 +36,7 @@ import planner  # noqa: E402
 from planner.cspace import CSpace, configuration_space  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "RESULTS.md"
+FIGURE = ROOT / "docs" / "figures" / "depot-wide-vs-nav2.png"
 MARK = "<!-- nav2-baseline -->"
 MAPS = ("depot", "tb3_sandbox", "smoothers_world")
 ALL_MAPS = ("depot", "tb3_sandbox", "smoothers_world", "TenByTen", "testmap")
@@ -176,6 +177,29 @@ def compare(name: str, folder: Path, count: int, seed: int, params: dict[str, An
     return Row(name, count, np.array(lengths), np.array(clearances), narrow)
 
 
+def figure(folder: Path, seed: int) -> None:
+    """Both planners' paths between a few seeded pairs on depot, drawn over its C-space."""
+    from planner.render import COLOURS, draw
+
+    robot_map = planner.read_ros_map(folder / "depot.yaml")
+    cs = configuration_space(robot_map, robot_radius=RADIUS)
+    cost = inflation_cost(cs)
+    analysis = planner.analyse_map(robot_map, planner.resolve_params("wide", robot_radius=RADIUS))
+    paths: list[Any] = []
+    for i, (s, g, base) in enumerate(pairs(cs, cost, 3, seed)):
+        wide = planner.plan(robot_map, s, g, analysis=analysis, robot_radius=RADIUS)
+        paths += [
+            (base, (150, 0, 200), "Nav2-style" if i == 0 else ""),
+            (wide.path, COLOURS["path"], "wide" if i == 0 else ""),
+        ]
+    image = draw(
+        analysis, paths=paths, start=paths[1][0][0], goal=paths[1][0][-1], cell=None, legend=True
+    )
+    FIGURE.parent.mkdir(parents=True, exist_ok=True)
+    image.save(FIGURE, optimize=True)
+    print(f"wrote {FIGURE.relative_to(ROOT)}")
+
+
 def first_plan_times(folder: Path) -> list[tuple[str, str, float, float, float]]:
     """(map, size, read + parse ms, analysis ms, first plan ms) for every shared map, with the
     default ``wide`` preset and a 0.22 m robot (0 on the two small maps), between two far cells."""
@@ -278,6 +302,7 @@ def main() -> int:
     ]
     print("\n".join(lines))
     if not args.no_write:
+        figure(folder, args.seed)
         old = RESULTS.read_text() if RESULTS.exists() else "# Benchmark results\n"
         head = old.split(MARK)[0].rstrip("\n")
         RESULTS.write_text(head + "\n\n" + "\n".join(lines) + "\n")

@@ -37,7 +37,7 @@ class CSpace:
     """A map's configuration space for a round robot.
 
     ``blocked``: occupied cells (and unknown ones when ``unknown`` is ``"blocked"``);
-    ``distance``: from each cell's center to the nearest blocked cell's center, in cells (the
+    ``unknown_cells``: 1 where the map says unknown (-1); ``distance``: from each cell's center to the nearest blocked cell's center, in cells (the
     map's outside counts as blocked when ``unknown`` is ``"blocked"``; +inf when nothing is
     blocked); ``traversable``: free and ``distance * resolution > robot_radius``.
     """
@@ -45,6 +45,7 @@ class CSpace:
     blocked: npt.NDArray[np.uint8]
     distance: npt.NDArray[np.float32]
     traversable: npt.NDArray[np.uint8]
+    unknown_cells: npt.NDArray[np.uint8]
     resolution: float
     robot_radius: float
     unknown: Unknown
@@ -93,6 +94,7 @@ def configuration_space(
         blocked.astype(np.uint8),
         np.sqrt(squared).astype(np.float32),
         traversable.astype(np.uint8),
+        (occ < 0).astype(np.uint8),
     )
     for arr in arrays:
         arr.flags.writeable = False
@@ -100,6 +102,7 @@ def configuration_space(
         blocked=arrays[0],
         distance=arrays[1],
         traversable=arrays[2],
+        unknown_cells=arrays[3],
         resolution=robot_map.resolution,
         robot_radius=float(robot_radius),
         unknown=unknown,
