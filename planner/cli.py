@@ -151,13 +151,13 @@ def _plan(args: argparse.Namespace) -> int:
     if args.unknown is not None:
         params["unknown"] = args.unknown
     if Path(path).suffix.lower() not in (".yaml", ".yml"):
-        start, goal = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
-        result = plan(read_map(path), start, goal, preset=args.preset, **params)
+        cells = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
+        result = plan(read_map(path), *cells, preset=args.preset, **params)
         print(json.dumps(result.summary()))
     else:
         robot_map = read_ros_map(path)
-        start, goal = _point_arg(args.start, "start"), _point_arg(args.goal, "goal")
-        result = plan(robot_map, start, goal, preset=args.preset, **params)
+        points = _point_arg(args.start, "start"), _point_arg(args.goal, "goal")
+        result = plan(robot_map, *points, preset=args.preset, **params)
         summary = result.summary()
         if args.json:
             preview = {key: summary[key] for key in PREVIEW_KEYS}

@@ -37,9 +37,10 @@ class CSpace:
     """A map's configuration space for a round robot.
 
     ``blocked``: occupied cells (and unknown ones when ``unknown`` is ``"blocked"``);
-    ``unknown_cells``: 1 where the map says unknown (-1); ``distance``: from each cell's center to the nearest blocked cell's center, in cells (the
-    map's outside counts as blocked when ``unknown`` is ``"blocked"``; +inf when nothing is
-    blocked); ``traversable``: free and ``distance * resolution > robot_radius``.
+    ``unknown_cells``: 1 where the map says unknown (-1); ``distance``: from each cell's center
+    to the nearest blocked cell's center, in cells (the map's outside counts as blocked when
+    ``unknown`` is ``"blocked"``; +inf when nothing is blocked); ``traversable``: free and
+    ``distance * resolution > robot_radius``.
     """
 
     blocked: npt.NDArray[np.uint8]
@@ -72,11 +73,19 @@ def configuration_space(
 ) -> CSpace:
     """The configuration space of a robot of ``robot_radius`` meters on ``robot_map``."""
     if isinstance(robot_radius, bool) or not isinstance(robot_radius, int | float):
-        raise InvalidInput(f"robot_radius must be a number of meters; got {quote(robot_radius)}", field="params.robot_radius")
+        raise InvalidInput(
+            f"robot_radius must be a number of meters; got {quote(robot_radius)}",
+            field="params.robot_radius",
+        )
     if not (math.isfinite(robot_radius) and robot_radius >= 0):
-        raise InvalidInput(f"robot_radius must be >= 0 meters; got {quote(robot_radius)}", field="params.robot_radius")
+        raise InvalidInput(
+            f"robot_radius must be >= 0 meters; got {quote(robot_radius)}",
+            field="params.robot_radius",
+        )
     if unknown not in ("blocked", "free"):
-        raise InvalidInput(f"unknown must be 'blocked' or 'free'; got {quote(unknown)}", field="params.unknown")
+        raise InvalidInput(
+            f"unknown must be 'blocked' or 'free'; got {quote(unknown)}", field="params.unknown"
+        )
     occ = robot_map.occupancy
     blocked = occ >= occupied_threshold
     if unknown == "blocked":
@@ -122,7 +131,9 @@ def wide_clean(cspace: CSpace, *, weight: float, wide_distance: float) -> npt.ND
     return out
 
 
-def circle_cells(robot_map: RobotMap, circles: Any, *, robot_radius: float = 0.0) -> npt.NDArray[np.int64]:
+def circle_cells(
+    robot_map: RobotMap, circles: Any, *, robot_radius: float = 0.0
+) -> npt.NDArray[np.int64]:
     """The cells whose centers lie within ``radius + robot_radius`` of a circle's center, for
     circles ``{"x", "y", "radius"}`` in meters (``(n, 2)`` ``[row, col]``, each cell once).
 
@@ -132,7 +143,10 @@ def circle_cells(robot_map: RobotMap, circles: Any, *, robot_radius: float = 0.0
     [[1, 2], [2, 1], [2, 2], [2, 3], [3, 2]]
     """
     if isinstance(circles, dict) or not isinstance(circles, list | tuple):
-        raise InvalidInput(f"circles must be a list of {{x, y, radius}}; got {quote(circles)}", field="dynamic_obstacles")
+        raise InvalidInput(
+            f"circles must be a list of {{x, y, radius}}; got {quote(circles)}",
+            field="dynamic_obstacles",
+        )
     frame = robot_map.frame
     H, W = frame.shape
     res = frame.resolution
@@ -141,12 +155,19 @@ def circle_cells(robot_map: RobotMap, circles: Any, *, robot_radius: float = 0.0
         name = f"dynamic_obstacles[{i}]"
         x, y = point_xy(circle, name=name)
         radius = circle.get("radius") if isinstance(circle, dict) else None
-        if isinstance(radius, bool) or not isinstance(radius, int | float) or not (math.isfinite(radius) and radius >= 0):
-            raise InvalidInput(f"{name}.radius must be a number of meters >= 0; got {quote(radius)}", field=f"{name}.radius")
+        if (
+            isinstance(radius, bool)
+            or not isinstance(radius, int | float)
+            or not (math.isfinite(radius) and radius >= 0)
+        ):
+            raise InvalidInput(
+                f"{name}.radius must be a number of meters >= 0; got {quote(radius)}",
+                field=f"{name}.radius",
+            )
         reach = float(radius) + robot_radius
         # The bounding box in cells (a rotated frame's box of the circle is the same square).
         (r0, c0), *_ = frame.cells([[x, y]]).tolist()
-        span = int(math.ceil(reach / res)) + 1
+        span = math.ceil(reach / res) + 1
         rows = np.arange(max(r0 - span, 0), min(r0 + span + 1, H))
         cols = np.arange(max(c0 - span, 0), min(c0 + span + 1, W))
         if rows.size == 0 or cols.size == 0:

@@ -182,17 +182,17 @@ def plan(
         if isinstance(grid, RobotMap):
             analysis = analyse_map(grid, p)
         else:
-            g = as_grid(grid)
+            cells = as_grid(grid)
             radius, unknown, _, _, wall, *_ = params_key(p, plain=True)
             if (radius, unknown, wall) == (0.0, "blocked", "cells"):
                 analysis = analyse(
-                    g,
+                    cells,
                     seal_tunnels=p.seal_tunnels,
                     clean_weight=p.clean_weight,
                     clean_radius=p.clean_radius,
                 )
             else:
-                analysis = analyse_map(grid_map(g), p)
+                analysis = analyse_map(grid_map(cells), p)
     else:
         wanted = params_key(p, plain=analysis.plain)
         if analysis.params_key != wanted:

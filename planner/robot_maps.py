@@ -117,10 +117,10 @@ class MapFrame:
     def cell_of(self, point: Any, *, name: str = "point") -> tuple[int, int]:
         """The cell containing one point, given as ``(x, y)`` or ``{"x": .., "y": ..}``.
 
-        >>> MapFrame((2, 3), 0.5).cell_of({"x": 9.0, "y": 0.0}, name="goal")
+        >>> MapFrame((2, 3), 0.5).cell_of({"x": 9.0, "y": 0.0}, name="goal")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        planner._errors.InvalidInput: goal {'x': 9.0, 'y': 0.0} is outside the map: it spans x [0, 1.5], y [0, 1] (resolution 0.5 m, origin [0.0, 0.0, 0.0])
+        planner._errors.InvalidInput: goal {'x': 9.0, 'y': 0.0} is outside the map: ...
         """
         x, y = point_xy(point, name=name)
         (r, c), *_ = self.cells([[x, y]]).tolist()
@@ -149,7 +149,9 @@ def point_xy(point: Any, *, name: str) -> tuple[float, float]:
     elif isinstance(point, Sequence | np.ndarray) and not isinstance(point, str | bytes):
         values = list(point)
     else:
-        raise InvalidInput(f"{name} must be a point (x, y) in meters; got {quote(point)}", field=name)
+        raise InvalidInput(
+            f"{name} must be a point (x, y) in meters; got {quote(point)}", field=name
+        )
     ok = len(values) == 2 and all(
         isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
         for v in values
@@ -238,7 +240,12 @@ class RobotMap:
                 "height": H,
                 "origin": {
                     "position": {"x": ox, "y": oy, "z": 0.0},
-                    "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)},
+                    "orientation": {
+                        "x": 0.0,
+                        "y": 0.0,
+                        "z": math.sin(yaw / 2),
+                        "w": math.cos(yaw / 2),
+                    },
                 },
             },
             "data": self.occupancy[::-1].ravel().tolist(),
@@ -294,7 +301,9 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
         raise InvalidInput(f"{name} must be an object; got {quote(message)}", field=name)
     info = _key(message, "info", name)
     if not isinstance(info, Mapping):
-        raise InvalidInput(f"{name}.info must be an object; got {quote(info)}", field=f"{name}.info")
+        raise InvalidInput(
+            f"{name}.info must be an object; got {quote(info)}", field=f"{name}.info"
+        )
     width = _size(_key(info, "width", f"{name}.info"), f"{name}.info.width")
     height = _size(_key(info, "height", f"{name}.info"), f"{name}.info.height")
     resolution = _resolution(_key(info, "resolution", f"{name}.info"), f"{name}.info.resolution")
@@ -306,8 +315,10 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
         values = np.asarray(data)
     except ValueError:
         values = np.asarray([None])
-    if values.dtype == object or values.ndim != 1 or not (
-        np.issubdtype(values.dtype, np.integer) or values.size == 0
+    if (
+        values.dtype == object
+        or values.ndim != 1
+        or not (np.issubdtype(values.dtype, np.integer) or values.size == 0)
     ):
         msg = f"{field} must be a flat list of integers -1..100; got {quote(data)}"
         raise InvalidInput(msg, field=field)
@@ -349,7 +360,9 @@ def _size(value: Any, field: str) -> int:
 
 def _resolution(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise InvalidInput(f"{field} must be a number of meters per cell; got {quote(value)}", field=field)
+        raise InvalidInput(
+            f"{field} must be a number of meters per cell; got {quote(value)}", field=field
+        )
     res = float(value)
     if not (math.isfinite(res) and res > 0):
         raise InvalidInput(f"{field} must be positive and finite; got {quote(value)}", field=field)
@@ -409,8 +422,9 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
     """Read a map YAML (``yaml.safe_load``): ``image``, ``resolution``, ``origin`` required;
     ``negate`` (0), ``occupied_thresh`` (0.65), ``free_thresh`` (0.196), ``mode`` (trinary).
 
-    >>> parse_map_yaml("image: m.pgm\\nresolution: 0.05\\norigin: [-1, 2, 0]\\nmode: scale")
-    MapYaml(image='m.pgm', resolution=0.05, origin=(-1.0, 2.0, 0.0), negate=False, occupied_thresh=0.65, free_thresh=0.196, mode='scale')
+    >>> meta = parse_map_yaml("image: m.pgm\\nresolution: 0.05\\norigin: [-1, 2, 0]\\nmode: scale")
+    >>> meta.origin, meta.negate, meta.occupied_thresh, meta.free_thresh, meta.mode
+    ((-1.0, 2.0, 0.0), False, 0.65, 0.196, 'scale')
     >>> parse_map_yaml("resolution: 0.05\\norigin: [0, 0, 0]\\nmode: colour")
     Traceback (most recent call last):
     ...
@@ -424,7 +438,9 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
         raise InvalidInput(f"{name} must be a mapping of keys; got {quote(doc)}", field=name)
     image = doc.get("image", "")
     if not isinstance(image, str):
-        raise InvalidInput(f"{name}.image must be a file name; got {quote(image)}", field=f"{name}.image")
+        raise InvalidInput(
+            f"{name}.image must be a file name; got {quote(image)}", field=f"{name}.image"
+        )
     for key in ("resolution", "origin"):
         if key not in doc:
             raise InvalidInput(f"{name} has no '{key}'", field=f"{name}.{key}")
@@ -515,7 +531,9 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
         out[occupied] = 100
         if meta.mode == "scale":
             between = ~free & ~occupied
-            scaled = np.rint((occ - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh) * 100)
+            scaled = np.rint(
+                (occ - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh) * 100
+            )
             out[between] = scaled[between].astype(np.int8)
             if alpha is not None:
                 out[alpha != top] = -1
@@ -560,7 +578,9 @@ def read_ros_map(path: str | os.PathLike[str]) -> RobotMap:
         raise InvalidInput(f"map file {str(p)!r} cannot be read: {exc}", field="map") from None
     meta = parse_map_yaml(text)
     if not meta.image:
-        raise InvalidInput(f"{p.name} names no image file ('image' is missing or empty)", field="yaml.image")
+        raise InvalidInput(
+            f"{p.name} names no image file ('image' is missing or empty)", field="yaml.image"
+        )
     image_path = p.parent / meta.image
     try:
         data = image_path.read_bytes()

@@ -34,7 +34,10 @@ def grid_from(text: str) -> np.ndarray:
 
 
 ROS_MAP_NAMES = ("depot", "tb3_sandbox", "smoothers_world", "TenByTen", "testmap")
-ROS_CANDIDATES = [Path(__file__).resolve().parents[1].parent, Path(__file__).resolve().parents[2].parent]
+ROS_CANDIDATES = [
+    Path(__file__).resolve().parents[1].parent,
+    Path(__file__).resolve().parents[2].parent,
+]
 
 
 @pytest.fixture(scope="session")

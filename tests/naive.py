@@ -171,7 +171,9 @@ def distances(blocked: np.ndarray, *, outside_blocked: bool) -> np.ndarray:
     return out
 
 
-def cell_center(shape: tuple[int, int], resolution: float, origin: Any, r: int, c: int) -> tuple[float, float]:
+def cell_center(
+    shape: tuple[int, int], resolution: float, origin: Any, r: int, c: int
+) -> tuple[float, float]:
     """API.md's frame formula for one cell."""
     ox, oy, yaw = origin
     x = (c + 0.5) * resolution
@@ -183,7 +185,11 @@ def cell_center(shape: tuple[int, int], resolution: float, origin: Any, r: int, 
 
 
 def circle_cells(
-    shape: tuple[int, int], resolution: float, origin: Any, circles: list[dict[str, float]], robot_radius: float
+    shape: tuple[int, int],
+    resolution: float,
+    origin: Any,
+    circles: list[dict[str, float]],
+    robot_radius: float,
 ) -> set[tuple[int, int]]:
     out = set()
     for r in range(shape[0]):

@@ -133,7 +133,9 @@ def test_plans_keep_the_robot_clear_on_the_ros_maps(ros: Path, name: str) -> Non
             continue
         start = dict(zip("xy", robot_map.frame.centers([s])[0].tolist(), strict=True))
         try:
-            plan = planner.plan(robot_map, start, g.tolist(), analysis=analysis, robot_radius=RADIUS)
+            plan = planner.plan(
+                robot_map, start, g.tolist(), analysis=analysis, robot_radius=RADIUS
+            )
         except planner.NoValidPath:
             continue
         planned += 1
@@ -144,8 +146,14 @@ def test_plans_keep_the_robot_clear_on_the_ros_maps(ros: Path, name: str) -> Non
         assert (clearance_m > RADIUS).all()
         assert plan.min_clearance_m == pytest.approx(clearance_m.min(), rel=1e-5)
         assert plan.mean_clearance_m == pytest.approx(clearance_m.mean(), rel=1e-5)
-        assert all(legal_step(traversable, a, b) for a, b in zip(path[:-1].tolist(), path[1:].tolist(), strict=True))
-        xy = [naive.cell_center(robot_map.shape, robot_map.resolution, robot_map.origin, r, c) for r, c in path.tolist()]
+        assert all(
+            legal_step(traversable, a, b)
+            for a, b in zip(path[:-1].tolist(), path[1:].tolist(), strict=True)
+        )
+        xy = [
+            naive.cell_center(robot_map.shape, robot_map.resolution, robot_map.origin, r, c)
+            for r, c in path.tolist()
+        ]
         np.testing.assert_allclose(plan.path_xy, xy, atol=1e-9)
         steps = np.hypot(*np.diff(np.array(xy), axis=0).T)
         assert plan.length_m == pytest.approx(steps.sum())
@@ -199,7 +207,9 @@ def test_unknown_space_blocked_or_free() -> None:
     # Outside the map counts as unknown: free, a corridor one cell wide is no tight tunnel.
     corridor = planner.grid_map(np.zeros((1, 6)), resolution=0.1)
     assert planner.analyse_map(corridor, planner.resolve_params("wide")).tunnels == 6
-    assert planner.analyse_map(corridor, planner.resolve_params("wide", unknown="free")).tunnels == 0
+    assert (
+        planner.analyse_map(corridor, planner.resolve_params("wide", unknown="free")).tunnels == 0
+    )
 
 
 def test_start_and_goal_in_the_margin_are_named(ros: Path) -> None:
@@ -209,8 +219,12 @@ def test_start_and_goal_in_the_margin_are_named(ros: Path) -> None:
     margin = np.argwhere(analysis.cspace.margin)[0]
     x, y = robot_map.frame.centers([margin])[0]
     with pytest.raises(InvalidInput, match="START_OCCUPIED") as info:
-        planner.plan(robot_map, {"x": x, "y": y}, (150, 150), analysis=analysis, robot_radius=RADIUS)
+        planner.plan(
+            robot_map, {"x": x, "y": y}, (150, 150), analysis=analysis, robot_radius=RADIUS
+        )
     assert info.value.field == "start"
     assert "robot_radius 0.22 m" in str(info.value)
     with pytest.raises(InvalidInput, match="outside the map"):
-        planner.plan(robot_map, {"x": -3.0, "y": 1.0}, (150, 150), analysis=analysis, robot_radius=RADIUS)
+        planner.plan(
+            robot_map, {"x": -3.0, "y": 1.0}, (150, 150), analysis=analysis, robot_radius=RADIUS
+        )

@@ -55,9 +55,13 @@ def test_ros_maps_match_a_pixel_by_pixel_parse(ros: Path, name: str) -> None:
 def test_one_map_one_id_whichever_way_it_comes(ros: Path, name: str) -> None:
     robot_map = planner.read_ros_map(ros / f"{name}.yaml")
     meta = planner.parse_map_yaml((ros / f"{name}.yaml").read_bytes())
-    uploaded = planner.parse_ros_map((ros / f"{name}.yaml").read_bytes(), (ros / meta.image).read_bytes())
+    uploaded = planner.parse_ros_map(
+        (ros / f"{name}.yaml").read_bytes(), (ros / meta.image).read_bytes()
+    )
     message = robot_map.to_occupancy_grid()
-    assert message["data"][: robot_map.shape[1]] == robot_map.occupancy[-1].tolist()  # row 0: bottom
+    assert (
+        message["data"][: robot_map.shape[1]] == robot_map.occupancy[-1].tolist()
+    )  # row 0: bottom
     as_message = planner.occupancy_grid_map(message)
     assert uploaded.map_id == robot_map.map_id == as_message.map_id
     np.testing.assert_array_equal(as_message.occupancy, robot_map.occupancy)
@@ -143,8 +147,16 @@ BAD_YAML = [
     ("resolution: 0.05\norigin: [0, 0, 0]\nmode: colour\n", "yaml.mode", "'colour'"),
     ("resolution: 0.05\norigin: [0, 0, 0]\noccupied_thresh: 1.5\n", "yaml.occupied_thresh", "1.5"),
     ("resolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: -0.1\n", "yaml.free_thresh", "-0.1"),
-    ("resolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: 0.7\noccupied_thresh: 0.6\n", "yaml.free_thresh", "0.7"),
-    ("resolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: 0.6\noccupied_thresh: 0.6\n", "yaml.free_thresh", "0.6"),
+    (
+        "resolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: 0.7\noccupied_thresh: 0.6\n",
+        "yaml.free_thresh",
+        "0.7",
+    ),
+    (
+        "resolution: 0.05\norigin: [0, 0, 0]\nfree_thresh: 0.6\noccupied_thresh: 0.6\n",
+        "yaml.free_thresh",
+        "0.6",
+    ),
     ("resolution: 0.05\norigin: [0, 0, 0]\nnegate: 2\n", "yaml.negate", "2"),
     ("resolution: 0.05\norigin: [0, 0, 0\n", "yaml", "not valid YAML"),
 ]
@@ -185,9 +197,25 @@ def grid_message(**change: object) -> dict[str, object]:
         (grid_message(data=[0, 0, 0, "x", 0, 0]), "occupancy_grid.data", "'x'"),
         (grid_message(data=[0.5] * 6), "occupancy_grid.data", "0.5"),
         ({"data": [0]}, "occupancy_grid.info", "no 'info'"),
-        (grid_message(info={"width": 3, "height": 2, "origin": {"position": {}}}), "occupancy_grid.info.resolution", "no 'resolution'"),
-        (grid_message(info={"width": 3, "height": 2, "resolution": 0, "origin": {"position": {}}}), "occupancy_grid.info.resolution", "got 0"),
-        (grid_message(info={"width": 0, "height": 2, "resolution": 1, "origin": {"position": {}}}), "occupancy_grid.info.width", "got 0"),
+        (
+            grid_message(info={"width": 3, "height": 2, "origin": {"position": {}}}),
+            "occupancy_grid.info.resolution",
+            "no 'resolution'",
+        ),
+        (
+            grid_message(
+                info={"width": 3, "height": 2, "resolution": 0, "origin": {"position": {}}}
+            ),
+            "occupancy_grid.info.resolution",
+            "got 0",
+        ),
+        (
+            grid_message(
+                info={"width": 0, "height": 2, "resolution": 1, "origin": {"position": {}}}
+            ),
+            "occupancy_grid.info.width",
+            "got 0",
+        ),
         ([1, 2], "occupancy_grid", "[1, 2]"),
     ],
 )
@@ -208,10 +236,10 @@ def test_bad_grids() -> None:
 
 def test_a_missing_image_file_is_named(tmp_path: Path) -> None:
     (tmp_path / "m.yaml").write_text("image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
-    with pytest.raises(InvalidInput, match="gone.pgm") as info:
+    with pytest.raises(InvalidInput, match=r"gone\.pgm") as info:
         planner.read_ros_map(tmp_path / "m.yaml")
     assert "does not exist" in str(info.value)
-    with pytest.raises(InvalidInput, match="nothing.yaml"):
+    with pytest.raises(InvalidInput, match=r"nothing\.yaml"):
         planner.read_ros_map(tmp_path / "nothing.yaml")
 
 
@@ -224,7 +252,9 @@ def test_testmap_centers_follow_the_formula_with_yaw(ros: Path) -> None:
     cells = np.argwhere(np.ones(robot_map.shape, dtype=bool))
     centers = robot_map.frame.centers(cells)
     for (r, c), (x, y) in zip(cells.tolist(), centers.tolist(), strict=True):
-        assert (x, y) == pytest.approx(naive.cell_center(robot_map.shape, 0.1, (2.0, 3.0, 1.0), r, c))
+        assert (x, y) == pytest.approx(
+            naive.cell_center(robot_map.shape, 0.1, (2.0, 3.0, 1.0), r, c)
+        )
     np.testing.assert_array_equal(robot_map.frame.cells(centers), cells)
 
 
