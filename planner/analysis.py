@@ -331,10 +331,10 @@ def analyse_map(robot_map: RobotMap, params: Params | None = None) -> Analysis:
     :func:`analyse` of the grid.
 
     >>> from planner.robot_maps import grid_map
-    >>> m = grid_map([[0] * 6, [0] * 6, [1, 1, 0, 0, 1, 1], [0] * 6], resolution=0.1)
-    >>> a = analyse_map(m, resolve_params("wide", robot_radius=0.05))
-    >>> a.tunnels, a.passable()[2].tolist()   # the 0.2 m gap: a tight tunnel for a 0.1 m robot
-    (2, [0, 0, 0, 0, 0, 0])
+    >>> m = grid_map([[0] * 7] * 3 + [[1, 1, 0, 0, 0, 1, 1]] + [[0] * 7] * 3, resolution=0.1)
+    >>> a = analyse_map(m, resolve_params("wide", robot_radius=0.1, unknown="free"))
+    >>> a.state[3].tolist()   # the robot only just fits through the 0.3 m gap: a tight tunnel
+    [1, 1, 1, 2, 1, 1, 1]
     """
     p = params if params is not None else resolve_params()
     wall = resolve_wall_cost(p, robot_map)

@@ -7,9 +7,9 @@ exact Euclidean distance transform (``edt``).
 
 >>> from planner.robot_maps import grid_map
 >>> m = grid_map([[0, 0, 0, 0, 0], [0, 0, 0, 0, 1]], resolution=0.1)
->>> cs = configuration_space(m, robot_radius=0.15)
+>>> cs = configuration_space(m, robot_radius=0.15, unknown="free")
 >>> cs.traversable.tolist()
-[[1, 1, 0, 0, 0], [1, 0, 0, 0, 0]]
+[[1, 1, 1, 0, 0], [1, 1, 1, 0, 0]]
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ def circle_cells(
 
     >>> from planner.robot_maps import grid_map
     >>> m = grid_map([[0] * 5] * 5, resolution=0.1)
-    >>> circle_cells(m, [{"x": 0.25, "y": 0.25, "radius": 0.1}]).tolist()
+    >>> circle_cells(m, [{"x": 0.25, "y": 0.25, "radius": 0.12}]).tolist()
     [[1, 2], [2, 1], [2, 2], [2, 3], [3, 2]]
     """
     if isinstance(circles, dict) or not isinstance(circles, list | tuple):
