@@ -10,7 +10,7 @@ is what a cache must key its analyses by.
 from __future__ import annotations
 
 import time
-from collections.abc import Hashable
+from collections.abc import Hashable, Mapping
 from functools import cached_property
 from typing import Any
 
@@ -138,7 +138,12 @@ class Analysis:
 
     @property
     def nbytes(self) -> int:
-        extra = self.__dict__["clearance"].nbytes if "clearance" in self.__dict__ else 0
+        cs = self.cspace
+        if cs is not None:  # the clearance is the configuration space's distance
+            extra = cs.blocked.nbytes + cs.distance.nbytes + cs.traversable.nbytes
+            extra += cs.unknown_cells.nbytes
+        else:
+            extra = self.__dict__["clearance"].nbytes if "clearance" in self.__dict__ else 0
         return int(self.state.nbytes + self.clean.nbytes + extra)
 
     def summary(self) -> dict[str, Any]:
@@ -243,12 +248,16 @@ def goal_wave(
     analysis: Analysis, goal: Any, *, diagonal_cost: float = SQRT2, narrow: bool = False
 ) -> Wave:
     """Run the goal wave over ``analysis``'s sealed grid (or, with ``narrow``, the unsealed one).
+    ``goal`` is a ``[row, col]`` cell or a point ``{"x", "y"}`` in meters.
 
     >>> w = goal_wave(analyse([[0, 0], [0, 0]], seal_tunnels=False, clean_weight=0), [0, 0])
     >>> w.k.round(3).tolist()
     [[0.0, 1.0], [1.0, 1.414]]
     """
-    r, c = as_cell(goal, analysis.shape, name="goal")
+    if isinstance(goal, Mapping):  # a point in meters: the cell holding it
+        r, c = analysis.frame.cell_of(goal, name="goal")
+    else:
+        r, c = as_cell(goal, analysis.shape, name="goal")
     if analysis.state[r, c] == K.OBSTACLE:
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]

@@ -199,3 +199,26 @@ def circle_cells(
                 if math.hypot(x - circle["x"], y - circle["y"]) <= circle["radius"] + robot_radius:
                     out.add((r, c))
     return out
+
+
+def nav2_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> float:
+    """The least total of ``(50 + 0.8 * cost(Y)) * step length`` over legal moves (cells of
+    infinite cost are not passable), by a textbook Dijkstra."""
+    passable = np.isfinite(cost)
+    dist = {start: 0.0}
+    heap = [(0.0, start)]
+    while heap:
+        d, (r, c) = heapq.heappop(heap)
+        if (r, c) == goal:
+            return d
+        if d > dist[(r, c)]:
+            continue
+        for dr, dc in MOVES:
+            if not legal(passable, r, c, dr, dc):
+                continue
+            y = (r + dr, c + dc)
+            nd = d + (50.0 + 0.8 * float(cost[y])) * (math.sqrt(2.0) if dr and dc else 1.0)
+            if nd < dist.get(y, math.inf):
+                dist[y] = nd
+                heapq.heappush(heap, (nd, y))
+    return math.inf
