@@ -159,10 +159,8 @@ def _plan(args: argparse.Namespace) -> int:
         points = _point_arg(args.start, "start"), _point_arg(args.goal, "goal")
         result = plan(robot_map, *points, preset=args.preset, **params)
         summary = result.summary()
-        if args.json:
-            preview = {key: summary[key] for key in PREVIEW_KEYS}
-            head = {k: summary[k] for k in ("start", "goal", "preset", "params", "narrow_fallback")}
-            print(json.dumps({**head, "preview": preview}))
+        if args.json:  # the API's preview object
+            print(json.dumps({key: summary[key] for key in PREVIEW_KEYS}))
         else:
             print(
                 f"{args.preset}: {len(result.path) - 1} moves, length {result.length_m:.2f} m, "

@@ -202,7 +202,9 @@ def _with_legend(
 ) -> Image.Image:
     """The image with a key of its colours and a scale bar in meters below it."""
     font = ImageFont.load_default(size=14)
-    entries = [(COLOURS[k], v) for k, v in LEGEND_NAMES.items()] + [e for e in extra if e[1]]
+    named = [e for e in extra if e[1]]
+    keys = [k for k in LEGEND_NAMES if not (named and k == "path")]  # the named paths instead
+    entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named
     width = max(image.width, 520)
     pad, box, row = 8, 14, 22
     x = y = pad
