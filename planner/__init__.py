@@ -4,7 +4,8 @@ The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read 
 ``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
 (cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
 decision, stepping among dynamic obstacles, the paper's simulated experiment on its six
-environments, and pictures like its figures.
+environments, and pictures like its figures. Robot maps in meters (ROS ``map_server`` YAML +
+image, ``nav_msgs/OccupancyGrid``) are planned for a round robot over its configuration space.
 
 >>> import planner
 >>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
