@@ -506,12 +506,11 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
     ``p > occupied_thresh``, 0 if ``p < free_thresh``, else -1; ``scale``: the same, with the
     values between scaled to 1..99 and any pixel not fully opaque unknown; ``raw``: the value
     ``round(shade * 255)`` if it is in 0..100, else -1."""
-    image = _open_image(data, name)
     try:
-        with warnings.catch_warnings():
+        with _open_image(data, name) as image, warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             image.load()
-        channels, alpha, top = _channels(image)
+            channels, alpha, top = _channels(image)
     except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
         msg = f"{name} does not decode: {quote(str(exc))}"
         raise InvalidInput(msg, field=name) from None
@@ -547,7 +546,8 @@ def _channels(
     """(H x W x C colour channels, the alpha channel or None, the channels' full scale)."""
     if image.mode in ("I;16", "I;16B", "I;16L", "I;16N", "I"):
         grey = np.asarray(image).astype(np.float64)
-        top = 65535.0 if image.mode.startswith("I;16") else float(max(grey.max(), 1.0))
+        # 16-bit greys (a PGM with maxval 65535 opens as "I" in recent Pillow) span 0..65535.
+        top = 65535.0 if grey.max() <= 65535 else float(grey.max())
         return grey[..., None], None, top
     has_alpha = image.mode in ("LA", "La", "PA", "RGBA", "RGBa") or "transparency" in image.info
     if image.mode == "L":

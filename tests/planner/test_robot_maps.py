@@ -292,3 +292,11 @@ def test_a_point_outside_the_map_is_named() -> None:
         assert repr(point) in str(info.value)
     with pytest.raises(InvalidInput, match="finite numbers"):
         frame.cell_of((math.nan, 0.0), name="goal")
+
+
+def test_sixteen_bit_greys_span_their_full_scale() -> None:
+    grey = (np.arange(12, dtype=np.uint16).reshape(3, 4) * 5000).astype(np.uint16)
+    robot_map = planner.parse_ros_map(YAML, png(grey))
+    occ = 1 - grey / 65535
+    expected = np.where(occ > 0.65, 100, np.where(occ < 0.196, 0, -1))
+    np.testing.assert_array_equal(robot_map.occupancy, expected)
