@@ -4,7 +4,8 @@ The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read 
 ``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
 (cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
 decision, stepping among dynamic obstacles, the paper's simulated experiment on its six
-environments, and pictures like its figures.
+environments, and pictures like its figures. Robot maps in meters (ROS ``map_server`` YAML +
+image, ``nav_msgs/OccupancyGrid``) are planned for a round robot over its configuration space.
 
 >>> import planner
 >>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
@@ -13,13 +14,35 @@ environments, and pictures like its figures.
 """
 
 from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
-from planner.analysis import Analysis, Wave, analyse, goal_wave
+from planner.analysis import (
+    Analysis,
+    Wave,
+    analyse,
+    analyse_map,
+    analysis_key,
+    analysis_params,
+    goal_wave,
+    resolve_wall_cost,
+)
+from planner.cspace import CSpace, circle_cells, configuration_space, wide_clean
 from planner.environments import TABLE1, environment
 from planner.experiment import compare, run_experiment
 from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
 from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan, reaches
 from planner.render import render_episode, render_map, render_plan
+from planner.robot_maps import (
+    MapFrame,
+    MapYaml,
+    RobotMap,
+    decode_map_image,
+    grid_map,
+    image_size,
+    occupancy_grid_map,
+    parse_map_yaml,
+    parse_ros_map,
+    read_ros_map,
+)
 from planner.session import MOVES, Session, SessionState, Step
 from planner.simulation import Episode, run_episode, simulate, warm_up
 
@@ -28,12 +51,16 @@ __all__ = [
     "PRESETS",
     "TABLE1",
     "Analysis",
+    "CSpace",
     "Episode",
     "InvalidInput",
+    "MapFrame",
+    "MapYaml",
     "NoValidPath",
     "Params",
     "Plan",
     "PlannerError",
+    "RobotMap",
     "Scenario",
     "SequenceConflict",
     "Session",
@@ -41,23 +68,37 @@ __all__ = [
     "Step",
     "Wave",
     "analyse",
+    "analyse_map",
+    "analysis_key",
+    "analysis_params",
     "as_grid",
+    "circle_cells",
     "compare",
+    "configuration_space",
+    "decode_map_image",
     "environment",
     "format_map",
     "goal_wave",
+    "grid_map",
+    "image_size",
+    "occupancy_grid_map",
     "parse_map",
+    "parse_map_yaml",
+    "parse_ros_map",
     "parse_rows",
     "plan",
     "reaches",
     "read_map",
+    "read_ros_map",
     "read_scen",
     "render_episode",
     "render_map",
     "render_plan",
     "resolve_params",
+    "resolve_wall_cost",
     "run_episode",
     "run_experiment",
     "simulate",
     "warm_up",
+    "wide_clean",
 ]

@@ -2,12 +2,15 @@
 
 Two layers, each cacheable on its own: :func:`analyse` (per map and analysis parameters) finds
 gates and tight tunnels and computes the ``clean`` field; :func:`goal_wave` (per analysis, goal
-and wave parameters) computes the cost-to-go fields ``k`` and ``kw``.
+and wave parameters) computes the cost-to-go fields ``k`` and ``kw``. :func:`analyse_map` does
+the first on a robot map in meters, over the robot's configuration space; :func:`analysis_key`
+is what a cache must key its analyses by.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Hashable, Mapping
 from functools import cached_property
 from typing import Any
 
@@ -17,10 +20,22 @@ import numpy.typing as npt
 
 from planner import _kernels as K
 from planner._errors import InvalidInput, quote
+from planner.cspace import CSpace, configuration_space, wide_clean
 from planner.grids import as_cell, as_grid
-from planner.params import PARAMETER_RANGES, SQRT2
+from planner.params import PARAMETER_RANGES, SQRT2, Params, WallCost, resolve_params
+from planner.robot_maps import MapFrame, RobotMap
 
-__all__ = ["Analysis", "Wave", "analyse", "goal_wave"]
+__all__ = [
+    "Analysis",
+    "Wave",
+    "analyse",
+    "analyse_map",
+    "analysis_key",
+    "analysis_params",
+    "goal_wave",
+    "params_key",
+    "resolve_wall_cost",
+]
 
 
 class Analysis:
@@ -29,6 +44,11 @@ class Analysis:
     ``state`` holds 0 (free), 1 (obstacle) or 2 (tight-tunnel cell, sealed when
     ``seal_tunnels`` is on). ``clean`` is the penalty of every non-obstacle cell, counted with
     sealed cells and the outside of the map as blocked.
+
+    An analysis of a robot map (:func:`analyse_map`) runs on its configuration space: an
+    obstacle there is any cell the robot's center cannot occupy; ``cspace`` keeps the map's own
+    blocked cells and distances, ``frame`` its meters. ``params_key`` is what the analysis was
+    made with (see :func:`analysis_params`).
     """
 
     def __init__(
@@ -42,6 +62,11 @@ class Analysis:
         clean_weight: float,
         clean_radius: int,
         elapsed_ms: float,
+        frame: MapFrame | None = None,
+        cspace: CSpace | None = None,
+        wall_cost: WallCost = "cells",
+        params_key: tuple[Hashable, ...] | None = None,
+        plain: bool = True,
     ) -> None:
         self.state = state
         self.clean = clean
@@ -51,8 +76,24 @@ class Analysis:
         self.clean_weight = clean_weight
         self.clean_radius = clean_radius
         self.elapsed_ms = elapsed_ms
+        self.frame = frame if frame is not None else MapFrame((state.shape[0], state.shape[1]))
+        self.cspace = cspace
+        self.wall_cost = wall_cost
+        self.plain = plain
+        self.params_key = (
+            params_key
+            if params_key is not None
+            else (0.0, "blocked", None, seal_tunnels, "cells", clean_weight, clean_radius)
+        )
         state.flags.writeable = False
         clean.flags.writeable = False
+
+    @property
+    def penalised(self) -> bool:
+        """Whether entering a cell may pay a wall term (so ``kw`` differs from ``k``)."""
+        if self.wall_cost == "meters":
+            return bool(self.clean.any())
+        return self.clean_weight > 0
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -79,7 +120,10 @@ class Analysis:
     @cached_property
     def clearance(self) -> npt.NDArray[np.float32]:
         """Euclidean distance from each cell to the nearest static obstacle (the map's outside
-        counts as one), in cells; 0 on obstacles."""
+        counts as one), in cells; 0 on obstacles. On a robot map: to the nearest blocked cell
+        of the map itself (not of the configuration space), as the unknown policy says."""
+        if self.cspace is not None:
+            return self.cspace.distance
         free = np.ascontiguousarray(self.state != K.OBSTACLE)
         out: npt.NDArray[np.float32] = edt.edt(free, black_border=True).astype(
             np.float32, copy=False
@@ -94,7 +138,12 @@ class Analysis:
 
     @property
     def nbytes(self) -> int:
-        extra = self.__dict__["clearance"].nbytes if "clearance" in self.__dict__ else 0
+        cs = self.cspace
+        if cs is not None:  # the clearance is the configuration space's distance
+            extra = cs.blocked.nbytes + cs.distance.nbytes + cs.traversable.nbytes
+            extra += cs.unknown_cells.nbytes
+        else:
+            extra = self.__dict__["clearance"].nbytes if "clearance" in self.__dict__ else 0
         return int(self.state.nbytes + self.clean.nbytes + extra)
 
     def summary(self) -> dict[str, Any]:
@@ -199,12 +248,16 @@ def goal_wave(
     analysis: Analysis, goal: Any, *, diagonal_cost: float = SQRT2, narrow: bool = False
 ) -> Wave:
     """Run the goal wave over ``analysis``'s sealed grid (or, with ``narrow``, the unsealed one).
+    ``goal`` is a ``[row, col]`` cell or a point ``{"x", "y"}`` in meters.
 
     >>> w = goal_wave(analyse([[0, 0], [0, 0]], seal_tunnels=False, clean_weight=0), [0, 0])
     >>> w.k.round(3).tolist()
     [[0.0, 1.0], [1.0, 1.414]]
     """
-    r, c = as_cell(goal, analysis.shape, name="goal")
+    if isinstance(goal, Mapping):  # a point in meters: the cell holding it
+        r, c = analysis.frame.cell_of(goal, name="goal")
+    else:
+        r, c = as_cell(goal, analysis.shape, name="goal")
     if analysis.state[r, c] == K.OBSTACLE:
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]
@@ -217,7 +270,7 @@ def goal_wave(
     flat_goal = r * analysis.shape[1] + c
     masks = K._move_masks(passable)
     k = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, False)
-    if analysis.clean_weight > 0:
+    if analysis.penalised:
         kw = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, True)
     else:
         kw = k
@@ -230,4 +283,113 @@ def goal_wave(
         narrow=narrow,
         diagonal_cost=float(diagonal_cost),
         elapsed_ms=elapsed,
+    )
+
+
+def resolve_wall_cost(params: Params, robot_map: RobotMap) -> WallCost:
+    """``params.wall_cost`` with ``auto`` resolved: ``cells`` on a plain 0/1 grid in the default
+    frame with a point robot and unknown space blocked (exactly the analysis of :func:`analyse`),
+    ``meters`` on any other map."""
+    return _wall(params, robot_map.plain)
+
+
+def _wall(params: Params, plain: bool) -> WallCost:
+    if params.wall_cost != "auto":
+        return params.wall_cost
+    legacy = plain and params.robot_radius == 0 and params.unknown == "blocked"
+    return "cells" if legacy else "meters"
+
+
+def analysis_params(params: Params, robot_map: RobotMap) -> tuple[Hashable, ...]:
+    """The parameters an analysis of ``robot_map`` depends on, and only those: ``(robot_radius,
+    unknown, occupied_threshold or None on a plain map, seal_tunnels, wall_cost resolved,
+    clean_weight and clean_radius | wide_weight and wide_distance)``."""
+    return params_key(params, plain=robot_map.plain)
+
+
+def params_key(params: Params, *, plain: bool) -> tuple[Hashable, ...]:
+    """:func:`analysis_params` for a map that is ``plain`` (see :attr:`RobotMap.plain`) or not."""
+    wall = _wall(params, plain)
+    threshold = None if plain else params.occupied_threshold
+    weights: tuple[Hashable, ...] = (
+        (params.clean_weight, params.clean_radius)
+        if wall == "cells"
+        else (params.wide_weight, params.wide_distance)
+    )
+    return (params.robot_radius, params.unknown, threshold, params.seal_tunnels, wall, *weights)
+
+
+def analysis_key(robot_map: RobotMap, params: Params) -> tuple[Hashable, ...]:
+    """The key to cache an analysis of ``robot_map`` for ``params`` by: the map's id and
+    :func:`analysis_params`. Two requests with the same key may share one analysis.
+
+    >>> from planner.robot_maps import grid_map
+    >>> m = grid_map([[0, 1], [0, 0]])
+    >>> analysis_key(m, resolve_params("wide"))[1:]
+    (0.0, 'blocked', None, True, 'cells', 0.5, 2)
+    >>> analysis_key(m, resolve_params("wide", robot_radius=0.5))[1:]
+    (0.5, 'blocked', None, True, 'meters', 80.0, 0.6)
+    """
+    return (robot_map.map_id, *analysis_params(params, robot_map))
+
+
+def analyse_map(robot_map: RobotMap, params: Params | None = None) -> Analysis:
+    """Analyse a robot map for ``params`` (default: the ``wide`` preset) over the robot's
+    configuration space: gates, tight tunnels (passages the robot only just fits through) and
+    the wall term (``params.wall_cost``). On a plain 0/1 grid with a point robot this is exactly
+    :func:`analyse` of the grid.
+
+    >>> from planner.robot_maps import grid_map
+    >>> m = grid_map([[0] * 7] * 3 + [[1, 1, 0, 0, 0, 1, 1]] + [[0] * 7] * 3, resolution=0.1)
+    >>> a = analyse_map(m, resolve_params("wide", robot_radius=0.1, unknown="free"))
+    >>> a.state[3].tolist()   # the robot only just fits through the 0.3 m gap: a tight tunnel
+    [1, 1, 1, 2, 1, 1, 1]
+    """
+    p = params if params is not None else resolve_params()
+    wall = resolve_wall_cost(p, robot_map)
+    key = analysis_params(p, robot_map)
+    t0 = time.perf_counter()
+    cs = configuration_space(
+        robot_map,
+        robot_radius=p.robot_radius,
+        unknown=p.unknown,
+        occupied_threshold=p.occupied_threshold,
+    )
+    grid = np.ascontiguousarray(1 - cs.traversable, dtype=np.uint8)
+    wants_cells = wall == "cells" and p.clean_weight > 0
+    if p.unknown == "free":
+        # The outside counts as free: classify and count on a grid padded with free cells (wide
+        # enough that the padding's own edge is out of the clean radius), then crop.
+        pad = p.clean_radius + 1
+        padded = np.pad(grid, pad)
+        state_p, gates, _ = K._classify(padded)
+        inner = (slice(pad, pad + grid.shape[0]), slice(pad, pad + grid.shape[1]))
+        state = np.ascontiguousarray(state_p[inner])
+        tunnels = int(np.count_nonzero(state == K.TUNNEL))
+        if wants_cells:
+            clean_p = K._clean(state_p, bool(p.seal_tunnels), float(p.clean_weight), p.clean_radius)
+            clean = np.ascontiguousarray(clean_p[inner])
+    else:
+        state, gates, tunnels = K._classify(grid)
+        if wants_cells:
+            clean = K._clean(state, bool(p.seal_tunnels), float(p.clean_weight), p.clean_radius)
+    if wall == "meters":
+        clean = wide_clean(cs, weight=p.wide_weight, wide_distance=p.wide_distance)
+    elif not wants_cells:
+        clean = np.zeros(grid.shape, dtype=np.float32)
+    elapsed = (time.perf_counter() - t0) * 1e3
+    return Analysis(
+        state,
+        clean,
+        gates=int(gates),
+        tunnels=int(tunnels),
+        seal_tunnels=bool(p.seal_tunnels),
+        clean_weight=float(p.clean_weight),
+        clean_radius=int(p.clean_radius),
+        elapsed_ms=elapsed,
+        frame=robot_map.frame,
+        cspace=cs,
+        wall_cost=wall,
+        params_key=key,
+        plain=robot_map.plain,
     )

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from planner._errors import PlannerError
+from planner._errors import InvalidInput, PlannerError
 from planner.analysis import analyse
 from planner.environments import DESCRIPTIONS, environment
 from planner.experiment import COMPARISONS, DYNAMIC, compare, run_experiment
@@ -22,6 +22,7 @@ from planner.grids import read_map, read_scen
 from planner.params import PRESETS, resolve_params
 from planner.planning import Plan, plan
 from planner.render import render_episode, render_plan
+from planner.robot_maps import read_ros_map
 from planner.simulation import run_episode, simulate, warm_up
 
 __all__ = ["main"]
@@ -51,8 +52,20 @@ def _parser() -> argparse.ArgumentParser:
     demo = sub.add_parser("demo", help="plan on the bundled example map and explain the result")
     demo.set_defaults(run=_demo)
 
-    p = sub.add_parser("plan", help="plan on a Moving AI .map file; print the result as JSON")
-    _map_args(p)
+    p = sub.add_parser(
+        "plan",
+        help="plan on a Moving AI .map file (cells R C) or a ROS map .yaml (points X,Y in meters)",
+    )
+    p.add_argument("map", nargs="?", type=Path, help="a Moving AI .map file (or use --map)")
+    p.add_argument("--map", dest="map_option", type=Path, help="a .map file or a ROS map .yaml")
+    p.add_argument("--start", nargs="+", required=True, metavar="R C | X,Y")
+    p.add_argument("--goal", nargs="+", required=True, metavar="R C | X,Y")
+    p.add_argument("--preset", default="wide", choices=sorted(PRESETS))
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+    p.add_argument("--robot-radius", type=float, help="the robot's radius in meters (ROS maps)")
+    p.add_argument("--unknown", choices=["blocked", "free"], help="how unknown space counts")
+    p.add_argument("--json", action="store_true", help="print the plan's preview as JSON")
+    p.add_argument("--png", type=Path, metavar="OUT.png", help="also draw the plan")
     p.set_defaults(run=_plan)
 
     s = sub.add_parser("scen", help="run a Moving AI .scen file; print a JSON summary line")
@@ -114,12 +127,71 @@ def _params(pairs: list[str]) -> dict[str, Any]:
     return out
 
 
+PREVIEW_KEYS = (
+    "path",
+    "path_xy",
+    "length",
+    "length_m",
+    "arc_cost",
+    "min_clearance",
+    "min_clearance_m",
+    "mean_clearance",
+    "mean_clearance_m",
+    "contact_ratio",
+)
+
+
 def _plan(args: argparse.Namespace) -> int:
-    result = plan(
-        read_map(args.map), args.start, args.goal, preset=args.preset, **_params(args.param)
-    )
-    print(json.dumps(result.summary()))
+    path = args.map_option or args.map
+    if path is None:
+        raise InvalidInput("plan needs a map: a .map file or --map FILE.yaml", field="map")
+    params = _params(args.param)
+    if args.robot_radius is not None:
+        params["robot_radius"] = args.robot_radius
+    if args.unknown is not None:
+        params["unknown"] = args.unknown
+    if Path(path).suffix.lower() not in (".yaml", ".yml"):
+        cells = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
+        result = plan(read_map(path), *cells, preset=args.preset, **params)
+        print(json.dumps(result.summary()))
+    else:
+        robot_map = read_ros_map(path)
+        points = _point_arg(args.start, "start"), _point_arg(args.goal, "goal")
+        result = plan(robot_map, *points, preset=args.preset, **params)
+        summary = result.summary()
+        if args.json:  # the API's preview object
+            print(json.dumps({key: summary[key] for key in PREVIEW_KEYS}))
+        else:
+            print(
+                f"{args.preset}: {len(result.path) - 1} moves, length {result.length_m:.2f} m, "
+                f"clearance min {result.min_clearance_m:.2f} m, mean "
+                f"{result.mean_clearance_m:.2f} m (robot radius "
+                f"{result.params.robot_radius:g} m), narrow fallback: {result.narrow_fallback}"
+            )
+    if args.png is not None:
+        args.png.write_bytes(render_plan(result))
+        print(f"wrote {args.png}", file=sys.stderr)
     return 0
+
+
+def _cell_arg(values: list[str], name: str) -> tuple[int, int]:
+    parts = [p for v in values for p in v.split(",") if p]
+    try:
+        r, c = (int(p) for p in parts)
+    except ValueError:
+        msg = f"--{name} takes a cell R C (two integers) on a .map file; got {' '.join(values)!r}"
+        raise InvalidInput(msg, field=name) from None
+    return r, c
+
+
+def _point_arg(values: list[str], name: str) -> dict[str, float]:
+    parts = [p for v in values for p in v.split(",") if p]
+    try:
+        x, y = (float(p) for p in parts)
+    except ValueError:
+        msg = f"--{name} takes a point X,Y in meters on a ROS map; got {' '.join(values)!r}"
+        raise InvalidInput(msg, field=name) from None
+    return {"x": x, "y": y}
 
 
 def _simulate(args: argparse.Namespace) -> int:

@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, patience, seal_tunnels
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -19,9 +19,19 @@ from typing import Any, Literal
 
 from planner._errors import InvalidInput, quote
 
-__all__ = ["PARAMETER_RANGES", "PRESETS", "Decision", "Params", "resolve_params"]
+__all__ = [
+    "PARAMETER_RANGES",
+    "PRESETS",
+    "Decision",
+    "Params",
+    "Unknown",
+    "WallCost",
+    "resolve_params",
+]
 
 Decision = Literal["wide", "paper"]
+Unknown = Literal["blocked", "free"]
+WallCost = Literal["auto", "cells", "meters"]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -48,14 +58,26 @@ class Params:
     """Held-up steps before the robot replans around the dynamic obstacles it sees."""
     allow_narrow: bool = True
     """When sealing cuts the start off the goal, plan through the tunnels instead of refusing."""
+    robot_radius: float = 0.0
+    """The robot's radius in meters: a cell is traversable when free and its center is more than
+    this from the nearest blocked cell's center (the configuration space)."""
+    unknown: Unknown = "blocked"
+    """How unknown cells and the area outside the map count: ``blocked`` or ``free``."""
+    occupied_threshold: int = 65
+    """A cell is blocked when its occupancy (0..100) is at least this."""
+    wall_cost: WallCost = "cells"
+    """The wall term: ``cells`` (the paper's ``clean``, ``clean_weight`` per blocked cell within
+    ``clean_radius``), ``meters`` (``wide_weight * (1 - s / wide_distance) ** 4`` for a clearance
+    ``s`` beyond the robot's radius below ``wide_distance`` meters), or ``auto`` (``cells`` on a
+    plain 0/1 grid in the default frame with a point robot, ``meters`` on any other map)."""
+    wide_weight: float = 80.0
+    """The metric wall term's weight, at the edge of the configuration space (per cell entered,
+    where a move costs 1 a cell)."""
+    wide_distance: float = 0.6
+    """Meters of clearance beyond the robot's radius at which the metric wall term reaches 0."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
-
-    @property
-    def analysis_key(self) -> tuple[Any, ...]:
-        """The values the map analysis depends on: equal keys, equal analyses of one map."""
-        return (self.seal_tunnels, self.clean_weight, self.clean_radius)
 
 
 #: Valid ranges (inclusive) of the numeric parameters.
@@ -66,18 +88,26 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "alpha": (0.0, 20.0),
     "beta": (0.0, 20.0),
     "patience": (0, 1000),
+    "robot_radius": (0.0, 100.0),
+    "occupied_threshold": (1, 100),
+    "wide_weight": (0.0, 1000.0),
+    "wide_distance": (0.0, 100.0),
 }
 
 _PAPER = Params(decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0)
 
 PRESETS: dict[str, Params] = {
-    "wide": Params(),
+    "wide": Params(wall_cost="auto"),
     "wfs-mmas": dataclasses.replace(_PAPER, seal_tunnels=True, clean_weight=0.5),
     "mmas": dataclasses.replace(_PAPER, seal_tunnels=False, clean_weight=0.0),
     "shortest": Params(decision="wide", seal_tunnels=False, clean_weight=0.0, clean_radius=1),
 }
 
 _FIELDS = {f.name: f for f in dataclasses.fields(Params)}
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "unknown": ("blocked", "free"),
+    "wall_cost": ("auto", "cells", "meters"),
+}
 _NAMES = tuple(_FIELDS)
 
 
@@ -109,11 +139,16 @@ def _check(name: str, value: Any) -> Any:
                 f"decision must be 'wide' or 'paper'; got {quote(value)}", field=field
             )
         return value
+    if name in _CHOICES:
+        if value not in _CHOICES[name]:
+            choices = " or ".join(repr(c) for c in _CHOICES[name])
+            raise InvalidInput(f"{name} must be {choices}; got {quote(value)}", field=field)
+        return value
     if name in ("seal_tunnels", "allow_narrow"):
         if not isinstance(value, bool):
             raise InvalidInput(f"{name} must be true or false; got {quote(value)}", field=field)
         return value
-    integral = name in ("clean_radius", "patience")
+    integral = name in ("clean_radius", "patience", "occupied_threshold")
     ok_type = isinstance(value, int) if integral else isinstance(value, int | float)
     if isinstance(value, bool) or not ok_type:
         kind = "an integer" if integral else "a number"

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -13,9 +14,10 @@ import numpy.typing as npt
 
 from planner import _kernels as K
 from planner._errors import InvalidInput, NoValidPath
-from planner.analysis import Analysis, Wave, analyse, goal_wave
-from planner.grids import as_cell
+from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
+from planner.grids import as_cell, as_grid
 from planner.params import Params, resolve_params
+from planner.robot_maps import RobotMap, grid_map, quote
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
 
@@ -90,6 +92,28 @@ class Plan:
         """Share of the path's cells touching an obstacle (clearance below 1.5)."""
         return self._clearance[2]
 
+    @cached_property
+    def path_xy(self) -> npt.NDArray[np.float64]:
+        """The path's cell centers in the map frame, meters: ``(n, 2)`` ``[x, y]``."""
+        return self.analysis.frame.centers(self.path)
+
+    @property
+    def length_m(self) -> float:
+        """The path's length in meters: the distances between its cell centers."""
+        steps = np.abs(np.diff(self.path, axis=0)).sum(axis=1)
+        cells = np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * math.sqrt(2.0)
+        return float(cells) * self.analysis.frame.resolution
+
+    @property
+    def min_clearance_m(self) -> float:
+        """:attr:`min_clearance` in meters."""
+        return self.min_clearance * self.analysis.frame.resolution
+
+    @property
+    def mean_clearance_m(self) -> float:
+        """:attr:`mean_clearance` in meters."""
+        return self.mean_clearance * self.analysis.frame.resolution
+
     @property
     def gates(self) -> int:
         return self.analysis.gates
@@ -115,6 +139,10 @@ class Plan:
             "min_clearance": round(self.min_clearance, 4),
             "mean_clearance": round(self.mean_clearance, 4),
             "contact_ratio": round(self.contact_ratio, 4),
+            "path_xy": self.path_xy.round(6).tolist(),
+            "length_m": round(self.length_m, 6),
+            "min_clearance_m": round(self.min_clearance_m, 6),
+            "mean_clearance_m": round(self.mean_clearance_m, 6),
             "analysis_ms": round(self.analysis.elapsed_ms, 3),
             "wave_ms": round(self.wave.elapsed_ms, 3),
             "elapsed_ms": round(self.elapsed_ms, 3),
@@ -131,11 +159,14 @@ def plan(
     waves: WaveSource | None = None,
     **params: Any,
 ) -> Plan:
-    """Plan from ``start`` to ``goal`` (``[row, col]`` cells) on a 0/1 occupancy ``grid``.
+    """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
 
-    ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
-    ``params`` override it one by one (see :class:`planner.Params`). A caller that caches may
-    pass the map's ``analysis`` (then ``grid`` may be None) and a ``waves`` source.
+    ``start`` and ``goal`` are ``[row, col]`` cells or points ``{"x": .., "y": ..}`` in meters
+    (the cells containing them). ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``,
+    ``shortest``; keyword ``params`` override it one by one (see :class:`planner.Params`), among
+    them ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
+    ``analysis`` (then ``grid`` may be None; build its cache key with :func:`analysis_key`) and a
+    ``waves`` source.
 
     >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
     >>> p.path.tolist(), round(p.length, 3)
@@ -148,15 +179,30 @@ def plan(
     t0 = time.perf_counter()
     p = resolve_params(preset, **params)
     if analysis is None:
-        analysis = analyse(
-            grid,
-            seal_tunnels=p.seal_tunnels,
-            clean_weight=p.clean_weight,
-            clean_radius=p.clean_radius,
-        )
-    elif (analysis.seal_tunnels, analysis.clean_weight, analysis.clean_radius) != p.analysis_key:
-        msg = "the analysis given was made with other parameters than the plan's"
-        raise InvalidInput(msg, field="analysis")
+        if isinstance(grid, RobotMap):
+            analysis = analyse_map(grid, p)
+        else:
+            cells = as_grid(grid)
+            radius, unknown, _, _, wall, *_ = params_key(p, plain=True)
+            if (radius, unknown, wall) == (0.0, "blocked", "cells"):
+                analysis = analyse(
+                    cells,
+                    seal_tunnels=p.seal_tunnels,
+                    clean_weight=p.clean_weight,
+                    clean_radius=p.clean_radius,
+                )
+            else:
+                analysis = analyse_map(grid_map(cells), p)
+    else:
+        wanted = params_key(p, plain=analysis.plain)
+        if analysis.params_key != wanted:
+            msg = (
+                "the analysis given was made with other parameters than the plan's: "
+                f"{analysis.params_key!r} (robot_radius, unknown, "
+                f"occupied_threshold, seal_tunnels, wall_cost, weights); the plan's params ask "
+                f"for {wanted!r}"
+            )
+            raise InvalidInput(msg, field="params")
     s = _free_cell(analysis, start, "start")
     g = _free_cell(analysis, goal, "goal")
 
@@ -192,10 +238,23 @@ def plan(
 
 
 def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
-    r, c = as_cell(cell, analysis.shape, name=name)
-    if analysis.state[r, c] == K.OBSTACLE:
-        raise InvalidInput(f"{name} [{r}, {c}] is on an obstacle", field=name)
-    return r, c
+    point = isinstance(cell, Mapping)
+    if point:
+        r, c = analysis.frame.cell_of(cell, name=name)
+    else:
+        r, c = as_cell(cell, analysis.shape, name=name)
+    if analysis.state[r, c] != K.OBSTACLE:
+        return r, c
+    where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
+    cs = analysis.cspace
+    if cs is None or cs.blocked[r, c]:
+        raise InvalidInput(f"{where} is on an obstacle", field=name)
+    clearance = float(cs.distance[r, c]) * cs.resolution
+    msg = (
+        f"{name.upper()}_OCCUPIED: {where} is not traversable: its clearance {clearance:.3f} m "
+        f"is not more than robot_radius {cs.robot_radius:g} m"
+    )
+    raise InvalidInput(msg, field=name)
 
 
 def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:

@@ -13,12 +13,13 @@ True
 from __future__ import annotations
 
 import io
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-from PIL import Image, ImageDraw
+from PIL import Image, ImageDraw, ImageFont
 
 from planner._errors import InvalidInput, quote
 from planner.analysis import Analysis, Wave
@@ -29,6 +30,7 @@ from planner.simulation import Episode
 __all__ = [
     "COLOURS",
     "Field",
+    "auto_cell",
     "draw",
     "render_episode",
     "render_map",
@@ -52,9 +54,27 @@ COLOURS: dict[str, tuple[int, int, int]] = {
     "grid": (225, 225, 225),
     "heat": (150, 100, 210),
     "unreachable": (200, 200, 200),
+    "unknown": (160, 170, 185),
+    "margin": (255, 200, 200),
 }
 
 MAX_CELL = 64
+
+#: The longer side, in pixels, that :func:`auto_cell` aims at.
+TARGET_SIDE = 1200
+
+#: Labelled paths drawn as lines: ``(cells, rgb, label)``.
+LabelledPath = tuple[Any, tuple[int, int, int], str]
+
+
+def auto_cell(shape: tuple[int, int]) -> int:
+    """Pixels per cell for a legible picture: about ``TARGET_SIDE`` pixels on the longer side,
+    at most 24 a cell (a 10 x 10 map), at least 1 (a map of more than 1200 cells a side).
+
+    >>> auto_cell((10, 10)), auto_cell((307, 604)), auto_cell((4000, 3000))
+    (24, 2, 1)
+    """
+    return max(1, min(24, round(TARGET_SIDE / max(shape))))
 
 
 def draw(
@@ -68,19 +88,28 @@ def draw(
     robot: Any = None,
     field: Field | None = None,
     wave: Wave | None = None,
-    cell: int = 10,
+    cell: int | None = 10,
+    paths: Sequence[LabelledPath] = (),
+    legend: bool | None = None,
 ) -> Image.Image:
-    """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell.
+    """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
+    (``None``: :func:`auto_cell`).
 
-    ``path`` cells are filled green, ``preview`` cells pale green under them; ``dynamic`` cells
-    blue; ``start``, ``goal`` and the ``robot``'s cell are discs. ``field`` tints free cells by
-    ``analysis.clean`` or by ``wave.kw`` (``wave`` is then required).
+    ``path`` cells are filled green, ``preview`` cells pale green under them (lines through the
+    cells' centers below 6 pixels a cell); ``dynamic`` cells blue; ``start``, ``goal`` and the
+    ``robot``'s cell are discs. ``field`` tints free cells by ``analysis.clean`` or by
+    ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
+    On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
+    the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
+    on for robot maps) adds a key and a scale bar in meters below the map.
 
     >>> from planner import analyse
     >>> image = draw(analyse([[0, 1], [1, 0]]), cell=3)   # a gate: the red line across it
     >>> image.size, image.getpixel((1, 1)), image.getpixel((4, 1))
     ((6, 6), (220, 0, 0), (0, 0, 0))
     """
+    if cell is None:
+        cell = auto_cell(analysis.shape)
     if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= MAX_CELL:
         msg = f"cell must be an integer number of pixels in [1, {MAX_CELL}]; got {quote(cell)}"
         raise InvalidInput(msg, field="cell")
@@ -89,11 +118,20 @@ def draw(
     rgb[:] = COLOURS["free"]
     if field is not None:
         rgb[:] = _heat(analysis, field, wave)
-    rgb[analysis.state == 1] = COLOURS["obstacle"]
+    cs = analysis.cspace
+    if cs is not None:
+        rgb[cs.margin] = COLOURS["margin"]
+        rgb[(cs.blocked == 1) & (cs.unknown_cells == 0)] = COLOURS["obstacle"]
+        rgb[cs.unknown_cells == 1] = COLOURS["unknown"]
+    else:
+        rgb[analysis.state == 1] = COLOURS["obstacle"]
     if analysis.seal_tunnels:  # unsealed tunnel cells are ordinary free cells to the planner
         rgb[analysis.state == 2] = COLOURS["tunnel"]
+    lines_: list[LabelledPath] = []
     for cells, colour in ((preview, "preview"), (path, "path"), (dynamic, "dynamic")):
-        if cells is not None:
+        if cells is not None and cell < 6 and colour != "dynamic":
+            lines_.append((cells, COLOURS[colour], colour))
+        elif cells is not None:
             rc = _cells(cells, analysis.shape, colour)
             rgb[rc[:, 0], rc[:, 1]] = COLOURS[colour]
     big = np.repeat(np.repeat(rgb, cell, axis=0), cell, axis=1)
@@ -106,6 +144,10 @@ def draw(
     image = Image.fromarray(big, "RGB")
     pen = ImageDraw.Draw(image)
     half = cell / 2
+    for cells, rgb_, _ in [*lines_, *paths]:
+        rc = _cells(cells, analysis.shape, "path")
+        points = [(c * cell + half, r * cell + half) for r, c in rc.tolist()]
+        pen.line(points, fill=rgb_, width=max(3, cell // 2), joint="curve")
     for r1, c1, r2, c2 in analysis.gate_cells().tolist():
         pen.line(
             [(c1 * cell + half, r1 * cell + half), (c2 * cell + half, r2 * cell + half)],
@@ -114,17 +156,98 @@ def draw(
         )
         for r, c in ((r1, c1), (r2, c2)):  # a dot on each gap cell, visible at any scale
             pen.rectangle(_box(r, c, cell, cell // 3), fill=COLOURS["gate"])
+    radius = cs.robot_radius / cs.resolution * cell if cs is not None else 0.0
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
         if cells is not None:
             (r, c), *_ = _cells([cells], analysis.shape, colour).tolist()
-            pen.ellipse(
-                _box(r, c, cell, max(cell // 8, 0)), fill=COLOURS[colour], outline=(0, 0, 0)
-            )
+            if cell < 6:  # a disc bigger than the cell, or it would not show
+                x, y, k = c * cell + half, r * cell + half, 5
+                pen.ellipse((x - k, y - k, x + k, y + k), fill=COLOURS[colour], outline=(0, 0, 0))
+            else:
+                pen.ellipse(
+                    _box(r, c, cell, max(cell // 8, 0)), fill=COLOURS[colour], outline=(0, 0, 0)
+                )
+            if radius >= 1 and colour in ("start", "robot"):  # the robot's footprint
+                x, y = c * cell + half, r * cell + half
+                pen.ellipse(
+                    (x - radius, y - radius, x + radius, y + radius),
+                    outline=COLOURS["robot"],
+                    width=2,
+                )
+    if legend if legend is not None else cs is not None:
+        image = _with_legend(image, analysis, cell, [(rgb_, label) for _, rgb_, label in paths])
     return image
 
 
+LEGEND_NAMES = {
+    "free": "free",
+    "obstacle": "blocked",
+    "unknown": "unknown",
+    "margin": "C-space margin",
+    "tunnel": "tight tunnel (sealed)",
+    "gate": "gate",
+    "path": "path",
+    "robot": "robot (footprint)",
+    "dynamic": "dynamic obstacle",
+    "start": "start",
+    "goal": "goal",
+}
+
+
+def _with_legend(
+    image: Image.Image,
+    analysis: Analysis,
+    cell: int,
+    extra: list[tuple[tuple[int, int, int], str]],
+) -> Image.Image:
+    """The image with a key of its colours and a scale bar in meters below it."""
+    font = ImageFont.load_default(size=14)
+    named = [e for e in extra if e[1]]
+    keys = [k for k in LEGEND_NAMES if not (named and k == "path")]  # the named paths instead
+    entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named
+    width = max(image.width, 520)
+    pad, box, row = 8, 14, 22
+    x = y = pad
+    placed = []
+    for colour, label in entries:
+        w = box + 6 + int(font.getlength(label)) + 16
+        if x + w > width - pad:
+            x, y = pad, y + row
+        placed.append((x, y, colour, label))
+        x += w
+    height = y + row + 34
+    out = Image.new("RGB", (width, image.height + height), (255, 255, 255))
+    out.paste(image, (0, 0))
+    pen = ImageDraw.Draw(out)
+    top = image.height
+    for x, y, colour, label in placed:
+        pen.rectangle((x, top + y, x + box, top + y + box), fill=colour, outline=(90, 90, 90))
+        pen.text((x + box + 6, top + y - 1), label, fill=(0, 0, 0), font=font)
+    # The scale bar: a round number of meters, about a fifth of the picture.
+    meters_per_px = analysis.frame.resolution / cell
+    target = width / 5 * meters_per_px
+    step = 10 ** math.floor(math.log10(target))
+    length = max(m * step for m in (1, 2, 5) if m * step <= target)
+    px = length / meters_per_px
+    y0 = top + y + row + 12
+    pen.rectangle((pad, y0, pad + px, y0 + 5), fill=(0, 0, 0))
+    pen.text((pad + px + 8, y0 - 6), f"{length:g} m", fill=(0, 0, 0), font=font)
+    res = analysis.frame.resolution
+    pen.text(
+        (pad + px + 70, y0 - 6),
+        f"{analysis.shape[1]} x {analysis.shape[0]} cells of {res:g} m",
+        fill=(90, 90, 90),
+        font=font,
+    )
+    return out
+
+
 def render_map(
-    analysis: Analysis, *, field: Field | None = None, wave: Wave | None = None, cell: int = 10
+    analysis: Analysis,
+    *,
+    field: Field | None = None,
+    wave: Wave | None = None,
+    cell: int | None = None,
 ) -> bytes:
     """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint).
 
@@ -141,7 +264,7 @@ def render_plan(
     trajectory: Any = None,
     dynamic: Any = None,
     field: Field | None = None,
-    cell: int = 10,
+    cell: int | None = None,
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
     so far and the ``dynamic`` obstacles' cells (the plan endpoint).

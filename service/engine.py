@@ -15,6 +15,8 @@ from typing import Any
 
 import planner
 from planner._errors import quote
+from planner.analysis import params_key
+from planner.render import auto_cell
 from schemas import PlanCreate, SimulationCreate
 from service.cache import ByteLRU
 from service.config import Settings
@@ -29,13 +31,14 @@ MAX_IMAGE_SIDE = 8192
 
 
 def analysis_key(map_id: str, params: planner.Params) -> Hashable:
-    """The cache key of a map's analysis for ``params``."""
-    return ("analysis", map_id, *params.analysis_key)
+    """The cache key of a map's analysis for ``params`` (the planner names what it depends on)."""
+    return ("analysis", map_id, *params_key(params, plain=True))
 
 
 def wave_key(map_id: str, params: planner.Params, goal: Any, narrow: bool) -> Hashable:
     """The cache key of a goal wave over that analysis (``narrow``: over the unsealed grid)."""
-    return ("wave", map_id, *params.analysis_key, tuple(goal), params.diagonal_cost, narrow)
+    key = params_key(params, plain=True)
+    return ("wave", map_id, *key, tuple(goal), params.diagonal_cost, narrow)
 
 
 def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:
@@ -46,11 +49,11 @@ def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:
 
 
 def cell_size(shape: tuple[int, int], cell: int | None) -> int:
-    """Pixels per cell of a picture: the caller's, within the image limit, or one that makes a
-    picture of about 800 pixels (1 to 10 a cell)."""
+    """Pixels per cell of a picture: the caller's, within the image limit, or the planner's
+    legible default (:func:`planner.render.auto_cell`)."""
     side = max(shape)
     if cell is None:
-        return max(1, min(10, 800 // side))
+        return auto_cell(shape)
     if side * cell > MAX_IMAGE_SIDE:
         msg = (
             f"cell {cell} would draw the {shape[0]} x {shape[1]} map {side * cell} pixels wide; "
@@ -159,9 +162,7 @@ class Engine:
 
 
 def _analyse(grid: Grid, p: planner.Params) -> planner.Analysis:
-    analysis = planner.analyse(
-        grid, seal_tunnels=p.seal_tunnels, clean_weight=p.clean_weight, clean_radius=p.clean_radius
-    )
+    analysis = planner.analyse_map(planner.grid_map(grid), p)
     analysis.clearance  # noqa: B018 - computed now, in the pool, so that nbytes is final
     return analysis
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections import deque
+from typing import Any
 
 import numpy as np
 
@@ -167,3 +168,110 @@ def move_obstacles(
                 options.append(y)
         cells[j] = options[min(int(u[j] * len(options)), len(options) - 1)]
     return cells
+
+
+# --------------------------------------------------------------------------------------------
+# Robot maps: map_server's pixel rule, distances and circles, one cell at a time.
+
+
+def ros_occupancy(
+    image: Any, *, mode: str, negate: bool, occupied_thresh: float, free_thresh: float
+) -> np.ndarray:
+    """map_server's loadMapFromFile, pixel by pixel, from a Pillow image (row 0 at the top)."""
+    has_alpha = image.mode in ("LA", "RGBA", "PA") or "transparency" in image.info
+    rgba = image.convert("RGBA")
+    W, H = image.size
+    out = np.zeros((H, W), dtype=np.int8)
+    for y in range(H):
+        for x in range(W):
+            r, g, b, a = rgba.getpixel((x, y))
+            channels = [r, g, b]
+            if mode == "trinary" and has_alpha:
+                channels.append(a)
+            shade = sum(channels) / len(channels) / 255.0
+            occ = shade if negate else 1.0 - shade
+            if mode == "trinary":
+                value = 100 if occ > occupied_thresh else 0 if occ < free_thresh else -1
+            elif mode == "scale":
+                if has_alpha and a != 255:
+                    value = -1
+                elif occ > occupied_thresh:
+                    value = 100
+                elif occ < free_thresh:
+                    value = 0
+                else:
+                    value = round((occ - free_thresh) / (occupied_thresh - free_thresh) * 100)
+            else:
+                v = math.floor(shade * 255 + 0.5)
+                value = v if 0 <= v <= 100 else -1
+            out[y, x] = value
+    return out
+
+
+def distances(blocked: np.ndarray, *, outside_blocked: bool) -> np.ndarray:
+    """From every cell's center to the nearest blocked cell's center, in cells, by brute force
+    (the ring of cells just outside the map counts when ``outside_blocked``)."""
+    H, W = blocked.shape
+    sources = [(int(r), int(c)) for r, c in np.argwhere(blocked)]
+    if outside_blocked:
+        sources += [(r, -1) for r in range(-1, H + 1)] + [(r, W) for r in range(-1, H + 1)]
+        sources += [(-1, c) for c in range(W)] + [(H, c) for c in range(W)]
+    out = np.full((H, W), math.inf)
+    for r in range(H):
+        for c in range(W):
+            for sr, sc in sources:
+                out[r, c] = min(out[r, c], math.hypot(r - sr, c - sc))
+    return out
+
+
+def cell_center(
+    shape: tuple[int, int], resolution: float, origin: Any, r: int, c: int
+) -> tuple[float, float]:
+    """API.md's frame formula for one cell."""
+    ox, oy, yaw = origin
+    x = (c + 0.5) * resolution
+    y = (shape[0] - 1 - r + 0.5) * resolution
+    return (
+        ox + math.cos(yaw) * x - math.sin(yaw) * y,
+        oy + math.sin(yaw) * x + math.cos(yaw) * y,
+    )
+
+
+def circle_cells(
+    shape: tuple[int, int],
+    resolution: float,
+    origin: Any,
+    circles: list[dict[str, float]],
+    robot_radius: float,
+) -> set[tuple[int, int]]:
+    out = set()
+    for r in range(shape[0]):
+        for c in range(shape[1]):
+            x, y = cell_center(shape, resolution, origin, r, c)
+            for circle in circles:
+                if math.hypot(x - circle["x"], y - circle["y"]) <= circle["radius"] + robot_radius:
+                    out.add((r, c))
+    return out
+
+
+def nav2_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> float:
+    """The least total of ``(50 + 0.8 * cost(Y)) * step length`` over legal moves (cells of
+    infinite cost are not passable), by a textbook Dijkstra."""
+    passable = np.isfinite(cost)
+    dist = {start: 0.0}
+    heap = [(0.0, start)]
+    while heap:
+        d, (r, c) = heapq.heappop(heap)
+        if (r, c) == goal:
+            return d
+        if d > dist[(r, c)]:
+            continue
+        for dr, dc in MOVES:
+            if not legal(passable, r, c, dr, dc):
+                continue
+            y = (r + dr, c + dc)
+            nd = d + (50.0 + 0.8 * float(cost[y])) * (math.sqrt(2.0) if dr and dc else 1.0)
+            if nd < dist.get(y, math.inf):
+                dist[y] = nd
+                heapq.heappush(heap, (nd, y))
+    return math.inf

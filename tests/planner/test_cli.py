@@ -72,3 +72,64 @@ def test_demo_runs_as_a_module() -> None:
     )
     assert "shortest" in done.stdout
     assert "wide" in done.stdout
+
+
+def test_plan_on_a_ros_map_in_meters(
+    ros: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out_png = tmp_path / "plan.png"
+    args = ["plan", "--map", str(ros / "depot.yaml"), "--start", "2.0,3.0", "--goal", "25,10"]
+    code, out, _ = run_cli(
+        [*args, "--robot-radius", "0.22", "--json", "--png", str(out_png)], capsys
+    )
+    assert code == 0
+    preview = json.loads(out)
+    assert {"path", "path_xy", "length", "length_m", "min_clearance_m", "mean_clearance_m"} <= set(
+        preview
+    )
+    assert preview["min_clearance_m"] > 0.22
+    start_xy, goal_xy = preview["path_xy"][0], preview["path_xy"][-1]
+    half = 0.025 + 1e-9  # half a cell: the center of the cell holding the point
+    assert start_xy == pytest.approx([2.0, 3.0], abs=half)
+    assert goal_xy == pytest.approx([25.0, 10.0], abs=half)
+    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, _ = run_cli([*args, "--robot-radius", "0.22"], capsys)
+    assert code == 0
+    assert "length" in out
+    assert "m (robot radius 0.22 m)" in out
+
+
+def test_plan_on_a_ros_map_errors_are_one_line(ros: Path, tmp_path: Path) -> None:
+    (tmp_path / "m.yaml").write_text("image: gone.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    cases = [
+        (["--map", str(tmp_path / "m.yaml"), "--start", "0,0", "--goal", "1,1"], "gone.pgm"),
+        (
+            ["--map", str(ros / "depot.yaml"), "--start", "2,3", "--goal", "250,10"],
+            "outside the map",
+        ),
+        (["--map", str(ros / "depot.yaml"), "--start", "two,3", "--goal", "25,10"], "X,Y"),
+        (
+            [
+                "--map",
+                str(ros / "depot.yaml"),
+                "--start",
+                "0.05,0.05",
+                "--goal",
+                "25,10",
+                "--robot-radius",
+                "0.22",
+            ],
+            "START_OCCUPIED",
+        ),
+    ]
+    for args, needle in cases:
+        done = subprocess.run(
+            [sys.executable, "-m", "planner", "plan", *args],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        assert done.returncode == 2, done.stderr
+        assert needle in done.stderr
+        assert "Traceback" not in done.stderr
+        assert len(done.stderr.strip().splitlines()) == 1, done.stderr

@@ -156,3 +156,24 @@ def test_render_cli_writes_png_and_gif(tmp_path: Path) -> None:
     assert main(args) == 0
     assert decode(png.read_bytes()).size == (200, 200)
     assert frames(decode(gif.read_bytes())) > 50
+
+
+def test_robot_maps_get_a_legible_picture_with_a_key(ros: Path) -> None:
+    robot_map = planner.read_ros_map(ros / "depot.yaml")
+    p = planner.plan(robot_map, (250, 40), (106, 500), robot_radius=0.22)
+    image = decode(render_plan(p))
+    assert 1000 <= image.width <= 1400  # 2 pixels a cell on a 604-cell-wide map
+    assert image.height > 2 * 307  # the key and the scale bar below the map
+    small = planner.read_ros_map(ros / "TenByTen.yaml")
+    picture = decode(planner.render_map(planner.analyse_map(small)))
+    assert picture.width >= 200  # many pixels a cell on a 10 x 10 map
+    # The margin, unknown cells and the robot's footprint have colours of their own.
+    analysis = p.analysis
+    assert analysis.cspace is not None
+    r, c = np.argwhere(analysis.cspace.margin)[0]
+    at_margin = decode(render_map(analysis, cell=CELL))
+    assert at(at_margin, (r, c)) == COLOURS["margin"]
+    unknown = planner.grid_map([[0, -1], [0, 0]], resolution=0.5)
+    shown = decode(render_map(planner.analyse_map(unknown), cell=CELL))
+    assert at(shown, (0, 1)) == COLOURS["unknown"]
+    assert len({COLOURS[k] for k in ("margin", "unknown", "obstacle", "free", "tunnel")}) == 5
