@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, patience, rho, seal_tunnels
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, patience, rho, seal_tunnels
 """
 
 from __future__ import annotations
@@ -50,6 +50,10 @@ class Params:
     """Held-up steps before the robot replans around the dynamic obstacles it sees."""
     allow_narrow: bool = True
     """When sealing cuts the start off the goal, plan through the tunnels instead of refusing."""
+    dynamic_margin: int = 1
+    """Cells (Chebyshev distance) around each dynamic obstacle treated as blocked for a step: 1
+    covers every cell an obstacle can reach in one move, so a robot moving at the same time as
+    the obstacles never meets one; 0 blocks only the cells they occupy (the paper's robot)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -64,9 +68,12 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "beta": (0.0, 20.0),
     "rho": (0.01, 1.0),
     "patience": (0, 1000),
+    "dynamic_margin": (0, 8),
 }
 
-_PAPER = Params(decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0)
+_PAPER = Params(
+    decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0, dynamic_margin=0
+)
 
 PRESETS: dict[str, Params] = {
     "wide": Params(),
@@ -103,7 +110,7 @@ def _check(name: str, value: Any) -> Any:
         if not isinstance(value, bool):
             raise InvalidInput(f"{name} must be true or false; got {value!r}", field=field)
         return value
-    integral = name in ("clean_radius", "patience")
+    integral = name in ("clean_radius", "patience", "dynamic_margin")
     ok_type = isinstance(value, int) if integral else isinstance(value, int | float)
     if isinstance(value, bool) or not ok_type:
         kind = "an integer" if integral else "a number"
