@@ -20,7 +20,7 @@ from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, 
 from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan, reaches
 from planner.render import render_episode, render_map, render_plan
-from planner.session import MOVES, Session, SessionState, Step
+from planner.session import MOVES, Session, SessionState, Step, detour
 from planner.simulation import Episode, run_episode, simulate, warm_up
 
 __all__ = [
@@ -43,6 +43,7 @@ __all__ = [
     "analyse",
     "as_grid",
     "compare",
+    "detour",
     "environment",
     "format_map",
     "goal_wave",

@@ -231,23 +231,17 @@ class Session:
         if st.status == "blocked":  # the static map cannot change: only a new position helps
             return self._answer(seq, previous, "WAIT")
         searching = self.may_replan
-        wave = plan.wave
         p = plan.params
-        r, c = previous
         on_plan = self._on_plan(previous)
-        if st.detour and on_plan and self._route_clear(previous, obstacles):
-            # The blockage that made the detour is gone: back to the plan's (better) route.
-            st.detour = []
-            st.narrow_fallback = False
         i, outcome = -1, K.WAIT
-        if st.detour or on_plan:
-            tabu = self._tabu(r, c) if self._visited is not None else 0
-            target = st.detour[0] if st.detour else -1
-            i, outcome = K._decide(
-                wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles,
-                p.dynamic_margin, tabu, plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta,
-                p.diagonal_cost, target,
-            )  # fmt: skip
+        if on_plan and (not st.detour or self._route_clear(previous, obstacles)):
+            i, outcome = self._decide(previous, obstacles, -1)
+            if outcome == K.MOVE and st.detour:
+                # The blockage that made the detour is gone: back to the plan's better route.
+                st.detour = []
+                st.narrow_fallback = False
+        if st.detour and outcome != K.MOVE:
+            i, outcome = self._decide(previous, obstacles, st.detour[0])
         status: Status = "moving"
         if outcome in (K.WAIT, K.BLOCKED) and searching:
             found = self._search(previous, obstacles, on_plan)
@@ -284,6 +278,20 @@ class Session:
         st.status = "arrived" if st.position == plan.goal else status
         return self._answer(seq, previous, MOVES[i], narrow_move)
 
+    def _decide(
+        self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], target: int
+    ) -> tuple[int, int]:
+        plan, p = self.plan, self.plan.params
+        wave = plan.wave
+        r, c = cell
+        tabu = self._tabu(r, c) if self._visited is not None else 0
+        i, outcome = K._decide(
+            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles,
+            p.dynamic_margin, tabu, plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta,
+            p.diagonal_cost, target,
+        )  # fmt: skip
+        return int(i), int(outcome)
+
     def _on_plan(self, cell: tuple[int, int]) -> bool:
         """Whether the plan's grid leads from ``cell`` to the goal (not a pocket sealing shut)."""
         wave = self.plan.wave
@@ -308,7 +316,10 @@ class Session:
         )  # fmt: skip
         if route.size == 0:
             return False
-        return not np.isin(route[1:], _blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
+        rows, cols = np.divmod(route, W)
+        # The cells entered, and the two cells beside each diagonal move (never squeezed past).
+        passed = np.concatenate((route[1:], rows[:-1] * W + cols[1:], rows[1:] * W + cols[:-1]))
+        return not np.isin(passed, _blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
 
     def _search(
         self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], on_plan: bool
