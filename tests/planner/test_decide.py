@@ -3,6 +3,7 @@ step (both decisions, margins, tabu lists, detour targets, evading) and the repl
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -49,10 +50,11 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
             if 0 <= r + dr < H and 0 <= c + dc < W:
                 target = (r + dr, c + dc)
         paper = p.params.decision == "paper"
+        flat_target = -1 if target is None else target[0] * W + target[1]
         got = K._decide(
             w.passable, w.k, w.kw, a.clean, r, c, np.ascontiguousarray(obstacles), margin, tabu,
             p.goal[0], p.goal[1], K.MODE_PAPER if paper else K.MODE_WIDE, p.params.alpha,
-            p.params.beta, p.params.diagonal_cost, -1 if target is None else target[0] * W + target[1],
+            p.params.beta, p.params.diagonal_cost, flat_target,
         )  # fmt: skip
         want = naive.decide(
             w.passable, w.k, w.kw, a.clean, (r, c), [tuple(map(int, o)) for o in obstacles],
@@ -84,7 +86,7 @@ def test_detour_is_an_optimal_legal_way_round_the_obstacles(seed: int) -> None:
             route = [start, *map(tuple, cells.tolist())]
             assert route[-1] == p.goal
             cost = 0.0
-            for (r, c), (nr, nc) in zip(route[:-1], route[1:], strict=True):
+            for (r, c), (nr, nc) in itertools.pairwise(route):
                 dr, dc = nr - r, nc - c
                 assert naive.legal(passable, r, c, dr, dc)
                 assert all(naive.chebyshev((nr, nc), o) > margin for o in obstacles)

@@ -108,7 +108,8 @@ def test_reported_in_a_sealed_pocket_it_leaves_by_the_narrow_way(
     preset: str, grid: np.ndarray, pocket: tuple[int, int], door: tuple[int, int]
 ) -> None:
     p = planner.plan(grid, (2, 1), (2, 8), preset=preset)
-    assert not p.narrow_fallback and p.analysis.state[door] == 2  # the door is sealed
+    assert not p.narrow_fallback
+    assert p.analysis.state[door] == 2  # the door is a sealed tight tunnel
     session = planner.Session(p)
     assert session.may_replan_at(list(pocket))  # the service runs this step in its pool
     steps = [session.step([], position=list(pocket))]
