@@ -21,7 +21,8 @@ def random_case(seed: int) -> tuple[planner.Plan, np.random.Generator]:
     H, W = (int(v) for v in rng.integers(5, 12, size=2))
     grid = (rng.random((H, W)) < rng.uniform(0.05, 0.35)).astype(np.uint8)
     free = np.argwhere(grid == 0)
-    goal = tuple(int(v) for v in free[rng.integers(len(free))])
+    gr, gc = (int(v) for v in free[rng.integers(len(free))])
+    goal = (gr, gc)
     preset = ("wide", "wfs-mmas", "mmas", "shortest")[seed % 4]
     # The analysis and waves of a plan from the goal to itself: every cell's fields.
     return planner.plan(grid, goal, goal, preset=preset), rng
@@ -57,7 +58,7 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
             p.params.beta, p.params.diagonal_cost, flat_target,
         )  # fmt: skip
         want = naive.decide(
-            w.passable, w.k, w.kw, a.clean, (r, c), [tuple(map(int, o)) for o in obstacles],
+            w.passable, w.k, w.kw, a.clean, (r, c), [(int(o[0]), int(o[1])) for o in obstacles],
             margin, tabu_cells, p.goal, paper, p.params.alpha, p.params.beta,
             p.params.diagonal_cost, target,
         )  # fmt: skip
@@ -70,9 +71,10 @@ def test_detour_is_an_optimal_legal_way_round_the_obstacles(seed: int) -> None:
     a, w = p.analysis, p.wave
     free = np.argwhere(a.state != K.OBSTACLE)
     for _ in range(10):
-        start = tuple(int(v) for v in free[rng.integers(len(free))])
+        sr, sc = (int(v) for v in free[rng.integers(len(free))])
+        start = (sr, sc)
         m = int(rng.integers(0, 5))
-        obstacles = [tuple(int(v) for v in o) for o in free[rng.integers(len(free), size=m)]]
+        obstacles = [(int(o[0]), int(o[1])) for o in free[rng.integers(len(free), size=m)]]
         margin = int(rng.integers(0, 3))
         for narrow in (False, True):
             cells = planner.detour(p, start, obstacles, margin=margin, narrow=narrow)
