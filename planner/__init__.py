@@ -21,7 +21,7 @@ from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan, reaches
 from planner.render import render_episode, render_map, render_plan
 from planner.session import MOVES, Session, SessionState, Step, detour
-from planner.simulation import Episode, run_episode, simulate, warm_up
+from planner.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
 __all__ = [
     "MOVES",
@@ -31,6 +31,7 @@ __all__ = [
     "Episode",
     "InvalidInput",
     "NoValidPath",
+    "ObstacleMotion",
     "Params",
     "Plan",
     "PlannerError",
