@@ -377,7 +377,9 @@ class Session:
         if self._visited is not None:
             self._visited.add(nr * self._width + nc)
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
-        st.arc_cost += float(self.plan.wave.k[nr, nc])
+        # A cell the plan's grid seals has no k of its own: it counts its cost-to-go along the
+        # narrow way the robot follows (what the paper's k is: the cost to go from there).
+        st.arc_cost += self.remaining() or 0.0
 
     def _answer(
         self, seq: int, previous: tuple[int, int], move: str, narrow: bool | None = None
