@@ -168,7 +168,12 @@ class Session:
                 on_detour = False
         if cell == self.plan.goal or (st.status == "blocked" and cell == st.position):
             return False
-        if not on_detour and not self._on_plan(cell):
+        return self._may_search(held, replan_at, on_detour or self._on_plan(cell))
+
+    def _may_search(self, held: int, replan_at: int, guided: bool) -> bool:
+        """Off the plan's grid with no detour to follow (not ``guided``), the robot searches at
+        once and then every ``patience`` steps; else once held up for ``patience`` steps."""
+        if not guided:
             return held >= replan_at
         return held >= max(self.plan.params.patience, replan_at)
 
@@ -230,9 +235,9 @@ class Session:
         st.iteration += 1
         if st.status == "blocked":  # the static map cannot change: only a new position helps
             return self._answer(seq, previous, "WAIT")
-        searching = self.may_replan
         p = plan.params
         on_plan = self._on_plan(previous)
+        searching = self._may_search(st.held_up, st.replan_at, bool(st.detour) or on_plan)
         i, outcome = -1, K.WAIT
         if on_plan and (not st.detour or self._route_clear(previous, obstacles)):
             i, outcome = self._decide(previous, obstacles, -1)
@@ -295,6 +300,8 @@ class Session:
     def _on_plan(self, cell: tuple[int, int]) -> bool:
         """Whether the plan's grid leads from ``cell`` to the goal (not a pocket sealing shut)."""
         wave = self.plan.wave
+        if wave.passable[cell] and wave.kw[cell] < np.inf:  # the usual case, without a kernel call
+            return True
         value = K._cost_here(
             wave.passable, wave.kw, self.plan.analysis.clean, cell[0], cell[1],
             wave.diagonal_cost, True,
@@ -379,7 +386,8 @@ class Session:
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
         # A cell the plan's grid seals has no k of its own: it counts its cost-to-go along the
         # narrow way the robot follows (what the paper's k is: the cost to go from there).
-        st.arc_cost += self.remaining() or 0.0
+        wave = self.plan.wave
+        st.arc_cost += float(wave.k[nr, nc]) if wave.passable[nr, nc] else self.remaining() or 0.0
 
     def _answer(
         self, seq: int, previous: tuple[int, int], move: str, narrow: bool | None = None
