@@ -68,6 +68,10 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("--dynamic", type=int, default=10, help="number of dynamic obstacles")
     m.add_argument("--seed", type=int, default=0)
     m.add_argument("--max-steps", type=int)
+    m.add_argument(
+        "--obstacle-motion", choices=["turns", "simultaneous"], default="turns",
+        help="obstacles move before the robot decides (turns) or while it moves (simultaneous)",
+    )  # fmt: skip
     m.set_defaults(run=_simulate)
 
     e = sub.add_parser("experiment", help="the paper's experiment: six environments, Table 1")
@@ -135,6 +139,7 @@ def _simulate(args: argparse.Namespace) -> int:
         dynamic=args.dynamic,
         seed=args.seed,
         max_steps=args.max_steps,
+        obstacle_motion=args.obstacle_motion,
         **_params(args.param),
     )
     print(json.dumps(episode.metrics))

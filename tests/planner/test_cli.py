@@ -72,3 +72,12 @@ def test_demo_runs_as_a_module() -> None:
     )
     assert "shortest" in done.stdout
     assert "wide" in done.stdout
+
+
+def test_simulate_takes_the_obstacle_motion(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["simulate", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26"]
+    code, out, _ = run_cli([*args, "--dynamic", "8", "--obstacle-motion", "simultaneous"], capsys)
+    assert code == 0
+    metrics = json.loads(out)
+    assert metrics["obstacle_motion"] == "simultaneous"
+    assert metrics["collisions"] == 0
