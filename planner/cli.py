@@ -142,7 +142,7 @@ def _simulate(args: argparse.Namespace) -> int:
         obstacle_motion=args.obstacle_motion,
         **_params(args.param),
     )
-    print(json.dumps(episode.metrics))
+    print(json.dumps({**episode.metrics, "obstacle_motion": episode.obstacle_motion}))
     return 0
 
 

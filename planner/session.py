@@ -443,8 +443,8 @@ def detour(
 
     >>> from planner import plan
     >>> p = plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [0, 2], preset="shortest")
-    >>> detour(p, [0, 0], [[0, 1]], margin=0).tolist()
-    [[1, 1], [0, 2]]
+    >>> detour(p, [0, 0], [[0, 1]], margin=0).tolist()   # round it, cutting no corner of it
+    [[1, 0], [1, 1], [1, 2], [0, 2]]
     >>> detour(p, [0, 0], [[0, 1]], margin=1).tolist()
     []
     """

@@ -45,6 +45,8 @@ class Episode:
     """``(steps + 1, m, 2)``: the obstacles' cells at the start and after each of their moves
     (``(0, m, 2)`` when the episode was run without ``record``)."""
     metrics: dict[str, Any]
+    obstacle_motion: ObstacleMotion = "turns"
+    """Whether the obstacles moved before the robot decided (``turns``) or with it."""
 
 
 def simulate(
@@ -165,14 +167,13 @@ def run_episode(
         "mean_clearance": round(mean_c, 4),
         "contact_ratio": round(contact, 4),
         "collisions": collisions,
-        "obstacle_motion": obstacle_motion,
         "analysis_ms": round(plan.analysis.elapsed_ms + plan.wave.elapsed_ms, 3),
         "step_us": round(step_seconds / max(steps, 1) * 1e6, 3),
         "episode_ms": round((time.perf_counter() - t_start) * 1e3, 3),
     }
     shape = (len(history), dynamic, 2)
     obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)
-    return Episode(plan, trajectory, obstacle_cells, metrics)
+    return Episode(plan, trajectory, obstacle_cells, metrics, obstacle_motion)
 
 
 def warm_up() -> None:

@@ -11,7 +11,7 @@ from planner.cli import EXAMPLE_GOAL, EXAMPLE_MAP, EXAMPLE_START
 METRICS = {
     "reached", "status", "iterations", "moves", "waits", "replans", "path_length", "arc_cost",
     "gates", "tunnels", "narrow_fallback", "min_clearance", "mean_clearance", "contact_ratio",
-    "collisions", "obstacle_motion", "analysis_ms", "step_us", "episode_ms",
+    "collisions", "analysis_ms", "step_us", "episode_ms",
 }  # fmt: skip
 TIMINGS = {"analysis_ms", "step_us", "episode_ms"}
 
@@ -100,7 +100,7 @@ def crowded(seed: int) -> np.ndarray:
 def test_simultaneous_obstacles_move_after_the_robot_decides_and_never_onto_its_cell() -> None:
     grid = crowded(1)
     e = planner.simulate(grid, (0, 0), (23, 23), dynamic=30, seed=3, obstacle_motion="simultaneous")
-    assert e.metrics["obstacle_motion"] == "simultaneous"
+    assert e.obstacle_motion == "simultaneous"
     robot = recount_positions(e)  # decided from the obstacles at each tick's start
     moved = [cell for i, cell in enumerate(robot) if i == 0 or cell != robot[i - 1]]
     assert moved == [tuple(c) for c in e.trajectory.tolist()]
@@ -151,7 +151,7 @@ def recount_positions(e: planner.Episode) -> list[tuple[int, int]]:
     session = planner.Session(e.plan)
     out = [session.state.position]
     for t in range(len(e.obstacles) - 1):
-        seen = e.obstacles[t + 1] if e.metrics["obstacle_motion"] == "turns" else e.obstacles[t]
+        seen = e.obstacles[t + 1] if e.obstacle_motion == "turns" else e.obstacles[t]
         out.append(session.step(seen).position)
     return out
 
