@@ -5,11 +5,13 @@ and the paper's decision waiting for its next cell."""
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import numpy as np
 import pytest
 
 import planner
+from planner import _kernels as K
 from tests.conftest import grid_from
 
 PRESETS = sorted(planner.PRESETS)
@@ -290,3 +292,47 @@ def test_paper_presets_replan_after_patience(preset: str) -> None:
     assert statuses.count("waiting") == 3
     assert statuses.count("replanned") == 1
     assert tuple(parked[0]) not in session.state.trajectory
+
+
+# --- may_replan is honest ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("preset", PRESETS)
+@pytest.mark.parametrize("motion", ["turns", "simultaneous"])
+def test_searches_happen_only_on_steps_announced_by_may_replan(
+    preset: str, motion: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[int] = []
+    search = K._detour
+
+    def counted(*args: Any) -> np.ndarray:
+        calls.append(1)
+        result: np.ndarray = search(*args)
+        return result
+
+    monkeypatch.setattr(K, "_detour", counted)
+    rng = np.random.default_rng(7)
+    searched = 0
+    for seed in range(6):
+        grid = (rng.random((20, 20)) < 0.25).astype(np.uint8)
+        grid[0, 0] = grid[19, 19] = 0
+        try:
+            p = planner.plan(grid, (0, 0), (19, 19), preset=preset, patience=2)
+        except planner.NoValidPath:
+            continue
+        session = planner.Session(p)
+        free = np.argwhere(grid == 0)
+        for t in range(150):
+            obstacles = free[rng.integers(len(free), size=25)]
+            obstacles = obstacles[(obstacles != session.state.position).any(axis=1)]
+            # Now and then the robot is reported elsewhere (a pocket, maybe).
+            position = free[rng.integers(len(free))].tolist() if t % 37 == 36 else None
+            announced = session.may_replan_at(position)
+            before = len(calls)
+            step = session.step(obstacles, position=position)
+            if len(calls) > before:
+                assert announced, (seed, t, step)
+                searched += 1
+            if step.status in ("arrived", "blocked"):
+                break
+    assert searched > 0
