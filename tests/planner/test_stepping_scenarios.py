@@ -254,6 +254,41 @@ def test_detour_dropped_once_the_blockage_is_gone(preset: str) -> None:
     assert all(1 <= r <= 5 for r, _ in session.state.trajectory[gone_after + 4 :])
 
 
+# --- 5. Obstacles that move at the same time as the robot ---------------------------------------
+
+OPEN = grid_from(
+    """
+    .........
+    .........
+    .........
+    .........
+    .........
+    """
+)
+# One obstacle crossing the robot's row at column 4, a cell per tick from tick 3 on: where it
+# stands at the start of each tick (it moves during the tick, at the same time as the robot).
+CROSSING = [(0, 4)] * 3 + [(1, 4), (2, 4), (3, 4)] + [(4, 4)] * 20
+
+
+@pytest.mark.parametrize(("margin", "collides"), [(0, True), (1, False)])
+def test_an_obstacle_crossing_while_the_robot_moves(margin: int, collides: bool) -> None:
+    p = planner.plan(OPEN, (2, 0), (2, 8), preset="wide", dynamic_margin=margin)
+    assert all(r == 2 for r, _ in p.path.tolist())
+    session = planner.Session(p)
+    collisions = 0
+    for t in range(len(CROSSING) - 1):
+        here = session.state.position
+        assert CROSSING[t + 1] != here  # it never steps onto the robot's cell
+        step = session.step([list(CROSSING[t])])  # decided from the tick's start
+        landed = step.position == CROSSING[t + 1]
+        swapped = step.position == CROSSING[t] and CROSSING[t + 1] == here
+        collisions += landed or swapped
+        if step.status == "arrived":
+            break
+    assert session.state.status == "arrived"
+    assert (collisions > 0) == collides
+
+
 # --- 6. The paper's decision waits for its next cell -------------------------------------------
 
 
