@@ -384,10 +384,10 @@ class Session:
         if self._visited is not None:
             self._visited.add(nr * self._width + nc)
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
-        # A cell the plan's grid seals has no k of its own: it counts its cost-to-go along the
-        # narrow way the robot follows (what the paper's k is: the cost to go from there).
-        wave = self.plan.wave
-        st.arc_cost += float(wave.k[nr, nc]) if wave.passable[nr, nc] else self.remaining() or 0.0
+        # A cell the plan's grid seals (or cuts off from the goal) has no k: it counts its
+        # cost-to-go along the narrow way the robot follows (what k is: the cost to go from there).
+        k = float(self.plan.wave.k[nr, nc])
+        st.arc_cost += k if k < np.inf else self.remaining() or 0.0
 
     def _answer(
         self, seq: int, previous: tuple[int, int], move: str, narrow: bool | None = None

@@ -202,6 +202,44 @@ def test_door_parked_for_good_it_takes_the_narrow_gap_once(preset: str, patience
     assert (3, 12) in session.state.trajectory
     assert not {(3, 3), (3, 4)} & set(session.state.trajectory)
     assert not steps[-1].narrow_fallback  # back on the wide plan's grid below the wall
+    assert np.isfinite(session.state.arc_cost)
+
+
+TWO_GAPS = grid_from(
+    """
+    ...............
+    ...............
+    ###..#######.##
+    .....#####....#
+    .....#####....#
+    .....######.###
+    ...............
+    ...............
+    """
+)
+
+
+def test_the_narrow_way_crosses_a_room_that_sealing_cut_off() -> None:
+    # Parked door: the way round runs through a gap, a small room and a second gap; the room is
+    # free but cut off from the goal on the sealed grid (no k there).
+    p = planner.plan(TWO_GAPS, (0, 4), (7, 4), preset="wide")
+    assert not np.isfinite(p.wave.k[3, 11])
+    session = planner.Session(p)
+    steps = []
+    for _ in range(120):
+        session = rebuilt(session)
+        steps.append(session.step(PARKED))
+        if steps[-1].status == "arrived":
+            break
+    assert steps[-1].status == "arrived"
+    assert [s.status for s in steps].count("replanned") == 1
+    trail = session.state.trajectory
+    assert (2, 12) in trail
+    assert (5, 11) in trail
+    in_room = [s for s in steps if 3 <= s.position[0] <= 4 and s.position[1] >= 10]
+    assert in_room
+    assert all(s.narrow_fallback and s.remaining is not None for s in in_room)
+    assert np.isfinite(session.state.arc_cost)
 
 
 def test_door_freed_again_the_robot_keeps_the_wide_way() -> None:
