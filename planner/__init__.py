@@ -43,8 +43,8 @@ from planner.robot_maps import (
     parse_ros_map,
     read_ros_map,
 )
-from planner.session import MOVES, Session, SessionState, Step
-from planner.simulation import Episode, run_episode, simulate, warm_up
+from planner.session import MOVES, Session, SessionState, Step, detour
+from planner.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
 __all__ = [
     "MOVES",
@@ -57,6 +57,7 @@ __all__ = [
     "MapFrame",
     "MapYaml",
     "NoValidPath",
+    "ObstacleMotion",
     "Params",
     "Plan",
     "PlannerError",
@@ -76,6 +77,7 @@ __all__ = [
     "compare",
     "configuration_space",
     "decode_map_image",
+    "detour",
     "environment",
     "format_map",
     "goal_wave",

@@ -396,6 +396,7 @@ def _decide_core(
     r: int,
     c: int,
     dyn: int,
+    raw: int,
     on_me: bool,
     contact: np.ndarray,
     tabu: int,
@@ -409,55 +410,77 @@ def _decide_core(
 ) -> tuple[int, int]:
     """(move index or -1, outcome) for the robot at (r, c).
 
-    ``dyn``: occupied neighbours (bit mask); ``on_me``: an obstacle stands on the robot's cell;
+    ``dyn``: neighbours blocked by dynamic obstacles this step, margin included (bit mask);
+    ``raw``: neighbours an obstacle stands on; ``on_me``: an obstacle stands on the robot's cell;
     ``contact[i]``: obstacles touching neighbour i; ``tabu``: visited neighbours (bit mask, paper
     decision only); ``target``: the flat index of a detour's next cell, or -1.
+
+    A detour's next cell is taken when no dynamic obstacle blocks the move (the detour itself
+    is statically legal: it may cross cells the decision's grid seals). The paper decision
+    waits when the neighbour it prefers with no dynamic obstacles is blocked (ALGORITHM.md §4);
+    the wide one takes the best feasible neighbour that is closer, else waits.
     """
     W = passable.shape[1]
-    here = _cost_here(passable, kw, clean, r, c, diagonal_cost, True)
-    if here == np.inf:
-        return -1, BLOCKED
-    feasible = _legal_moves(passable, r, c, dyn)
-
     chosen = -1
     if target >= 0:
+        tr = target // W
+        tc = target - tr * W
         for i in range(8):
-            if (feasible >> i) & 1 and (r + DR[i]) * W + c + DC[i] == target:
-                chosen = i
-    elif mode == MODE_PAPER and feasible & ~tabu:
-        best = np.inf
-        for i in range(8):
-            if not ((feasible >> i) & 1) or (tabu >> i) & 1:
+            if r + DR[i] != tr or c + DC[i] != tc or (dyn >> i) & 1:
                 continue
-            yr = r + DR[i]
-            yc = c + DC[i]
-            if k[yr, yc] == np.inf:
-                continue
-            h = np.sqrt((yr - goal_r) ** 2.0 + (yc - goal_c) ** 2.0)
-            # Eq. (3): P(Y) = S(Y) / sum(S); the least P is the least S.
-            s = (k[yr, yc] + clean[yr, yc]) ** alpha * h**beta
-            if s < best:
-                best = s
+            # A diagonal squeezes past neither of its orthogonal cells when one is blocked.
+            if not (i & 1) or not ((dyn >> ((i + 7) & 7)) & 1 or (dyn >> ((i + 1) & 7)) & 1):
                 chosen = i
-    if chosen < 0 and target < 0:
-        # The wide decision: the feasible neighbour of least cost + clean + kw, if it is closer.
-        best = np.inf
-        for i in range(8):
-            if (feasible >> i) & 1:
-                v = _wide_value(kw, clean, r, c, i, diagonal_cost)
-                if v < best:
-                    best = v
-                    chosen = i
-        if chosen >= 0 and not kw[r + DR[chosen], c + DC[chosen]] < here:
-            chosen = -1
-    if chosen >= 0:
-        return chosen, MOVE
+        if chosen >= 0:
+            return chosen, MOVE
+    else:
+        here = _cost_here(passable, kw, clean, r, c, diagonal_cost, True)
+        if here == np.inf:
+            return -1, BLOCKED
+        feasible = _legal_moves(passable, r, c, dyn)
+        wide = True
+        if mode == MODE_PAPER:
+            static = _legal_moves(passable, r, c, 0)
+            best = np.inf
+            preferred = -1
+            for i in range(8):
+                if not ((static >> i) & 1) or (tabu >> i) & 1:
+                    continue
+                yr = r + DR[i]
+                yc = c + DC[i]
+                if k[yr, yc] == np.inf:
+                    continue
+                h = np.sqrt((yr - goal_r) ** 2.0 + (yc - goal_c) ** 2.0)
+                # Eq. (3): P(Y) = S(Y) / sum(S); the least P is the least S.
+                s = (k[yr, yc] + clean[yr, yc]) ** alpha * h**beta
+                if s < best:
+                    best = s
+                    preferred = i
+            if preferred >= 0:
+                wide = False
+                if (feasible >> preferred) & 1:
+                    chosen = preferred
+        if wide:
+            # The wide decision: the feasible neighbour of least cost + clean + kw, if closer.
+            best = np.inf
+            for i in range(8):
+                if (feasible >> i) & 1:
+                    v = _wide_value(kw, clean, r, c, i, diagonal_cost)
+                    if v < best:
+                        best = v
+                        chosen = i
+            if chosen >= 0 and not kw[r + DR[chosen], c + DC[chosen]] < here:
+                chosen = -1
+        if chosen >= 0:
+            return chosen, MOVE
     if on_me:
-        # Move away, to the neighbour of least contact (then the best by the wide value).
+        # Move away, to the neighbour of least contact (then the best by the wide value); a cell
+        # beside an obstacle beats staying on one, so only occupied cells are refused here.
+        escape = _legal_moves(passable, r, c, raw)
         best_contact = 1 << 30
         best = np.inf
         for i in range(8):
-            if not (feasible >> i) & 1:
+            if not (escape >> i) & 1:
                 continue
             v = _wide_value(kw, clean, r, c, i, diagonal_cost)
             if v == np.inf:
@@ -480,6 +503,7 @@ def _decide(
     r: int,
     c: int,
     obstacles: np.ndarray,
+    margin: int,
     tabu: int,
     goal_r: int,
     goal_c: int,
@@ -489,27 +513,31 @@ def _decide(
     diagonal_cost: float,
     target: int,
 ) -> tuple[int, int]:
-    """One step's decision among dynamic ``obstacles`` (an (m, 2) array of cells)."""
+    """One step's decision among dynamic ``obstacles`` (an (m, 2) array of cells), each blocking
+    the cells within Chebyshev distance ``margin`` of it."""
     dyn = 0
+    raw = 0
     on_me = False
     contact = np.zeros(8, dtype=np.int64)
+    reach = max(margin, 1) + 1
     for j in range(obstacles.shape[0]):
         dr = obstacles[j, 0] - r
         dc = obstacles[j, 1] - c
-        if abs(dr) > 2 or abs(dc) > 2:
+        if abs(dr) > reach or abs(dc) > reach:
             continue
         if dr == 0 and dc == 0:
             on_me = True
         for i in range(8):
-            er = dr - DR[i]
-            ec = dc - DC[i]
-            if er == 0 and ec == 0:
-                dyn |= 1 << i
-            elif abs(er) <= 1 and abs(ec) <= 1:
+            d = max(abs(dr - DR[i]), abs(dc - DC[i]))
+            if d == 0:
+                raw |= 1 << i
+            elif d == 1:
                 contact[i] += 1
+            if d <= margin:
+                dyn |= 1 << i
     return _decide_core(
-        passable, k, kw, clean, r, c, dyn, on_me, contact, tabu, goal_r, goal_c, mode, alpha,
-        beta, diagonal_cost, target,
+        passable, k, kw, clean, r, c, dyn, raw, on_me, contact, tabu, goal_r, goal_c, mode,
+        alpha, beta, diagonal_cost, target,
     )  # fmt: skip
 
 
@@ -560,7 +588,7 @@ def _walk(
                 if 0 <= yr < H and 0 <= yc < W and visited[yr * W + yc]:
                     tabu |= 1 << i
         i, outcome = _decide_core(
-            passable, k, kw, clean, r, c, 0, False, contact, tabu, gr, gc, mode, alpha, beta,
+            passable, k, kw, clean, r, c, 0, 0, False, contact, tabu, gr, gc, mode, alpha, beta,
             diagonal_cost, -1,
         )  # fmt: skip
         if outcome != MOVE:
@@ -576,29 +604,40 @@ def _walk(
 @njit(cache=True, nogil=True)
 def _detour(
     passable: np.ndarray,
-    kw: np.ndarray,
+    field: np.ndarray,
     clean: np.ndarray,
     start: int,
     goal: int,
     diagonal_cost: float,
     obstacles: np.ndarray,
+    margin: int,
+    use_field: bool,
 ) -> np.ndarray:
-    """The replan of §4: A* from ``start`` to ``goal`` with the dynamic ``obstacles`` blocked.
+    """The replan of §4: A* from ``start`` to ``goal`` over ``passable`` with every cell within
+    Chebyshev distance ``margin`` of a dynamic obstacle blocked.
 
-    Costs are the wide ones (move + clean of the cell entered) and the heuristic is ``kw``, the
-    exact cost-to-go without dynamic obstacles: consistent, so the detour is optimal and the
-    search stays near the blocked stretch. Returns the cells after ``start`` up to the goal
-    (flat indices), or an empty array when the obstacles cut the robot off.
+    Costs are the wide ones (move + clean of the cell entered). With ``use_field`` the heuristic
+    is ``field`` (``kw``: the exact cost-to-go over ``passable`` without dynamic obstacles, so the
+    search stays near the blocked stretch, and cells it marks unreachable are skipped); else the
+    octile distance, for a grid the field was not computed on (the unsealed one). Both are
+    consistent, so the detour is optimal. Returns the cells after ``start`` up to the goal (flat
+    indices), or an empty array when there is no way. ``start`` itself may be blocked.
     """
     H, W = passable.shape
     n = H * W
     free = passable.ravel().copy()
     for j in range(obstacles.shape[0]):
-        r = obstacles[j, 0]
-        c = obstacles[j, 1]
-        if 0 <= r < H and 0 <= c < W:
-            free[r * W + c] = 0
-    h = kw.ravel()
+        orow = obstacles[j, 0]
+        ocol = obstacles[j, 1]
+        for r in range(max(orow - margin, 0), min(orow + margin + 1, H)):
+            for c in range(max(ocol - margin, 0), min(ocol + margin + 1, W)):
+                free[r * W + c] = 0
+    if free[goal] == 0:
+        return np.empty(0, dtype=np.int64)
+    gr = goal // W
+    gc = goal - gr * W
+    straight = min(diagonal_cost, 2.0) - 1.0
+    h = field.ravel()
     pen = clean.ravel()
     g = np.full(n, np.inf)
     parent = np.full(n, -1, dtype=np.int64)
@@ -606,7 +645,7 @@ def _detour(
     items = np.empty(n, dtype=np.int64)
     pos = np.full(n, _OUTSIDE, dtype=np.int64)
     g[start] = 0.0
-    size = _push_or_decrease(keys, items, pos, 0, start, h[start] if free[start] else 0.0)
+    size = _push_or_decrease(keys, items, pos, 0, start, 0.0)
     found = False
     while size > 0:
         x, _, size = _pop(keys, items, pos, size)
@@ -621,8 +660,16 @@ def _detour(
             if yr < 0 or yr >= H or yc < 0 or yc >= W:
                 continue
             y = yr * W + yc
-            if free[y] == 0 or pos[y] == _CLOSED or h[y] == np.inf:
+            if free[y] == 0 or pos[y] == _CLOSED:
                 continue
+            if use_field:
+                hy = h[y]
+                if hy == np.inf:
+                    continue
+            else:
+                a = abs(yr - gr)
+                b = abs(yc - gc)
+                hy = max(a, b) + straight * min(a, b)
             if i & 1:
                 if free[xr * W + yc] == 0 or free[yr * W + xc] == 0:
                     continue
@@ -632,7 +679,7 @@ def _detour(
             if ng < g[y]:
                 g[y] = ng
                 parent[y] = x
-                size = _push_or_decrease(keys, items, pos, size, y, ng + h[y])
+                size = _push_or_decrease(keys, items, pos, size, y, ng + hy)
     if not found:
         return np.empty(0, dtype=np.int64)
     count = 0

@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -75,6 +75,10 @@ class Params:
     where a move costs 1 a cell)."""
     wide_distance: float = 0.6
     """Meters of clearance beyond the robot's radius at which the metric wall term reaches 0."""
+    dynamic_margin: int = 1
+    """Cells (Chebyshev distance) around each dynamic obstacle treated as blocked for a step: 1
+    covers every cell an obstacle can reach in one move, so a robot moving at the same time as
+    the obstacles never meets one; 0 blocks only the cells they occupy (the paper's robot)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -92,9 +96,12 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "occupied_threshold": (1, 100),
     "wide_weight": (0.0, 1000.0),
     "wide_distance": (0.0, 100.0),
+    "dynamic_margin": (0, 8),
 }
 
-_PAPER = Params(decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0)
+_PAPER = Params(
+    decision="paper", clean_radius=1, diagonal_cost=1.4, alpha=3.0, beta=1.0, dynamic_margin=0
+)
 
 PRESETS: dict[str, Params] = {
     "wide": Params(wall_cost="auto"),
@@ -148,7 +155,7 @@ def _check(name: str, value: Any) -> Any:
         if not isinstance(value, bool):
             raise InvalidInput(f"{name} must be true or false; got {quote(value)}", field=field)
         return value
-    integral = name in ("clean_radius", "patience", "occupied_threshold")
+    integral = name in ("clean_radius", "patience", "occupied_threshold", "dynamic_margin")
     ok_type = isinstance(value, int) if integral else isinstance(value, int | float)
     if isinstance(value, bool) or not ok_type:
         kind = "an integer" if integral else "a number"

@@ -16,9 +16,10 @@ import numpy.typing as npt
 from planner import _kernels as K
 from planner._errors import InvalidInput, SequenceConflict, quote
 from planner.grids import as_cell
+from planner.params import PARAMETER_RANGES
 from planner.planning import Plan
 
-__all__ = ["MOVES", "Session", "SessionState", "Status", "Step"]
+__all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
 
 #: Move names by kernel move index; ``WAIT`` stays put.
 MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
@@ -39,7 +40,11 @@ class Step:
     path_length: float
     arc_cost: float
     remaining: float | None
-    """Plain cost-to-go ``k`` from ``position`` (None when the goal cannot be reached)."""
+    """Plain cost-to-go ``k`` from ``position`` (None when the goal cannot be reached); off the
+    plan's sealed grid, the length of the narrow route the robot follows out."""
+    narrow_fallback: bool = False
+    """The robot follows a route through tight tunnels: the plan's own narrow fallback, or a
+    detour that only the unsealed grid allows (a sealed pocket left, or the wide way parked)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -52,6 +57,7 @@ class Step:
             "path_length": self.path_length,
             "arc_cost": self.arc_cost,
             "remaining": self.remaining,
+            "narrow_fallback": self.narrow_fallback,
         }
 
     @classmethod
@@ -75,6 +81,8 @@ class SessionState:
     waits: int = 0
     replans: int = 0
     detour: list[int] = field(default_factory=list)
+    narrow_fallback: bool = False
+    """The current ``detour`` crosses cells that sealing closed."""
     trajectory: list[tuple[int, int]] = field(default_factory=list)
     last_seq: int | None = None
     last_step: Step | None = None
@@ -91,6 +99,7 @@ class SessionState:
             "waits": self.waits,
             "replans": self.replans,
             "detour": list(self.detour),
+            "narrow_fallback": self.narrow_fallback,
             "trajectory": list(self.trajectory),
             "last_seq": self.last_seq,
             "last_step": None if self.last_step is None else self.last_step.as_dict(),
@@ -114,7 +123,9 @@ class Session:
     """A robot following a plan among dynamic obstacles, one :meth:`step` at a time.
 
     >>> from planner import plan
-    >>> s = Session(plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest"))
+    >>> p = plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest",
+    ...          dynamic_margin=0)
+    >>> s = Session(p)
     >>> s.step([[1, 1]]).move   # the diagonal is taken: go round
     'E'
     >>> s.step([]).move, s.step([]).status
@@ -136,10 +147,35 @@ class Session:
 
     @property
     def may_replan(self) -> bool:
-        """Whether the next step may run the replan (an A* search, up to the whole map); any
-        other step is a bounded look at the robot's neighbourhood, microseconds of work."""
+        """Whether the next step (without a reported ``position``) may search: an A* search, up
+        to the whole map. Any other step is a bounded look at the robot's neighbourhood (and,
+        on a detour, a walk down the plan's field), microseconds of work."""
+        return self.may_replan_at(None)
+
+    def may_replan_at(self, position: Any = None) -> bool:
+        """:attr:`may_replan` for a step that reports the robot at ``position``: a position off
+        the plan's sealed grid (a pocket that sealing closed) is searched out of at once."""
         st = self.state
-        return st.held_up >= max(self.plan.params.patience, st.replan_at)
+        cell = st.position
+        held, replan_at, on_detour = st.held_up, st.replan_at, bool(st.detour)
+        if position is not None:
+            try:
+                cell = as_cell(position, self.plan.analysis.shape, name="position")
+            except InvalidInput:
+                return False  # the step will refuse it
+            if cell != st.position:
+                held = replan_at = 0
+                on_detour = False
+        if cell == self.plan.goal or (st.status == "blocked" and cell == st.position):
+            return False
+        return self._may_search(held, replan_at, on_detour or self._on_plan(cell))
+
+    def _may_search(self, held: int, replan_at: int, guided: bool) -> bool:
+        """Off the plan's grid with no detour to follow (not ``guided``), the robot searches at
+        once and then every ``patience`` steps; else once held up for ``patience`` steps."""
+        if not guided:
+            return held >= replan_at
+        return held >= max(self.plan.params.patience, replan_at)
 
     def step(
         self,
@@ -167,36 +203,13 @@ class Session:
                 raise SequenceConflict(msg, field="seq")
         else:
             seq = 0 if st.last_seq is None else st.last_seq + 1
-        obstacles = self._obstacles(dynamic_obstacles)
+        obstacles = _obstacles(dynamic_obstacles, self.plan.analysis.shape)
         if position is not None:
             self._relocate(position)
         step = self._advance(seq, obstacles)
         st.last_seq = seq
         st.last_step = step
         return step
-
-    def _obstacles(self, cells: Any) -> npt.NDArray[np.int64]:
-        try:
-            obstacles = np.asarray(cells, dtype=np.int64)
-        except (TypeError, ValueError, OverflowError):
-            msg = f"dynamic_obstacles must be a list of [row, col] cells; got {quote(cells)}"
-            raise InvalidInput(msg, field="dynamic_obstacles") from None
-        if obstacles.size == 0:
-            return np.empty((0, 2), dtype=np.int64)
-        if obstacles.ndim != 2 or obstacles.shape[1] != 2:
-            msg = (
-                f"dynamic_obstacles must be a list of [row, col] cells; got shape {obstacles.shape}"
-            )
-            raise InvalidInput(msg, field="dynamic_obstacles")
-        H, W = self.plan.analysis.shape
-        outside = (obstacles[:, 0] < 0) | (obstacles[:, 0] >= H)
-        outside |= (obstacles[:, 1] < 0) | (obstacles[:, 1] >= W)
-        if outside.any():
-            i = int(np.flatnonzero(outside)[0])
-            cell = obstacles[i].tolist()
-            msg = f"dynamic_obstacles[{i}] {cell} is outside the {H} x {W} map"
-            raise InvalidInput(msg, field="dynamic_obstacles")
-        return np.ascontiguousarray(obstacles)
 
     def _relocate(self, position: Any) -> None:
         st = self.state
@@ -209,8 +222,9 @@ class Session:
             if self._visited is not None:
                 self._visited.add(r * self._width + c)
             st.detour = []
+            st.narrow_fallback = False
             st.held_up = st.replan_at = 0
-            if st.status == "arrived" and (r, c) != self.plan.goal:
+            if st.status in ("arrived", "blocked") and (r, c) != self.plan.goal:
                 st.status = "moving"
 
     def _advance(self, seq: int, obstacles: npt.NDArray[np.int64]) -> Step:
@@ -221,46 +235,136 @@ class Session:
             st.status = "arrived"
             return self._answer(seq, previous, "WAIT")
         st.iteration += 1
-        wave = plan.wave
-        p = plan.params
-        r, c = previous
-        tabu = self._tabu(r, c) if self._visited is not None else 0
-        target = st.detour[0] if st.detour else -1
-        i, outcome = K._decide(
-            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles, tabu,
-            plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta, p.diagonal_cost, target,
-        )  # fmt: skip
-        if outcome == K.BLOCKED:
-            st.status = "blocked"
+        if st.status == "blocked":  # the static map cannot change: only a new position helps
             return self._answer(seq, previous, "WAIT")
+        p = plan.params
+        on_plan = self._on_plan(previous)
+        searching = self._may_search(st.held_up, st.replan_at, bool(st.detour) or on_plan)
+        i, outcome = -1, K.WAIT
+        if on_plan and (not st.detour or self._route_clear(previous, obstacles)):
+            i, outcome = self._decide(previous, obstacles, -1)
+            if outcome == K.MOVE and st.detour:
+                # The blockage that made the detour is gone: back to the plan's better route.
+                st.detour = []
+                st.narrow_fallback = False
+        if st.detour and outcome != K.MOVE:
+            i, outcome = self._decide(previous, obstacles, st.detour[0])
         status: Status = "moving"
-        if outcome == K.WAIT and self.may_replan:
-            detour = K._detour(
-                wave.passable, wave.kw, plan.analysis.clean, r * self._width + c,
-                plan.goal[0] * self._width + plan.goal[1], p.diagonal_cost, obstacles,
-            )  # fmt: skip
-            if detour.size:
-                nxt = int(detour[0])
-                i = MOVES.index(_move_name(previous, divmod(nxt, self._width)))
+        if outcome in (K.WAIT, K.BLOCKED) and searching:
+            found = self._search(previous, obstacles, on_plan)
+            if found is None:
+                st.status = "blocked"
+                st.detour = []
+                st.narrow_fallback = False
+                return self._answer(seq, previous, "WAIT")
+            cells, narrow = found
+            if cells.size:
+                i = MOVES.index(_move_name(previous, divmod(int(cells[0]), self._width)))
                 outcome = K.MOVE
-                st.detour = [int(x) for x in detour]
+                st.detour = [int(x) for x in cells]
+                st.narrow_fallback = narrow
                 st.replans += 1
                 status = "replanned"
             else:
                 st.replan_at = st.held_up + max(p.patience, 1)
-        if outcome == K.WAIT:
+        if outcome in (K.WAIT, K.BLOCKED):
             st.held_up += 1
             st.waits += 1
             st.status = "waiting"
             return self._answer(seq, previous, "WAIT")
         if outcome == K.EVADE:
             st.detour = []
+            st.narrow_fallback = False
         elif st.detour:
             st.detour.pop(0)
+        narrow_move = st.narrow_fallback
+        if not st.detour:
+            st.narrow_fallback = False
         self._move(i)
         st.held_up = st.replan_at = 0
         st.status = "arrived" if st.position == plan.goal else status
-        return self._answer(seq, previous, MOVES[i])
+        return self._answer(seq, previous, MOVES[i], narrow_move)
+
+    def _decide(
+        self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], target: int
+    ) -> tuple[int, int]:
+        plan, p = self.plan, self.plan.params
+        wave = plan.wave
+        r, c = cell
+        tabu = self._tabu(r, c) if self._visited is not None else 0
+        i, outcome = K._decide(
+            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles,
+            p.dynamic_margin, tabu, plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta,
+            p.diagonal_cost, target,
+        )  # fmt: skip
+        return int(i), int(outcome)
+
+    def _on_plan(self, cell: tuple[int, int]) -> bool:
+        """Whether the plan's grid leads from ``cell`` to the goal (not a pocket sealing shut)."""
+        wave = self.plan.wave
+        if wave.passable[cell] and wave.kw[cell] < np.inf:  # the usual case, without a kernel call
+            return True
+        value = K._cost_here(
+            wave.passable, wave.kw, self.plan.analysis.clean, cell[0], cell[1],
+            wave.diagonal_cost, True,
+        )  # fmt: skip
+        return bool(np.isfinite(value))
+
+    def _route_clear(self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64]) -> bool:
+        """Whether the plan's own route from ``cell`` (the descent of ``kw``) meets no cell that
+        the dynamic obstacles block this step."""
+        if obstacles.shape[0] == 0:
+            return True
+        plan = self.plan
+        wave, p, W = plan.wave, plan.params, self._width
+        H = plan.analysis.shape[0]
+        route = K._walk(
+            wave.passable, wave.k, wave.kw, plan.analysis.clean, cell[0] * W + cell[1],
+            plan.goal[0] * W + plan.goal[1], K.MODE_WIDE, p.alpha, p.beta, p.diagonal_cost,
+            4 * H * W + 8,
+        )  # fmt: skip
+        if route.size == 0:
+            return False
+        rows, cols = np.divmod(route, W)
+        # The cells entered, and the two cells beside each diagonal move (never squeezed past).
+        passed = np.concatenate((route[1:], rows[:-1] * W + cols[1:], rows[1:] * W + cols[:-1]))
+        return not np.isin(passed, _blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
+
+    def _search(
+        self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], on_plan: bool
+    ) -> tuple[npt.NDArray[np.int64], bool] | None:
+        """The replan: a detour over the plan's grid, else one through the sealed tunnels (the
+        narrow fallback, applied from here). Returns (cells, narrow), with no cells when the
+        dynamic obstacles cut every way for now, or None when no way exists at all."""
+        plan = self.plan
+        a, wave, p, W = plan.analysis, plan.wave, plan.params, self._width
+        start = cell[0] * W + cell[1]
+        goal = plan.goal[0] * W + plan.goal[1]
+        if on_plan:
+            cells = K._detour(
+                wave.passable, wave.kw, a.clean, start, goal, p.diagonal_cost, obstacles,
+                p.dynamic_margin, True,
+            )  # fmt: skip
+            if cells.size:
+                return cells, False
+        if not (a.sealed and not wave.narrow):
+            return (np.empty(0, dtype=np.int64), False) if on_plan else None
+        unsealed = a.passable(narrow=True)
+        cells = K._detour(
+            unsealed, wave.kw, a.clean, start, goal, p.diagonal_cost, obstacles, p.dynamic_margin,
+            False,
+        )  # fmt: skip
+        if cells.size:
+            sealed = wave.passable.ravel()[cells] == 0
+            return cells, bool(sealed.any() or wave.passable[cell] == 0)
+        if not on_plan:
+            none = np.empty((0, 2), dtype=np.int64)
+            way = K._detour(
+                unsealed, wave.kw, a.clean, start, goal, p.diagonal_cost, none, 0, False
+            )
+            if way.size == 0:
+                return None
+        return np.empty(0, dtype=np.int64), False
 
     def _tabu(self, r: int, c: int) -> int:
         H, W = self.plan.analysis.shape
@@ -282,10 +386,17 @@ class Session:
         if self._visited is not None:
             self._visited.add(nr * self._width + nc)
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
-        st.arc_cost += float(self.plan.wave.k[nr, nc])
+        # A cell the plan's grid seals (or cuts off from the goal) has no k: it counts its
+        # cost-to-go along the narrow way the robot follows (what k is: the cost to go from there).
+        k = float(self.plan.wave.k[nr, nc])
+        st.arc_cost += k if k < np.inf else self.remaining() or 0.0
 
-    def _answer(self, seq: int, previous: tuple[int, int], move: str) -> Step:
+    def _answer(
+        self, seq: int, previous: tuple[int, int], move: str, narrow: bool | None = None
+    ) -> Step:
         st = self.state
+        if narrow is None:
+            narrow = st.narrow_fallback
         return Step(
             seq=seq,
             previous=previous,
@@ -296,15 +407,105 @@ class Session:
             path_length=st.path_length,
             arc_cost=st.arc_cost,
             remaining=self.remaining(),
+            narrow_fallback=self.plan.narrow_fallback or narrow,
         )
 
     def remaining(self) -> float | None:
-        """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach."""
+        """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach;
+        off the plan's grid, the length of the detour the robot follows out."""
         wave = self.plan.wave
-        r, c = self.state.position
+        st = self.state
+        r, c = st.position
         clean = self.plan.analysis.clean
         value = K._cost_here(wave.passable, wave.k, clean, r, c, wave.diagonal_cost, False)
-        return value if np.isfinite(value) else None
+        if np.isfinite(value):
+            return value
+        if st.detour:
+            route = np.array([st.position, *(divmod(x, self._width) for x in st.detour)])
+            steps = np.abs(np.diff(route, axis=0)).sum(axis=1)
+            return float(
+                np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost
+            )
+        return None
+
+
+def detour(
+    plan: Plan,
+    cell: Any,
+    dynamic_obstacles: Any = (),
+    *,
+    margin: int | None = None,
+    narrow: bool = False,
+) -> npt.NDArray[np.int64]:
+    """The replan a stepping robot makes: the cheapest way (length + clean) from ``cell`` to the
+    plan's goal with every cell within ``margin`` (default: the plan's ``dynamic_margin``) of a
+    dynamic obstacle blocked, over the plan's grid or, with ``narrow``, the unsealed one.
+
+    Returns the ``(n, 2)`` cells after ``cell`` up to the goal; no rows when there is no way.
+
+    >>> from planner import plan
+    >>> p = plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [0, 2], preset="shortest")
+    >>> detour(p, [0, 0], [[0, 1]], margin=0).tolist()   # round it, cutting no corner of it
+    [[1, 0], [1, 1], [1, 2], [0, 2]]
+    >>> detour(p, [0, 0], [[0, 1]], margin=1).tolist()
+    []
+    """
+    a, wave, params = plan.analysis, plan.wave, plan.params
+    r, c = as_cell(cell, a.shape, name="cell")
+    if a.state[r, c] == K.OBSTACLE:
+        raise InvalidInput(f"cell [{r}, {c}] is on an obstacle", field="cell")
+    obstacles = _obstacles(dynamic_obstacles, a.shape)
+    if margin is None:
+        margin = params.dynamic_margin
+    low, high = PARAMETER_RANGES["dynamic_margin"]
+    if isinstance(margin, bool) or not isinstance(margin, int) or not low <= margin <= high:
+        msg = f"margin must be an integer in [{low}, {high}]; got {margin!r}"
+        raise InvalidInput(msg, field="margin")
+    W = a.shape[1]
+    use_field = not narrow or wave.narrow or not a.sealed
+    passable = wave.passable if use_field else a.passable(narrow=True)
+    cells = K._detour(
+        passable, wave.kw, a.clean, r * W + c, plan.goal[0] * W + plan.goal[1],
+        params.diagonal_cost, obstacles, margin, use_field,
+    )  # fmt: skip
+    out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
+    return out
+
+
+def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:
+    try:
+        obstacles = np.asarray(cells, dtype=np.int64)
+    except (TypeError, ValueError, OverflowError):
+        msg = f"dynamic_obstacles must be a list of [row, col] cells; got {cells!r}"
+        raise InvalidInput(msg, field="dynamic_obstacles") from None
+    if obstacles.size == 0:
+        return np.empty((0, 2), dtype=np.int64)
+    if obstacles.ndim != 2 or obstacles.shape[1] != 2:
+        msg = f"dynamic_obstacles must be a list of [row, col] cells; got shape {obstacles.shape}"
+        raise InvalidInput(msg, field="dynamic_obstacles")
+    H, W = shape
+    outside = (obstacles[:, 0] < 0) | (obstacles[:, 0] >= H)
+    outside |= (obstacles[:, 1] < 0) | (obstacles[:, 1] >= W)
+    if outside.any():
+        i = int(np.flatnonzero(outside)[0])
+        cell = obstacles[i].tolist()
+        msg = f"dynamic_obstacles[{i}] {cell} is outside the {H} x {W} map"
+        raise InvalidInput(msg, field="dynamic_obstacles")
+    return np.ascontiguousarray(obstacles)
+
+
+def _blocked_cells(
+    obstacles: npt.NDArray[np.int64], margin: int, shape: tuple[int, int]
+) -> npt.NDArray[np.int64]:
+    """Flat indices of the cells within Chebyshev ``margin`` of an obstacle, inside the map."""
+    H, W = shape
+    span = np.arange(-margin, margin + 1)
+    dr, dc = np.meshgrid(span, span, indexing="ij")
+    rows = (obstacles[:, 0, None] + dr.ravel()).ravel()
+    cols = (obstacles[:, 1, None] + dc.ravel()).ravel()
+    inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
+    out: npt.NDArray[np.int64] = rows[inside] * W + cols[inside]
+    return out
 
 
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:

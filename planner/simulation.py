@@ -1,16 +1,22 @@
 """The paper's simulated experiment (ALGORITHM.md §5): one episode among random dynamic obstacles.
 
-Each obstacle starts on a random free cell (not the start, not the goal) and every step first
-moves to a random legal neighbouring cell or stays (never onto another obstacle or the robot);
-then the robot is told where they are and takes its step. Everything is drawn from one seeded
-generator, so an episode is reproducible.
+Each obstacle starts on a random free cell (not the start, not the goal) and every tick moves to
+a random legal neighbouring cell or stays (never onto another obstacle or the robot's cell). Two
+orders of play (``obstacle_motion``):
+
+- ``turns`` (the paper's): the obstacles move, then the robot is told where they are and steps;
+- ``simultaneous`` (the real world): the robot decides from where the obstacles are at the tick's
+  start, then they all move at once, the robot's move unknown to them and theirs to it.
+
+A collision is the robot ending a tick on an obstacle's cell, or swapping cells with one, in
+either mode. Everything is drawn from one seeded generator, so an episode is reproducible.
 """
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -20,9 +26,12 @@ from planner._errors import InvalidInput, quote
 from planner.planning import Plan, clearance_metrics, plan
 from planner.session import Session
 
-__all__ = ["Episode", "run_episode", "simulate", "warm_up"]
+__all__ = ["Episode", "ObstacleMotion", "run_episode", "simulate", "warm_up"]
 
 MAX_DYNAMIC = 10_000
+
+ObstacleMotion = Literal["turns", "simultaneous"]
+OBSTACLE_MOTIONS: tuple[ObstacleMotion, ...] = ("turns", "simultaneous")
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -36,6 +45,8 @@ class Episode:
     """``(steps + 1, m, 2)``: the obstacles' cells at the start and after each of their moves
     (``(0, m, 2)`` when the episode was run without ``record``)."""
     metrics: dict[str, Any]
+    obstacle_motion: ObstacleMotion = "turns"
+    """Whether the obstacles moved before the robot decided (``turns``) or with it."""
 
 
 def simulate(
@@ -47,6 +58,7 @@ def simulate(
     dynamic: int = 10,
     seed: int = 0,
     max_steps: int | None = None,
+    obstacle_motion: ObstacleMotion = "turns",
     **params: Any,
 ) -> Episode:
     """Plan, then run one seeded episode among ``dynamic`` randomly moving obstacles.
@@ -60,6 +72,7 @@ def simulate(
         dynamic=dynamic,
         seed=seed,
         max_steps=max_steps,
+        obstacle_motion=obstacle_motion,
     )
 
 
@@ -70,17 +83,23 @@ def run_episode(
     seed: int = 0,
     max_steps: int | None = None,
     record: bool = True,
+    obstacle_motion: ObstacleMotion = "turns",
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic`` randomly moving obstacles.
 
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
     off, the obstacles' cells at each step are not kept (``Episode.obstacles`` is empty).
+    ``obstacle_motion`` is ``turns`` (obstacles move, then the robot) or ``simultaneous``.
     """
     grid = plan.analysis.grid
     H, W = grid.shape
     if isinstance(dynamic, bool) or not isinstance(dynamic, int) or not 0 <= dynamic <= MAX_DYNAMIC:
         msg = f"dynamic must be an integer in [0, {MAX_DYNAMIC}]; got {quote(dynamic)}"
         raise InvalidInput(msg, field="dynamic_count")
+    if obstacle_motion not in OBSTACLE_MOTIONS:
+        msg = f"obstacle_motion must be 'turns' or 'simultaneous'; got {obstacle_motion!r}"
+        raise InvalidInput(msg, field="obstacle_motion")
+    simultaneous = obstacle_motion == "simultaneous"
     if max_steps is None:
         max_steps = 4 * (H + W) + 4 * len(plan.path)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
@@ -107,15 +126,27 @@ def run_episode(
     steps = 0
     while steps < max_steps and session.state.status not in ("arrived", "blocked"):
         r, c = session.state.position
-        K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
-        if record:
-            history.append(obstacles.copy())
+        before = obstacles.copy()
+        if not simultaneous:
+            K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
         t0 = time.perf_counter()
         step = session.step(obstacles)
         step_seconds += time.perf_counter() - t0
+        if simultaneous:
+            # They move at once with the robot: away from the cell it stood on at the start.
+            K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
+        if record:
+            history.append(obstacles.copy())
         steps += 1
         pr, pc = step.position
-        if occupied[pr, pc]:
+        landed = occupied[pr, pc] > 0
+        swapped = bool(
+            np.any(
+                (before[:, 0] == pr) & (before[:, 1] == pc)
+                & (obstacles[:, 0] == r) & (obstacles[:, 1] == c)
+            )
+        )  # fmt: skip
+        if landed or swapped:
             collisions += 1
     st = session.state
     trajectory = np.asarray(st.trajectory, dtype=np.int64).reshape(-1, 2)
@@ -142,7 +173,7 @@ def run_episode(
     }
     shape = (len(history), dynamic, 2)
     obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)
-    return Episode(plan, trajectory, obstacle_cells, metrics)
+    return Episode(plan, trajectory, obstacle_cells, metrics, obstacle_motion)
 
 
 def warm_up() -> None:
@@ -161,5 +192,6 @@ def warm_up() -> None:
             p.analysis.gate_cells()
             _ = p.min_clearance
             run_episode(p, dynamic=2, seed=0, max_steps=4)
+            run_episode(p, dynamic=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
             session = Session(p)
             session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel

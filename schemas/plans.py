@@ -74,9 +74,11 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "wall_cost": "auto",
         "wide_weight": 80.0,
         "wide_distance": 0.6,
+        "dynamic_margin": 1,
     },
     "status": "ready",
     "position": [0, 0],
+    "narrow_fallback": False,
     "analysis": {
         "gates": 0,
         "tunnels": 0,
@@ -176,6 +178,12 @@ class PlanPublic(BaseModel):
     params: dict[str, Any] = Field(description="The effective parameter values.")
     status: Status
     position: Cell
+    narrow_fallback: bool = Field(
+        default=False,
+        description="The robot is now on a way through tight tunnels that sealing would shut "
+        "(the plan's own fallback, or a detour while stepping); `analysis.narrow_fallback` says "
+        "whether the plan itself needed one.",
+    )
     analysis: AnalysisPublic
     preview: PreviewPublic
 

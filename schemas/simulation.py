@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -52,6 +52,13 @@ class SimulationCreate(BaseModel):
     allow_narrow: bool | None = None
     dynamic_count: int = Field(default=10, ge=0, description="How many obstacles move about.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1)
+    obstacle_motion: Literal["turns", "simultaneous"] = Field(
+        default="turns",
+        description="`turns`: the obstacles move, then the robot sees them and moves (the "
+        "paper's simulation); `simultaneous`: the robot decides from where the obstacles are at "
+        "the tick's start while they all move at once, as in the real world. A collision is the "
+        "robot ending a tick on an obstacle's cell or swapping cells with one, in both.",
+    )
     max_steps: int | None = Field(
         default=None, ge=1, le=1_000_000, description="Default: 4 (H + W) + 4 len(path)."
     )
@@ -93,3 +100,6 @@ class SimulationPublic(BaseModel):
 
     trajectory: list[Cell]
     metrics: SimulationMetrics
+    obstacle_motion: Literal["turns", "simultaneous"] = Field(
+        default="turns", description="How the obstacles moved."
+    )

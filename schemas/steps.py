@@ -19,7 +19,7 @@ class StepCreate(BaseModel):
     model_config = ConfigDict(
         **STRICT,
         json_schema_extra={
-            "examples": [{"seq": 0, "dynamic_obstacles": [[1, 1]], "position": [0, 0]}]
+            "examples": [{"seq": 0, "dynamic_obstacles": [[1, 2]], "position": [0, 0]}]
         },
     )
 
@@ -51,6 +51,7 @@ class StepPublic(BaseModel):
                     "path_length": 1.0,
                     "arc_cost": 6.828427,
                     "remaining": 6.828427,
+                    "narrow_fallback": False,
                 }
             ]
         }
@@ -65,3 +66,9 @@ class StepPublic(BaseModel):
     path_length: float = Field(ge=0)
     arc_cost: float = Field(ge=0)
     remaining: float | None = Field(description="Cost-to-go `k`; null when out of reach.")
+    narrow_fallback: bool = Field(
+        default=False,
+        description="This move follows a way through tight tunnels that sealing would shut: the "
+        "plan's own narrow fallback, or a detour taken because the wide way is blocked (parked "
+        "for `patience` steps) or because the robot was reported in a sealed pocket.",
+    )

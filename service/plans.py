@@ -84,7 +84,7 @@ async def step(engine: Engine, plan_id: str, body: StepCreate) -> planner.Step:
         state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
         session = planner.Session(plan, state)
         args = (body.dynamic_obstacles,)
-        if session.may_replan:
+        if session.may_replan_at(body.position):
             result = await engine.pool.run(
                 session.step, *args, position=body.position, seq=body.seq
             )

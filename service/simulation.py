@@ -21,5 +21,6 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
         dynamic=body.dynamic_count,
         seed=body.seed,
         max_steps=body.max_steps,
+        obstacle_motion=body.obstacle_motion,
         record=False,  # the answer holds no obstacle cells: keep none
     )

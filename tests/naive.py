@@ -5,6 +5,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -271,6 +272,143 @@ def nav2_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -
                 continue
             y = (r + dr, c + dc)
             nd = d + (50.0 + 0.8 * float(cost[y])) * (math.sqrt(2.0) if dr and dc else 1.0)
+            if nd < dist.get(y, math.inf):
+                dist[y] = nd
+                heapq.heappush(heap, (nd, y))
+    return math.inf
+
+
+def chebyshev(a: tuple[int, int], b: tuple[int, int]) -> int:
+    return max(abs(a[0] - b[0]), abs(a[1] - b[1]))
+
+
+def decide(
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    cell: tuple[int, int],
+    obstacles: list[tuple[int, int]],
+    margin: int,
+    tabu: set[tuple[int, int]],
+    goal: tuple[int, int],
+    paper: bool,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
+    target: tuple[int, int] | None,
+) -> tuple[int, str]:
+    """(move index or -1, outcome) of ALGORITHM.md §3-4, rule by rule, with no bit masks.
+
+    A neighbour is blocked this step when an obstacle stands within ``margin`` of it; a detour's
+    ``target`` is taken when the move is not blocked; the paper decision waits when its
+    preferred neighbour (as if there were no dynamic obstacles) is blocked; the wide one takes
+    the best unblocked neighbour that is closer; an obstacle on the robot's cell makes it step
+    to the neighbour of least contact that no obstacle stands on.
+    """
+    H, W = passable.shape
+    r, c = cell
+
+    def blocked(y: tuple[int, int]) -> bool:
+        return any(chebyshev(y, o) <= margin for o in obstacles)
+
+    def occupied(y: tuple[int, int]) -> bool:
+        return y in obstacles
+
+    def ok(y: tuple[int, int], dynamic: Callable[[tuple[int, int]], bool] | None) -> bool:
+        inside = 0 <= y[0] < H and 0 <= y[1] < W
+        return inside and bool(passable[y]) and (dynamic is None or not dynamic(y))
+
+    def legal_move(i: int, dynamic: Callable[[tuple[int, int]], bool] | None) -> bool:
+        dr, dc = MOVES[i]
+        if not ok((r + dr, c + dc), dynamic):
+            return False
+        return not (dr and dc) or (ok((r + dr, c), dynamic) and ok((r, c + dc), dynamic))
+
+    def step(i: int) -> float:
+        return diagonal_cost if i % 2 else 1.0
+
+    def value(i: int) -> float:
+        y = (r + MOVES[i][0], c + MOVES[i][1])
+        return step(i) + float(clean[y]) + float(kw[y])
+
+    if target is not None:
+        for i, (dr, dc) in enumerate(MOVES):
+            if (r + dr, c + dc) != target or blocked(target):
+                continue
+            if dr and dc and (blocked((r + dr, c)) or blocked((r, c + dc))):
+                continue
+            return i, "move"
+    else:
+        here = float(kw[cell]) if passable[cell] else math.inf
+        for i in range(8):
+            if legal_move(i, None):
+                here = min(here, value(i))
+        if here == math.inf:
+            return -1, "blocked"
+        preferred = None
+        if paper:
+            scores = []
+            for i, (dr, dc) in enumerate(MOVES):
+                y = (r + dr, c + dc)
+                if legal_move(i, None) and y not in tabu and k[y] != math.inf:
+                    h = math.sqrt((y[0] - goal[0]) ** 2.0 + (y[1] - goal[1]) ** 2.0)
+                    scores.append(((float(k[y]) + float(clean[y])) ** alpha * h**beta, i))
+            if scores:
+                preferred = min(scores)[1]
+                if legal_move(preferred, blocked):
+                    return preferred, "move"
+        if preferred is None:
+            options = [(value(i), i) for i in range(8) if legal_move(i, blocked)]
+            if options:
+                best = min(options)[1]
+                y = (r + MOVES[best][0], c + MOVES[best][1])
+                if kw[y] < here:
+                    return best, "move"
+    if occupied(cell):
+        escapes = []
+        for i, (dr, dc) in enumerate(MOVES):
+            if legal_move(i, occupied) and value(i) != math.inf:
+                y = (r + dr, c + dc)
+                contact = sum(chebyshev(y, o) == 1 for o in obstacles)
+                escapes.append((contact, value(i), i))
+        if escapes:
+            return min(escapes)[2], "evade"
+    return -1, "wait"
+
+
+def detour_cost(
+    passable: np.ndarray,
+    clean: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    diagonal_cost: float,
+    obstacles: list[tuple[int, int]],
+    margin: int,
+) -> float:
+    """Least cost (move + clean of the cell entered) from ``start`` to ``goal`` by Dijkstra, every
+    cell within ``margin`` of an obstacle blocked (the start excepted); inf when cut off."""
+    free = passable.copy()
+    for o in obstacles:
+        for r in range(o[0] - margin, o[0] + margin + 1):
+            for c in range(o[1] - margin, o[1] + margin + 1):
+                if 0 <= r < free.shape[0] and 0 <= c < free.shape[1]:
+                    free[r, c] = 0
+    if not free[goal]:
+        return math.inf
+    dist = {start: 0.0}
+    heap = [(0.0, start)]
+    while heap:
+        d, (r, c) = heapq.heappop(heap)
+        if (r, c) == goal:
+            return d
+        if d > dist[(r, c)]:
+            continue
+        for dr, dc in MOVES:
+            if not legal(free, r, c, dr, dc):
+                continue
+            y = (r + dr, c + dc)
+            nd = d + (diagonal_cost if dr and dc else 1.0) + float(clean[y])
             if nd < dist.get(y, math.inf):
                 dist[y] = nd
                 heapq.heappush(heap, (nd, y))

@@ -59,7 +59,11 @@ def step_public(step: planner.Step) -> StepPublic:
 
 def simulation_public(episode: planner.Episode) -> SimulationPublic:
     return SimulationPublic.model_validate(
-        {"trajectory": episode.trajectory.tolist(), "metrics": episode.metrics}
+        {
+            "trajectory": episode.trajectory.tolist(),
+            "metrics": episode.metrics,
+            "obstacle_motion": episode.obstacle_motion,
+        }
     )
 
 
@@ -73,6 +77,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         "preset": s["preset"],
         "params": s["params"],
         "status": view.state.status,
+        "narrow_fallback": view.state.narrow_fallback,
         "position": list(view.state.position),
         "analysis": {
             "gates": s["gates"],

@@ -133,3 +133,12 @@ def test_plan_on_a_ros_map_errors_are_one_line(ros: Path, tmp_path: Path) -> Non
         assert needle in done.stderr
         assert "Traceback" not in done.stderr
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+
+
+def test_simulate_takes_the_obstacle_motion(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["simulate", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26"]
+    code, out, _ = run_cli([*args, "--dynamic", "8", "--obstacle-motion", "simultaneous"], capsys)
+    assert code == 0
+    metrics = json.loads(out)
+    assert metrics["obstacle_motion"] == "simultaneous"
+    assert metrics["collisions"] == 0

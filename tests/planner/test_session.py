@@ -98,7 +98,7 @@ def test_it_steps_away_when_an_obstacle_enters_its_cell() -> None:
 
 def test_diagonal_squeeze_between_dynamic_obstacles_is_refused() -> None:
     grid = np.zeros((3, 3), dtype=np.uint8)
-    p = planner.plan(grid, (2, 0), (0, 2), preset="shortest", patience=100)
+    p = planner.plan(grid, (2, 0), (0, 2), preset="shortest", patience=100, dynamic_margin=0)
     session = planner.Session(p)
     step = session.step([[1, 0], [2, 1]])  # NE would pass between them
     assert step.move == "WAIT"

@@ -88,3 +88,79 @@ def test_many_obstacles_without_recording() -> None:
     assert e.obstacles.shape == (0, 900, 2)
     assert e.metrics["collisions"] == 0
     assert e.metrics["iterations"] >= 59
+
+
+def crowded(seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((24, 24)) < 0.15).astype(np.uint8)
+    grid[0, 0] = grid[23, 23] = 0
+    return grid
+
+
+def test_simultaneous_obstacles_move_after_the_robot_decides_and_never_onto_its_cell() -> None:
+    grid = crowded(1)
+    e = planner.simulate(grid, (0, 0), (23, 23), dynamic=30, seed=3, obstacle_motion="simultaneous")
+    assert e.obstacle_motion == "simultaneous"
+    robot = recount_positions(e)  # decided from the obstacles at each tick's start
+    moved = [cell for i, cell in enumerate(robot) if i == 0 or cell != robot[i - 1]]
+    assert moved == [tuple(c) for c in e.trajectory.tolist()]
+    for t in range(len(robot) - 1):
+        assert robot[t] not in {tuple(o) for o in e.obstacles[t + 1].tolist()}
+    assert np.abs(np.diff(e.obstacles, axis=0)).max() <= 1
+    assert e.metrics["collisions"] == 0  # wide: dynamic_margin 1
+
+
+@pytest.mark.parametrize("motion", ["turns", "simultaneous"])
+def test_collisions_are_counted_honestly(motion: str) -> None:
+    # A robot that only avoids the cells obstacles stand on (margin 0) meets them when they
+    # move at the same time; with margin 1 it never does. In turns both never collide.
+    hits = {0: 0, 1: 0}
+    for seed in range(12):
+        grid = crowded(seed)
+        for margin in (0, 1):
+            try:
+                e = planner.simulate(
+                    grid, (0, 0), (23, 23), preset="shortest", dynamic=60, seed=seed,
+                    obstacle_motion=motion, dynamic_margin=margin,  # type: ignore[arg-type]
+                )  # fmt: skip
+            except planner.NoValidPath:
+                continue
+            hits[margin] += e.metrics["collisions"]
+            # Recount from the record: the robot's cell after each tick against the obstacles'.
+            robot = recount_positions(e)
+            recount = sum(
+                robot[t + 1] in {tuple(o) for o in e.obstacles[t + 1].tolist()}
+                or any(
+                    tuple(a) == robot[t + 1] and tuple(b) == robot[t]
+                    for a, b in zip(
+                        e.obstacles[t].tolist(), e.obstacles[t + 1].tolist(), strict=True
+                    )
+                )
+                for t in range(len(robot) - 1)
+            )
+            assert recount == e.metrics["collisions"]
+    assert hits[1] == 0
+    if motion == "simultaneous":
+        assert hits[0] > 0
+    else:
+        assert hits[0] == 0
+
+
+def recount_positions(e: planner.Episode) -> list[tuple[int, int]]:
+    """The robot's cell at the start and after every tick, from a re-run session's steps."""
+    session = planner.Session(e.plan)
+    out = [session.state.position]
+    for t in range(len(e.obstacles) - 1):
+        seen = e.obstacles[t + 1] if e.obstacle_motion == "turns" else e.obstacles[t]
+        out.append(session.step(seen).position)
+    return out
+
+
+def test_bad_obstacle_motion_is_named() -> None:
+    with pytest.raises(planner.InvalidInput, match="obstacle_motion must be 'turns' or"):
+        planner.simulate(
+            np.zeros((3, 3), dtype=np.uint8),
+            (0, 0),
+            (2, 2),
+            obstacle_motion="later",  # type: ignore[arg-type]
+        )
