@@ -23,8 +23,8 @@ lock: $(STAMP)  ## re-pin requirements.lock (runtime) and requirements-dev.lock 
 
 run: serve  ## the main job: the service on 127.0.0.1:8000, in-memory store (docs at /docs)
 
-serve: $(STAMP)  ## the HTTP service on 127.0.0.1:8000 (API docs at /docs)
-	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000
+serve: $(STAMP)  ## the HTTP service on PLANNER_HOST:PLANNER_PORT, 127.0.0.1:8000 (docs at /docs)
+	$(PY) -m service
 
 demo: $(STAMP)  ## plan on the bundled example map, printed and explained
 	$(PY) -m planner demo

@@ -76,6 +76,10 @@ class Store(ABC):
     def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[None]:
         """An async context manager held while a plan is read, stepped and written back."""
 
+    @abstractmethod
+    async def counts(self) -> tuple[int, int]:
+        """How many maps and how many live plans the store holds (for ``/metrics``)."""
+
     async def check(self) -> str | None:
         """None when the store answers, else why it does not (for ``/healthz``)."""
         return None
@@ -131,6 +135,10 @@ class MemoryStore(Store):
     async def delete_plan(self, plan_id: str) -> bool:
         self._locks.pop(plan_id, None)
         return self._plans.pop(plan_id, None) is not None
+
+    async def counts(self) -> tuple[int, int]:
+        self._expire()
+        return len(self._maps), len(self._plans)
 
     @asynccontextmanager
     async def plan_lock(self, plan_id: str) -> AsyncIterator[None]:
