@@ -13,6 +13,7 @@ from service.api import api_router
 from service.cache import ByteLRU
 from service.config import Settings
 from service.engine import Engine
+from service.events import open_bus
 from service.logs import LOG
 from service.metrics import Metrics
 from service.middleware import BodyLimit
@@ -43,6 +44,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     store = open_store(settings.store_url, ttl_seconds=settings.plan_ttl_seconds)
     pool = Pool(settings.pool_size)
     engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
+    app.state.bus = bus = open_bus(settings.store_url)  # steps for the live viewer
     # What start-up lines and /readyz say: never the store URL, which may hold a password.
     facts = {"store": store_name(store), "pool_size": pool.size}
     try:
@@ -60,6 +62,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     finally:
         app.state.metrics.engine = None
         pool.close()
+        await bus.close()
         await store.close()
 
 
