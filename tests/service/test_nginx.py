@@ -1,7 +1,7 @@
 """``docker/nginx.conf`` for real: Debian's nginx, with the file's upstream line pointed at two
 local ``python -m service`` replicas sharing a redis-server. A plan made through nginx is stepped
-through nginx, the steps land on both replicas (their JSON logs say which), and X-Request-ID
-goes through both ways."""
+through nginx, the steps land on both replicas (their JSON logs say which), a live viewer's event
+stream through nginx receives every step, and X-Request-ID goes through both ways."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import re
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -20,6 +21,7 @@ import orjson
 import pytest
 
 from tests.service.conftest import ROOT, RedisServer, free_port, random_map
+from tests.service.test_viewer import events
 
 CONF = ROOT / "docker" / "nginx.conf"
 UPSTREAM = re.compile(r"^(\s*)server planner:8000 resolve;$", re.MULTILINE)
@@ -140,6 +142,25 @@ def test_a_plan_made_and_stepped_through_nginx_lands_on_both_replicas(
         assert re.fullmatch(r"[0-9a-f]{32}", made)
         plan_id = r.json()["plan"]["plan_id"]
         path = r.json()["plan"]["preview"]["path"]
+        watched: list[dict[str, Any]] = []
+        connected = threading.Event()
+
+        def watch() -> None:  # the live viewer's stream, on whichever replica nginx picks
+            timeout = httpx.Timeout(10, read=60)
+            with (
+                httpx.Client(base_url=url, trust_env=False, timeout=timeout) as watcher,
+                watcher.stream("GET", f"/plan/{plan_id}/events") as stream,
+            ):
+                assert stream.status_code == 200
+                connected.set()
+                for event in events(stream.iter_lines()):
+                    watched.append(event)
+                    if event["status"] == "arrived":
+                        return
+
+        watching = threading.Thread(target=watch, daemon=True)
+        watching.start()
+        assert connected.wait(30)
         for seq in range(len(path) - 1):
             request_id = f"nginx-step-{seq}"
             r = client.post(
@@ -152,6 +173,10 @@ def test_a_plan_made_and_stepped_through_nginx_lands_on_both_replicas(
         assert r.json()["status"] == "arrived"
         detail = client.get(f"/plan/{plan_id}")
         assert detail.json()["trajectory"] == path
+        watching.join(timeout=5)
+        # Every step reached the stream, whichever replica served it (Redis pub/sub).
+        assert [e["seq"] for e in watched] == list(range(len(path) - 1))
+        assert [e["position"] for e in watched] == path[1:]
 
     logs = [service.stop() for service in services]
     steps = [
