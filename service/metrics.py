@@ -44,7 +44,8 @@ class Metrics:
             registry=self.registry,
         )
         self.engine: Engine | None = None
-        self._counts: tuple[int, int] | None = None
+        self.store_counts: tuple[int, int] | None = None
+        """(maps, plans) as the store answered at the last scrape; None when it did not."""
         self.registry.register(_EngineCollector(self))
 
     def observe(self, method: str, route: str, status: int, seconds: float) -> None:
@@ -55,11 +56,11 @@ class Metrics:
 
     async def render(self) -> bytes:
         """The metrics in Prometheus' text format, the store's counts read now."""
-        self._counts = None
+        self.store_counts = None
         if self.engine is not None:
             # planner_store_up says when the store does not answer; the rest still does.
             with contextlib.suppress(StoreUnavailable):
-                self._counts = await self.engine.store.counts()
+                self.store_counts = await self.engine.store.counts()
         return generate_latest(self.registry)
 
 
@@ -73,7 +74,7 @@ class _EngineCollector(Collector):
         engine = self._metrics.engine
         if engine is None:
             return
-        pool, cache, counts = engine.pool, engine.cache, self._metrics._counts
+        pool, cache, counts = engine.pool, engine.cache, self._metrics.store_counts
         gauges: list[tuple[str, str, float]] = [
             ("planner_pool_workers", "Worker threads.", pool.size),
             ("planner_pool_busy_workers", "Workers running a planner call now.", pool.busy),
