@@ -7,10 +7,10 @@ ENV PIP_NO_CACHE_DIR=1 PIP_DISABLE_PIP_VERSION_CHECK=1
 RUN python -m venv /opt/venv
 ENV PATH=/opt/venv/bin:$PATH
 WORKDIR /src
-# Dependencies in a layer of their own: rebuilt only when pyproject.toml changes.
-COPY pyproject.toml ./
-RUN python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['project']['dependencies']))" > requirements.txt \
-    && pip install -r requirements.txt
+# Dependencies in a layer of their own, at the versions requirements.lock pins (hashes checked):
+# rebuilt only when the lock or pyproject.toml changes.
+COPY pyproject.toml requirements.lock ./
+RUN pip install --require-hashes -r requirements.lock
 COPY README.md ./
 COPY planner planner
 COPY schemas schemas
@@ -30,8 +30,13 @@ WORKDIR /home/planner
 # container serves loads them instead of compiling (numba's cache is per CPU model: a host of
 # another CPU model compiles once at start).
 RUN python -c "import planner; planner.warm_up()"
+# python -m service listens on PLANNER_HOST:PLANNER_PORT and logs JSON lines on stdout.
+ENV PLANNER_HOST=0.0.0.0 \
+    PLANNER_PORT=8000
 EXPOSE 8000
-# 200 while the store answers, 503 (unhealthy) while it does not: see /healthz.
-HEALTHCHECK --interval=10s --timeout=5s --start-period=30s --retries=3 \
-    CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=4)"]
-CMD ["uvicorn", "service.main:app", "--host", "0.0.0.0", "--port", "8000"]
+# Liveness: /healthz answers 200 while the process serves, whether or not Redis does (a replica
+# is not restarted for Redis's sake; /readyz tells whether it can serve). The port is the
+# container's PLANNER_PORT, whatever it is set to.
+HEALTHCHECK --interval=10s --timeout=5s --start-period=60s --retries=3 \
+    CMD python -c "import os, urllib.request; urllib.request.urlopen('http://127.0.0.1:%s/healthz' % os.environ['PLANNER_PORT'], timeout=4)"
+CMD ["python", "-m", "service"]

@@ -4,18 +4,27 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: run serve demo test lint typecheck unit scen-all bench clean
+.PHONY: run serve demo test lint typecheck unit scen-all bench lock clean
 
-$(STAMP): pyproject.toml
+# The pinned versions of requirements-dev.lock (hashes checked), then the project itself.
+$(STAMP): pyproject.toml requirements-dev.lock
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet --require-hashes -r requirements-dev.lock
+	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
+
+UV_COMPILE := $(PY) -m uv pip compile pyproject.toml --python-version 3.11 --universal --generate-hashes --quiet
+
+lock: $(STAMP)  ## re-pin requirements.lock (runtime) and requirements-dev.lock from pyproject's ranges
+	$(PY) -m pip install --quiet uv
+	$(UV_COMPILE) --upgrade -o requirements.lock
+	$(UV_COMPILE) --upgrade --extra dev -c requirements.lock -o requirements-dev.lock
 
 run: serve  ## the main job: the service on 127.0.0.1:8000, in-memory store (docs at /docs)
 
-serve: $(STAMP)  ## the HTTP service on 127.0.0.1:8000 (API docs at /docs)
-	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000
+serve: $(STAMP)  ## the HTTP service on PLANNER_HOST:PLANNER_PORT, 127.0.0.1:8000 (docs at /docs)
+	$(PY) -m service
 
 demo: $(STAMP)  ## plan on the bundled example map, printed and explained
 	$(PY) -m planner demo

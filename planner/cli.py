@@ -34,7 +34,10 @@ TOLERANCE = 1e-3
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = _parser()
+    """The command line, as ``python -m planner`` or the ``planner`` console script runs it."""
+    # The console script is named in its usage line; everything else prints the same.
+    prog = "planner" if Path(sys.argv[0]).name == "planner" else "python -m planner"
+    parser = _parser(prog)
     args = parser.parse_args(argv)
     warm_up()  # so that the times reported are the planner's, not numba's compiler's
     try:
@@ -45,8 +48,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     return result
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m planner", description=__doc__)
+def _parser(prog: str) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog=prog, description=__doc__)
     sub = parser.add_subparsers(required=True, metavar="COMMAND")
 
     demo = sub.add_parser("demo", help="plan on the bundled example map and explain the result")

@@ -5,6 +5,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 
 from schemas.errors import ErrorPublic
 from schemas.maps import MapCreate, MapPublic
+from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
@@ -31,13 +32,16 @@ __all__ = [
     "Cell",
     "ErrorPublic",
     "HealthPublic",
+    "LivePublic",
     "MapCreate",
     "MapPublic",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
+    "PoolStats",
     "Preset",
     "PreviewPublic",
+    "ReadyPublic",
     "SimulationCreate",
     "SimulationMetrics",
     "SimulationPublic",

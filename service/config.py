@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-import os
+from typing import Literal
 
 from pydantic import Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 from redis.asyncio.connection import parse_url
+
+from service.cgroup import available_cpus
 
 __all__ = ["Settings"]
 
@@ -37,9 +39,15 @@ class Settings(BaseSettings):
         default=3600.0, gt=0, description="A plan untouched this long is forgotten."
     )
     pool_size: int = Field(
-        default_factory=lambda: os.cpu_count() or 1,
+        default_factory=available_cpus,
         ge=1,
-        description="Worker threads running planner kernels (default: the CPU count).",
+        description="Worker threads running planner kernels (default: the CPUs this process "
+        "may use, the cgroup's CPU quota when there is one).",
+    )
+    host: str = Field(default="127.0.0.1", description="Address `python -m service` listens on.")
+    port: int = Field(default=8000, ge=1, le=65535, description="Port `python -m service` uses.")
+    log_level: Literal["debug", "info", "warning", "error"] = Field(
+        default="info", description="JSON log lines at this level and above, on stdout."
     )
 
     @field_validator("store_url")

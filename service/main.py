@@ -2,21 +2,26 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from service import errors
+from service import docs, errors
 from service.api import api_router
 from service.cache import ByteLRU
 from service.config import Settings
 from service.engine import Engine
+from service.events import open_bus
+from service.logs import LOG
+from service.metrics import Metrics
 from service.middleware import BodyLimit
+from service.observe import Observe
 from service.pool import Pool
-from service.stores import open_store
+from service.stores import Store, open_store
 
-__all__ = ["app", "create_app"]
+__all__ = ["app", "create_app", "store_name"]
 
 DESCRIPTION = """Wide-free-space path planning on occupancy grids, after Hasan, Abdullah & Saleh
 (2023). Upload a map, plan from a start to a goal, then step a robot along the plan while
@@ -39,13 +44,32 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     store = open_store(settings.store_url, ttl_seconds=settings.plan_ttl_seconds)
     pool = Pool(settings.pool_size)
     engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
+    app.state.bus = bus = open_bus(settings.store_url)  # steps for the live viewer
+    # What start-up lines and /readyz say: never the store URL, which may hold a password.
+    facts = {"store": store_name(store), "pool_size": pool.size}
     try:
+        LOG.info("warming up: compiling the planner kernels", extra={"fields": facts})
+        began = time.perf_counter()
         await engine.warm()
+        pool.warm = True
+        facts["warmup_seconds"] = round(time.perf_counter() - began, 3)
+        LOG.info("warmed up", extra={"fields": facts})
+        app.state.startup = facts
+        app.state.started = time.monotonic()
         app.state.engine = engine
+        app.state.metrics.engine = engine
         yield
     finally:
+        app.state.metrics.engine = None
         pool.close()
+        await bus.close()
         await store.close()
+
+
+def store_name(store: Store) -> str:
+    """``memory``, or ``redis host:port`` (or ``redis /path.sock``): no credentials."""
+    address = getattr(store, "address", None)
+    return store.kind if address is None else f"{store.kind} {address}"
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -57,10 +81,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         description=DESCRIPTION,
         lifespan=lifespan,
         openapi_tags=TAGS,
+        docs_url=None,  # served by service.docs, with no CDN
+        redoc_url=None,
     )
     app.state.settings = settings
+    app.state.metrics = Metrics()
     errors.install(app)
+    docs.install(app)
     app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    # Outermost: times, counts and logs every answer, the 413s of BodyLimit included.
+    app.add_middleware(Observe, metrics=app.state.metrics)
     app.include_router(api_router)
     return app
 

@@ -17,7 +17,15 @@ from service.engine import Engine, cell_size, overrides
 from service.errors import NotFound
 from service.stores import PlanRecord
 
-__all__ = ["PlanView", "create_plan", "delete_plan", "get_plan", "render_plan", "step"]
+__all__ = [
+    "PlanView",
+    "create_plan",
+    "delete_plan",
+    "get_plan",
+    "render_plan",
+    "require",
+    "step",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,6 +116,11 @@ async def render_plan(
     return await engine.pool.run(
         planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
     )
+
+
+async def require(engine: Engine, plan_id: str) -> None:
+    """``NotFound`` unless the plan exists now."""
+    await _record(engine, plan_id)
 
 
 async def _record(engine: Engine, plan_id: str) -> PlanRecord:

@@ -72,6 +72,10 @@ class Store(ABC):
     def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[None]:
         """An async context manager held while a plan is read, stepped and written back."""
 
+    @abstractmethod
+    async def counts(self) -> tuple[int, int]:
+        """How many maps and how many live plans the store holds (for ``/metrics``)."""
+
     async def check(self) -> str | None:
         """None when the store answers, else why it does not (for ``/healthz``)."""
         return None

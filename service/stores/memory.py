@@ -63,6 +63,10 @@ class MemoryStore(Store):
         self._locks.pop(plan_id, None)
         return self._plans.pop(plan_id, None) is not None
 
+    async def counts(self) -> tuple[int, int]:
+        self._expire()
+        return len(self._maps), len(self._plans)
+
     @asynccontextmanager
     async def plan_lock(self, plan_id: str) -> AsyncIterator[None]:
         lock = self._locks.setdefault(plan_id, asyncio.Lock())

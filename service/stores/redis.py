@@ -163,6 +163,15 @@ class RedisStore(Store):
             with contextlib.suppress(rx.RedisError):
                 await lock.release()
 
+    async def counts(self) -> tuple[int, int]:
+        # SCAN, not KEYS: it never blocks Redis for long. Expired plans are not listed.
+        async with self._reaching():
+            found = [
+                sum([1 async for _ in self._redis.scan_iter(match=f"planner:{kind}:*", count=1000)])
+                for kind in ("map", "plan")
+            ]
+        return found[0], found[1]
+
     async def check(self) -> str | None:
         try:
             async with self._reaching():

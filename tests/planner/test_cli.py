@@ -142,3 +142,29 @@ def test_simulate_takes_the_obstacle_motion(capsys: pytest.CaptureFixture[str]) 
     metrics = json.loads(out)
     assert metrics["obstacle_motion"] == "simultaneous"
     assert metrics["collisions"] == 0
+
+
+def _console_script() -> Path:
+    """The ``planner`` script that ``pip install`` put beside this interpreter."""
+    script = Path(sys.executable).parent / "planner"
+    assert script.is_file(), f"{script} is missing: pip install -e . (make does) installs it"
+    return script
+
+
+@pytest.mark.parametrize("args", [["--help"], ["demo"], ["plan", "--help"]])
+def test_the_console_script_prints_what_the_module_prints(args: list[str]) -> None:
+    def run(command: list[str]) -> str:
+        done = subprocess.run(command + args, capture_output=True, text=True, check=True)
+        assert not done.stderr
+        return done.stdout
+
+    script = run([str(_console_script())])
+    module = run([sys.executable, "-m", "planner"])
+    assert script.strip()
+    if "--help" in args:  # the usage line names the program it was called as
+        assert script.startswith("usage: planner ")
+        script = script.replace("usage: planner ", "usage: python -m planner ", 1)
+        # argparse wraps the usage line by its length: compare the words
+        assert script.split() == module.split()
+    else:
+        assert script == module

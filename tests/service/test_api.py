@@ -193,11 +193,16 @@ async def test_simulate_is_the_planners_episode(client: httpx.AsyncClient) -> No
     assert again.json()["trajectory"] == got["trajectory"]
 
 
-async def test_healthz(client: httpx.AsyncClient) -> None:
+async def test_healthz_and_readyz(client: httpx.AsyncClient) -> None:
     r = await client.get("/healthz")
+    assert r.status_code == 200
+    assert set(r.json()) == {"status", "uptime_seconds"}
+    assert r.json()["status"] == "ok"
+    r = await client.get("/readyz")
     assert r.status_code == 200
     assert r.json()["status"] == "ok"
     assert r.json()["store"] == {"kind": "memory", "up": True, "detail": None}
+    assert r.json()["pool"] == {"size": 2, "busy": 0, "queued": 0, "warm": True}
     assert r.json()["cache"]["max_bytes"] > 0
 
 

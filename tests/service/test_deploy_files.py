@@ -104,10 +104,17 @@ def test_the_published_port_is_nginx_and_the_readme_says_so(
     # nginx forwards to the planner service on the port its image serves and checks.
     (upstream,) = re.findall(r"^\s*server (\S+?):(\d+)\b", nginx, re.MULTILINE)
     assert upstream[0] in compose["services"]
-    instructions = dict(_dockerfile())
-    assert f'--port", "{upstream[1]}"' in instructions["CMD"]
-    assert "0.0.0.0" in instructions["CMD"]
-    assert f"http://127.0.0.1:{upstream[1]}/healthz" in instructions["HEALTHCHECK"]
+    instructions = _dockerfile()
+    env = dict(
+        pair.split("=", 1) for kind, args in instructions if kind == "ENV" for pair in args.split()
+    )
+    assert env["PLANNER_PORT"] == upstream[1]
+    assert env["PLANNER_HOST"] == "0.0.0.0"
+    assert dict(instructions)["CMD"] == '["python", "-m", "service"]'
+    # The healthcheck asks liveness on the port the environment names.
+    healthcheck = dict(instructions)["HEALTHCHECK"]
+    assert "http://127.0.0.1:%s/healthz" in healthcheck
+    assert "os.environ['PLANNER_PORT']" in healthcheck
     for volume in compose["services"]["nginx"]["volumes"]:
         assert (COMPOSE.parent / volume.split(":")[0]).is_file()
 

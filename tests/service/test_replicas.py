@@ -121,18 +121,19 @@ def test_redis_down_answers_503_and_service_resumes_when_it_returns(tmp_path: Pa
                 assert r.json()["code"] == "STORE_UNAVAILABLE"
                 assert r.json()["detail"].startswith(down)
                 assert r.headers["retry-after"] == "1"
-            health = client.get("/healthz")
-            assert health.status_code == 503
-            assert health.json()["status"] == "unavailable"
-            assert health.json()["store"]["up"] is False
-            assert health.json()["store"]["detail"].startswith(down)
+            ready = client.get("/readyz")
+            assert ready.status_code == 503
+            assert ready.json()["status"] == "unavailable"
+            assert ready.json()["store"]["up"] is False
+            assert ready.json()["store"]["detail"].startswith(down)
+            assert client.get("/healthz").status_code == 200  # alive all the same
 
             server.start()  # same port, same append-only file: the data is back
             for _ in range(600):
-                if client.get("/healthz").status_code == 200:
+                if client.get("/readyz").status_code == 200:
                     break
                 time.sleep(0.05)
-            assert client.get("/healthz").json()["store"] == {
+            assert client.get("/readyz").json()["store"] == {
                 "kind": "redis", "up": True, "detail": None
             }  # fmt: skip
             assert _step(client, plan_id, 2) == answers[-1]  # nothing lost, nothing moved

@@ -1,28 +1,44 @@
-"""``/healthz``: the service answers, whether its store does, and how its cache stands."""
+"""``/healthz`` (liveness: the process answers) and ``/readyz`` (readiness: the store answers and
+the pool is warm), for load balancers and orchestrators."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Response, status
+import time
 
-from schemas import CacheStats, HealthPublic, StoreHealth
+from fastapi import APIRouter, Request, Response, status
+
+from schemas import CacheStats, LivePublic, PoolStats, ReadyPublic, StoreHealth
 from service.api.deps import EngineDep
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["service"])
 
+_STARTED = time.monotonic()
+
+
+@router.get("/healthz", summary="Liveness: the process is up")
+async def healthz(request: Request) -> LivePublic:
+    """Always `200` while the process serves: it asks nothing of the store or the pool, so a
+    store that is down does not get healthy replicas restarted. Use `/readyz` to know whether
+    requests can be served."""
+    started = getattr(request.app.state, "started", _STARTED)
+    return LivePublic(uptime_seconds=round(time.monotonic() - started, 3))
+
 
 @router.get(
-    "/healthz",
-    summary="Liveness and the store's state, with cache statistics",
-    responses={503: {"model": HealthPublic, "description": "The store does not answer."}},
+    "/readyz",
+    summary="Readiness: the store answers and the pool is warm",
+    responses={503: {"model": ReadyPublic, "description": "Not ready: see `store`, `pool`."}},
 )
-async def healthz(engine: EngineDep, response: Response) -> HealthPublic:
-    """`200` with `status: ok` when the store answers; `503` with `status: unavailable` and the
-    reason under `store.detail` while it does not (the container's `HEALTHCHECK` then fails).
-    Answers at once, even while the pool is busy with long analyses."""
+async def readyz(engine: EngineDep, response: Response) -> ReadyPublic:
+    """`200` with `status: ok` when the store answers and the kernels are compiled; `503`
+    with `status: unavailable` otherwise, the store's reason under `store.detail`. Recovers by
+    itself when the store comes back. Also shows the pool's load and the cache's figures."""
     problem = await engine.store.check()
-    if problem is not None:
+    pool = engine.pool
+    ready = problem is None and pool.warm
+    if not ready:
         response.status_code = status.HTTP_503_SERVICE_UNAVAILABLE
     c = engine.cache
     stats = CacheStats(
@@ -32,4 +48,9 @@ async def healthz(engine: EngineDep, response: Response) -> HealthPublic:
     store = StoreHealth.model_validate(
         {"kind": engine.store.kind, "up": problem is None, "detail": problem}
     )
-    return HealthPublic(status="ok" if problem is None else "unavailable", store=store, cache=stats)
+    return ReadyPublic(
+        status="ok" if ready else "unavailable",
+        store=store,
+        pool=PoolStats(size=pool.size, busy=pool.busy, queued=pool.queued, warm=pool.warm),
+        cache=stats,
+    )

@@ -11,6 +11,7 @@ from service import plans
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
 from service.errors import responses
+from service.events import BusDep
 
 __all__ = ["router"]
 
@@ -56,12 +57,15 @@ async def delete_plan(plan_id: str, engine: EngineDep) -> None:
     summary="Report the dynamic obstacles; get the move to make now",
     responses=responses(404, 409, 413, 422),
 )
-async def step(plan_id: str, body: StepCreate, engine: EngineDep) -> StepPublic:
+async def step(plan_id: str, body: StepCreate, engine: EngineDep, bus: BusDep) -> StepPublic:
     """Give the cells dynamic obstacles occupy now (and optionally where the robot really is);
     the answer is the cell to move to, which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    return present.step_public(await plans.step(engine, plan_id, body))
+    answer = present.step_public(await plans.step(engine, plan_id, body))
+    obstacles = body.model_dump(mode="json", include={"dynamic_obstacles"})
+    await bus.publish(plan_id, {**answer.model_dump(mode="json"), **obstacles})
+    return answer
 
 
 @router.get(

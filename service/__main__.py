@@ -1,0 +1,53 @@
+"""``python -m service``: the service under uvicorn, as ``make run`` and the container start it.
+
+It listens on ``PLANNER_HOST``:``PLANNER_PORT`` and logs JSON lines on stdout (``service.logs``):
+one per request, none of uvicorn's plain-text access lines, and at start one line before the
+warm-up, one after it and one with the address it listens on, the store and the warm-up time.
+"""
+
+from __future__ import annotations
+
+import logging.config
+import socket
+
+import uvicorn
+
+from service.config import Settings
+from service.logs import LOG, log_config
+
+__all__ = ["main"]
+
+
+class _Server(uvicorn.Server):
+    async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+        await super().startup(sockets=sockets)
+        if self.should_exit:  # the lifespan failed, or the port was taken
+            return
+        from service.main import app  # the module uvicorn loaded, with its lifespan's facts
+
+        bound = [s.getsockname() for server in self.servers for s in server.sockets or ()]
+        addresses = [f"http://{a[0]}:{a[1]}" for a in bound if isinstance(a, tuple)]
+        fields = {"address": addresses[0] if addresses else None, **app.state.startup}
+        LOG.info("listening", extra={"fields": fields})
+
+
+def main() -> int:
+    """Serve until stopped (Ctrl-C, SIGTERM); 1 when the service could not start."""
+    settings = Settings()
+    config = log_config(settings.log_level)
+    logging.config.dictConfig(config)
+    server = _Server(
+        uvicorn.Config(
+            "service.main:app",
+            host=settings.host,
+            port=settings.port,
+            log_config=config,
+            access_log=False,  # service.observe writes one JSON line per request instead
+        )
+    )
+    server.run()
+    return 0 if server.started else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

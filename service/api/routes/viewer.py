@@ -1,0 +1,87 @@
+"""``/plan/{plan_id}/view``: a live page of the robot on its map; ``/plan/{plan_id}/events``: the
+plan's steps as server-sent events, which feed it."""
+
+from __future__ import annotations
+
+import html
+from collections.abc import AsyncIterator
+from importlib import resources
+
+import orjson
+from fastapi import APIRouter
+from fastapi.responses import HTMLResponse, StreamingResponse
+from starlette.background import BackgroundTask
+
+from service import plans
+from service.api.deps import EngineDep
+from service.errors import responses
+from service.events import BusDep, Subscription
+
+__all__ = ["router"]
+
+router = APIRouter(tags=["plans"])
+
+PAGE = (resources.files("service") / "viewer.html").read_text(encoding="utf-8")
+
+
+@router.get(
+    "/plan/{plan_id}/view",
+    summary="A live page of the robot on its map",
+    response_class=HTMLResponse,
+    responses={200: {"content": {"text/html": {}}}, **responses(404, 422)},
+)
+async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
+    """An HTML page drawing the plan's map, its planned path, the robot (`#robot`, its cell in
+    `data-cell`) and the dynamic obstacles of the latest step (`.dynamic-obstacle`), updated
+    live from `/plan/{plan_id}/events` as steps arrive. Everything it loads comes from the
+    service."""
+    view_ = await plans.get_plan(engine, plan_id)
+    height, width = view_.plan.analysis.shape
+    data = {
+        "plan_id": plan_id,
+        "height": height,
+        "width": width,
+        "cell": max(1, min(32, 800 // max(height, width))),
+        "position": list(view_.state.position),
+        "trajectory": [list(cell) for cell in view_.state.trajectory],
+    }
+    # Inside <script>: "</" must not close it.
+    embedded = orjson.dumps(data).decode().replace("</", "<\\/")
+    page = PAGE.replace("__PLAN_ID__", html.escape(plan_id))
+    return HTMLResponse(page.replace("__PLAN_DATA__", embedded))
+
+
+@router.get(
+    "/plan/{plan_id}/events",
+    summary="The plan's steps as server-sent events",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {}}}, **responses(404, 422)},
+)
+async def events(plan_id: str, engine: EngineDep, bus: BusDep) -> StreamingResponse:
+    """`text/event-stream`: one event per step served from now on, by any replica; its `data`
+    is the step's answer with the step's `dynamic_obstacles` (`seq`, `position`, `move`,
+    `status`, ...). A comment every 15 s keeps idle connections open."""
+    await plans.require(engine, plan_id)
+    subscription = await bus.subscribe(plan_id)
+    headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}  # nginx: no buffering
+    return StreamingResponse(
+        _frames(subscription),
+        media_type="text/event-stream",
+        headers=headers,
+        background=BackgroundTask(subscription.close),
+    )
+
+
+async def _frames(subscription: Subscription) -> AsyncIterator[bytes]:
+    try:
+        yield b": subscribed\n\n"
+        while True:
+            try:
+                event = await subscription.next()
+            except EOFError:  # the bus is gone: the browser reconnects by itself
+                return
+            yield (
+                b": keep-alive\n\n" if event is None else b"data: " + orjson.dumps(event) + b"\n\n"
+            )
+    finally:
+        await subscription.close()

@@ -1,0 +1,77 @@
+"""JSON log lines, one object per line on stdout: the request lines of
+:class:`service.observe.Observe`, the start-up lines, and uvicorn's own messages.
+
+``python -m service`` installs :func:`log_config` (uvicorn's plain-text access line is off: the
+service writes its own). Fields of a line beyond ``time``, ``level``, ``logger`` and
+``message`` are passed as ``extra={"fields": {...}}``.
+"""
+
+from __future__ import annotations
+
+import logging
+from contextvars import ContextVar
+from datetime import UTC, datetime
+from typing import Any
+
+import orjson
+
+__all__ = ["ACCESS", "LOG", "REQUEST_ID", "JsonFormatter", "log_config"]
+
+LOG = logging.getLogger("service")
+"""The service's own lines (start-up, shut-down)."""
+ACCESS = logging.getLogger("service.access")
+"""One line per request."""
+REQUEST_ID: ContextVar[str | None] = ContextVar("planner_request_id", default=None)
+"""The id of the request being served: lines logged while serving it carry it."""
+
+
+class JsonFormatter(logging.Formatter):
+    """A record as one JSON object: ``time`` (UTC, ISO 8601), ``level``, ``logger``,
+    ``message``, then the record's ``fields``.
+
+    >>> record = logging.LogRecord("service", logging.INFO, "", 0, "hi", None, None)
+    >>> record.created = 0.0
+    >>> record.fields = {"port": 8000}
+    >>> JsonFormatter().format(record)
+    '{"time":"1970-01-01T00:00:00.000Z","level":"info","logger":"service","message":"hi","port":8000}'
+    """
+
+    def format(self, record: logging.LogRecord) -> str:
+        when = datetime.fromtimestamp(record.created, tz=UTC)
+        line: dict[str, Any] = {
+            "time": when.strftime("%Y-%m-%dT%H:%M:%S.") + f"{when.microsecond // 1000:03d}Z",
+            "level": record.levelname.lower(),
+            "logger": record.name,
+            "message": record.getMessage(),
+        }
+        request_id = REQUEST_ID.get()
+        if request_id is not None:
+            line["request_id"] = request_id
+        line.update(getattr(record, "fields", None) or {})
+        if record.exc_info:
+            line["exception"] = self.formatException(record.exc_info)
+        return orjson.dumps(line, default=str).decode()
+
+
+def log_config(level: str = "info") -> dict[str, Any]:
+    """``logging.config.dictConfig`` input (and uvicorn's ``log_config``): every line JSON on
+    stdout; uvicorn's access logger silenced."""
+    upper = level.upper()
+    return {
+        "version": 1,
+        "disable_existing_loggers": False,
+        "formatters": {"json": {"()": JsonFormatter}},
+        "handlers": {
+            "stdout": {
+                "class": "logging.StreamHandler",
+                "formatter": "json",
+                "stream": "ext://sys.stdout",
+            }
+        },
+        "loggers": {
+            "service": {"handlers": ["stdout"], "level": upper, "propagate": False},
+            "uvicorn": {"handlers": ["stdout"], "level": upper, "propagate": False},
+            "uvicorn.error": {"level": upper},
+            "uvicorn.access": {"handlers": [], "level": "CRITICAL", "propagate": False},
+        },
+    }

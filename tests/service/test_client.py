@@ -1,0 +1,259 @@
+"""``service.client`` against a live uvicorn server (and, for the ROS YAML upload, whose server
+side is not here yet, against a mock transport that reads the multipart parts)."""
+
+from __future__ import annotations
+
+import email.parser
+import email.policy
+import json
+import subprocess
+import sys
+from email.message import EmailMessage
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from service.client import (
+    APIError,
+    AsyncPlannerClient,
+    ConflictError,
+    MapInfo,
+    NotFoundError,
+    NoValidPathError,
+    PlannerClient,
+    UnavailableError,
+    ValidationError,
+)
+from tests.service.conftest import ROOT, random_map
+
+GRID = random_map(20, 20, 0.15, seed=7).tolist()
+ROWS = ["".join(".@"[c] for c in row) for row in GRID]
+WALLED = [[0, 0, 0, 0, 0], [0, 0, 1, 1, 1], [0, 0, 1, 0, 0], [0, 0, 1, 0, 0]]
+
+
+def test_importing_the_client_imports_no_fastapi_and_builds_no_app() -> None:
+    code = (
+        "import sys, service.client; "
+        "loaded = [m for m in sys.modules if m.split('.')[0] in ('fastapi', 'starlette')"
+        " or m in ('service.main', 'service.engine', 'planner')]; "
+        "assert not loaded, loaded"
+    )
+    subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)
+
+
+def test_a_session_through_the_client(live_url: str) -> None:
+    with PlannerClient(live_url) as planner:
+        info = planner.upload_map(grid=GRID, start=[0, 0], goal=[19, 19], preset="wide")
+        assert isinstance(info, MapInfo)
+        assert (info.height, info.width) == (20, 20)
+        assert info.free_cells == sum(row.count(0) for row in GRID)
+        assert info.plan is not None
+        plan = info.plan
+        assert plan.map_id == info.map_id
+        assert plan.start == [0, 0]
+        assert plan.goal == [19, 19]
+        assert plan.status == "ready"
+        assert plan.preview.path[0] == [0, 0]
+        assert plan.preview.path[-1] == [19, 19]
+        assert plan.analysis.gates >= 0
+        assert plan.params["alpha"] == 3.0
+        again = planner.upload_map(rows=ROWS)  # the same map, sent as rows
+        assert again.map_id == info.map_id
+        assert again.created is False
+        assert again.plan is None
+        assert planner.get_map(info.map_id).free_cells == info.free_cells
+
+        other = planner.plan(info.map_id, [0, 0], [19, 19], preset="shortest", params={"beta": 2})
+        assert other.preset == "shortest"
+        assert other.params["beta"] == 2.0
+        path = plan.preview.path
+        first = planner.step(plan.plan_id, [], seq=0)
+        assert (first.seq, first.previous, first.position) == (0, path[0], path[1])
+        assert first.move in {"N", "NE", "E", "SE", "S", "SW", "W", "NW"}
+        assert planner.step(plan.plan_id, [], seq=0) == first  # a retry: the same answer
+        second = planner.step(plan.plan_id, [[5, 5]], seq=1, position=path[1])
+        assert second.iteration == 2
+        detail = planner.get_plan(plan.plan_id)
+        assert detail.iteration == 2
+        assert detail.trajectory == [path[0], path[1], second.position]
+        assert detail.metrics["moves"] == 2
+        assert detail.preview == plan.preview
+
+        episode = planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1)
+        assert episode.metrics["collisions"] == 0
+        assert episode.trajectory[0] == [0, 0]
+        replay = planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1)
+        assert replay.trajectory == episode.trajectory  # seeded
+
+        png = planner.render_map(info.map_id, field="clean", cell=2)
+        assert png.startswith(b"\x89PNG")
+        assert int.from_bytes(png[16:20], "big") >= 40  # 20 cells of 2 pixels, and the legend
+        assert planner.render_plan(plan.plan_id).startswith(b"\x89PNG")
+
+        planner.delete_plan(plan.plan_id)
+        with pytest.raises(NotFoundError):
+            planner.get_plan(plan.plan_id)
+
+
+def test_error_answers_raise_typed_errors(live_url: str) -> None:
+    with PlannerClient(live_url) as planner:
+        with pytest.raises(NotFoundError) as missing:
+            planner.get_map("0" * 64)
+        assert missing.value.status_code == 404
+        assert missing.value.code == "NOT_FOUND"
+        assert missing.value.field == "map_id"
+        assert "0" * 64 in missing.value.detail
+
+        info = planner.upload_map(grid=GRID)
+        with pytest.raises(ValidationError) as outside:
+            planner.plan(info.map_id, [0, 0], [40, 0])
+        assert outside.value.status_code == 422
+        assert outside.value.code == "INVALID_INPUT"
+        assert outside.value.field == "goal"
+        assert "[40, 0]" in outside.value.detail
+
+        walled = planner.upload_map(grid=WALLED)
+        with pytest.raises(NoValidPathError) as unreachable:
+            planner.plan(walled.map_id, [0, 0], [3, 4])
+        assert isinstance(unreachable.value, ValidationError)
+        assert "NO_VALID_PATH" in unreachable.value.detail
+
+        plan = planner.plan(info.map_id, [0, 0], [19, 19])
+        planner.step(plan.plan_id, [], seq=0)
+        with pytest.raises(ConflictError) as conflict:
+            planner.step(plan.plan_id, [], seq=5)
+        assert conflict.value.status_code == 409
+        assert conflict.value.code == "SEQUENCE_CONFLICT"
+        with pytest.raises(ValidationError):
+            planner.step(plan.plan_id, [[99, 99]])
+        with pytest.raises(APIError) as bad_render:
+            planner.render_plan(plan.plan_id, cell=0)
+        assert bad_render.value.status_code == 422
+    for kind in (NotFoundError, ValidationError, ConflictError, UnavailableError):
+        assert issubclass(kind, APIError)
+    assert not issubclass(NotFoundError, ValidationError)
+    assert not issubclass(ValidationError, NotFoundError)
+
+
+@pytest.mark.anyio
+async def test_the_async_client(live_url: str) -> None:
+    async with AsyncPlannerClient(live_url) as planner:
+        info = await planner.upload_map(rows=ROWS, start=[0, 0], goal=[19, 19])
+        assert info.plan is not None
+        plan_id = info.plan.plan_id
+        path = info.plan.preview.path
+        step = await planner.step(plan_id, [], seq=0)
+        assert step.position == path[1]
+        assert (await planner.get_plan(plan_id)).iteration == 1
+        assert (await planner.get_map(info.map_id)).map_id == info.map_id
+        plan = await planner.plan(info.map_id, [0, 0], [19, 19], preset="mmas")
+        assert plan.preset == "mmas"
+        episode = await planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=2, seed=3)
+        assert episode.metrics["reached"] in (True, False)
+        assert (await planner.render_map(info.map_id)).startswith(b"\x89PNG")
+        assert (await planner.render_plan(plan_id)).startswith(b"\x89PNG")
+        await planner.delete_plan(plan_id)
+        with pytest.raises(NotFoundError):
+            await planner.delete_plan(plan_id)
+        with pytest.raises(ValidationError):
+            await planner.plan(info.map_id, [0, 0], [-1, 0])
+
+
+def _parts(request: httpx.Request) -> dict[str, EmailMessage]:
+    """The parts of a multipart/form-data request by name."""
+    head = f"Content-Type: {request.headers['content-type']}\r\n\r\n".encode()
+    message = email.parser.BytesParser(policy=email.policy.HTTP).parsebytes(head + request.content)
+    assert isinstance(message, EmailMessage)
+    parts = {}
+    for part in message.iter_parts():
+        assert isinstance(part, EmailMessage)
+        name = part.get_param("name", header="content-disposition")
+        assert isinstance(name, str)
+        parts[name] = part
+    return parts
+
+
+def test_a_ros_map_yaml_is_posted_with_its_image(tmp_path: Path) -> None:
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    pgm = b"P5\n3 2\n255\n" + bytes([254, 0, 254, 254, 254, 205])
+    (maps / "office.pgm").write_bytes(pgm)
+    yaml_text = (
+        "# a map_server map\nimage: 'office.pgm'  # beside this file\nresolution: 0.05\n"
+        "origin: [-1.0, -2.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
+    (maps / "office.yaml").write_text(yaml_text)
+    seen: list[httpx.Request] = []
+    answer = {"map_id": "ab" * 32, "height": 2, "width": 3, "free_cells": 4}
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        seen.append(request)
+        return httpx.Response(201, json=answer)
+
+    transport = httpx.MockTransport(handler)
+    with PlannerClient("http://planner", transport=transport) as planner:
+        info = planner.upload_map(yaml=maps / "office.yaml", start=[0, 0], goal={"x": 0.1, "y": 0})
+    assert (info.map_id, info.height, info.width, info.created) == (answer["map_id"], 2, 3, True)
+    (request,) = seen
+    assert request.method == "POST"
+    assert request.url.path == "/maps"
+    assert request.headers["content-type"].startswith("multipart/form-data; boundary=")
+    parts = _parts(request)
+    assert set(parts) == {"yaml", "image", "start", "goal"}
+    assert parts["yaml"].get_filename() == "office.yaml"
+    assert parts["yaml"].get_payload(decode=True) == yaml_text.encode()
+    assert parts["image"].get_filename() == "office.pgm"
+    assert parts["image"].get_payload(decode=True) == pgm
+    assert json.loads(parts["start"].get_content()) == [0, 0]
+    assert json.loads(parts["goal"].get_content()) == {"x": 0.1, "y": 0}
+
+
+def test_a_yaml_without_its_image_is_refused_before_sending(tmp_path: Path) -> None:
+    (tmp_path / "m.yaml").write_text("resolution: 0.05\norigin: [0, 0, 0]\n")
+    (tmp_path / "n.yaml").write_text("image: n.pgm\nresolution: 0.05\n")
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        raise AssertionError("sent")
+
+    with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as planner:
+        with pytest.raises(ValueError, match="image"):
+            planner.upload_map(yaml=tmp_path / "m.yaml")
+        with pytest.raises(FileNotFoundError):
+            planner.upload_map(yaml=tmp_path / "n.yaml")
+        with pytest.raises(TypeError, match="exactly one"):
+            planner.upload_map(grid=[[0]], rows=["."])
+        with pytest.raises(TypeError, match="exactly one"):
+            planner.upload_map()
+
+
+def test_a_store_out_of_reach_raises_unavailable_with_its_retry_after() -> None:
+    body: dict[str, Any] = {
+        "detail": "store unavailable",
+        "field": None,
+        "code": "STORE_UNAVAILABLE",
+    }
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        return httpx.Response(503, json=body, headers={"Retry-After": "1"})
+
+    transport = httpx.MockTransport(handler)
+    with (
+        PlannerClient("http://planner", transport=transport) as planner,
+        pytest.raises(UnavailableError) as down,
+    ):
+        planner.get_plan("p")
+    assert down.value.retry_after == 1.0
+    assert down.value.code == "STORE_UNAVAILABLE"
+    assert down.value.field is None
+
+
+def test_the_readme_example_runs(live_url: str, tmp_path: Path, monkeypatch: Any) -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme.split("### The Python client", 1)[1]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    assert 'PlannerClient("http://127.0.0.1:8000")' in code
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code.replace("http://127.0.0.1:8000", live_url), "README.md", "exec"), {})
+    assert (tmp_path / "plan.png").read_bytes().startswith(b"\x89PNG")
