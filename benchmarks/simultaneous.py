@@ -79,7 +79,7 @@ def run(per_map: int) -> dict[tuple[str, str], dict[str, Any]]:
             p = planner.plan(grid, line.start, line.goal, preset=name_of_preset, **overrides)
             for motion in OBSTACLE_MOTIONS:
                 m = planner.run_episode(
-                    p, dynamic=dynamic, seed=seed, record=False, obstacle_motion=motion
+                    p, dynamic_count=dynamic, seed=seed, record=False, obstacle_motion=motion
                 ).metrics
                 t = totals[(preset, motion)]
                 t["episodes"] += 1

@@ -81,7 +81,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
 
     m = sub.add_parser("simulate", help="run one seeded episode among moving obstacles")
     _map_args(m)
-    m.add_argument("--dynamic", type=int, default=10, help="number of dynamic obstacles")
+    m.add_argument("--dynamic-count", type=int, default=10, help="number of dynamic obstacles")
     m.add_argument("--seed", type=int, default=0)
     m.add_argument("--max-steps", type=int)
     m.add_argument(
@@ -96,7 +96,9 @@ def _parser(prog: str) -> argparse.ArgumentParser:
         "--seeds", type=int, nargs="+", default=list(SEEDS), metavar="SEED",
         help="map seeds of every environment (default: 0-9); they seed the episodes too",
     )  # fmt: skip
-    e.add_argument("--dynamic", type=int, default=DYNAMIC, help="dynamic obstacles per episode")
+    e.add_argument(
+        "--dynamic-count", type=int, default=DYNAMIC, help="dynamic obstacles per episode"
+    )
     e.add_argument("--json", action="store_true", help="print the rows as one JSON list")
     e.add_argument("--rows", action="store_true", help="also print every row")
     e.set_defaults(run=_experiment)
@@ -111,7 +113,9 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     r.add_argument("--field", choices=["clean", "kw"], help="heat map under the free cells")
     r.add_argument("--cell", type=int, default=10, help="pixels per map cell")
     r.add_argument("--animate", type=Path, metavar="FILE.gif", help="also write an episode GIF")
-    r.add_argument("--dynamic", type=int, default=DYNAMIC, help="dynamic obstacles (--animate)")
+    r.add_argument(
+        "--dynamic-count", type=int, default=DYNAMIC, help="dynamic obstacles (--animate)"
+    )
     r.add_argument("--seed", type=int, default=0, help="the episode's seed (--animate)")
     r.set_defaults(run=_render)
     return parser
@@ -211,7 +215,7 @@ def _simulate(args: argparse.Namespace) -> int:
         args.start,
         args.goal,
         preset=args.preset,
-        dynamic=args.dynamic,
+        dynamic_count=args.dynamic_count,
         seed=args.seed,
         max_steps=args.max_steps,
         obstacle_motion=args.obstacle_motion,
@@ -274,7 +278,9 @@ def _scen(args: argparse.Namespace) -> int:
 
 
 def _experiment(args: argparse.Namespace) -> int:
-    rows = run_experiment(episodes=args.episodes, seeds=args.seeds, dynamic=args.dynamic)
+    rows = run_experiment(
+        episodes=args.episodes, seeds=args.seeds, dynamic_count=args.dynamic_count
+    )
     if args.json:
         print(json.dumps(rows))
         return 0
@@ -283,7 +289,8 @@ def _experiment(args: argparse.Namespace) -> int:
     print(
         f"The paper's experiment: 6 environments x 5 start/goal pairs (Table 1) x 4 presets on "
         f"{n} map seeds ({_seeds(args.seeds)}), {args.episodes} episodes per row among "
-        f"{args.dynamic} moving obstacles. Paper presets: {weights}; elsewhere alpha 3, beta 1."
+        f"{args.dynamic_count} moving obstacles. Paper presets: {weights}; elsewhere alpha 3, "
+        "beta 1."
     )
     for number, text in DESCRIPTIONS.items():
         print(f"  env {number}: {text}")
@@ -385,7 +392,7 @@ def _render(args: argparse.Namespace) -> int:
     args.out.write_bytes(render_plan(result, field=args.field, cell=args.cell))
     print(f"wrote {args.out}")
     if args.animate is not None:
-        episode = run_episode(result, dynamic=args.dynamic, seed=args.seed)
+        episode = run_episode(result, dynamic_count=args.dynamic_count, seed=args.seed)
         args.animate.write_bytes(render_episode(episode, cell=args.cell))
         print(f"wrote {args.animate}: {json.dumps(episode.metrics)}")
     return 0

@@ -80,7 +80,7 @@ def run_experiment(
     *,
     episodes: int = 3,
     seeds: Sequence[int] = SEEDS,
-    dynamic: int = DYNAMIC,
+    dynamic_count: int = DYNAMIC,
     environments: Sequence[int] = tuple(TABLE1),
     pairs: int = 5,
     presets: Sequence[str] = PRESET_ORDER,
@@ -112,7 +112,9 @@ def run_experiment(
                         weights = {"alpha": alpha, "beta": beta}
                     p = plan(grid, start, goal, preset=preset, **weights)
                     runs = [
-                        run_episode(p, dynamic=dynamic, seed=int(s), record=False).metrics
+                        run_episode(
+                            p, dynamic_count=dynamic_count, seed=int(s), record=False
+                        ).metrics
                         for s in states
                     ]
                     row = _row(number, preset, start, goal, p.elapsed_ms, runs)

@@ -82,7 +82,7 @@ def draw(
     *,
     path: Any = None,
     preview: Any = None,
-    dynamic: Any = None,
+    dynamic_obstacles: Any = None,
     start: Any = None,
     goal: Any = None,
     robot: Any = None,
@@ -96,8 +96,8 @@ def draw(
     (``None``: :func:`auto_cell`).
 
     ``path`` cells are filled green, ``preview`` cells pale green under them (lines through the
-    cells' centers below 6 pixels a cell); ``dynamic`` cells blue; ``start``, ``goal`` and the
-    ``robot``'s cell are discs. ``field`` tints free cells by ``analysis.clean`` or by
+    cells' centers below 6 pixels a cell); ``dynamic_obstacles`` cells blue; ``start``, ``goal``
+    and the ``robot``'s cell are discs. ``field`` tints free cells by ``analysis.clean`` or by
     ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
@@ -128,7 +128,7 @@ def draw(
     if analysis.seal_tunnels:  # unsealed tunnel cells are ordinary free cells to the planner
         rgb[analysis.state == 2] = COLOURS["tunnel"]
     lines_: list[LabelledPath] = []
-    for cells, colour in ((preview, "preview"), (path, "path"), (dynamic, "dynamic")):
+    for cells, colour in ((preview, "preview"), (path, "path"), (dynamic_obstacles, "dynamic")):
         if cells is not None and cell < 6 and colour != "dynamic":
             lines_.append((cells, COLOURS[colour], colour))
         elif cells is not None:
@@ -262,12 +262,12 @@ def render_plan(
     plan: Plan,
     *,
     trajectory: Any = None,
-    dynamic: Any = None,
+    dynamic_obstacles: Any = None,
     field: Field | None = None,
     cell: int | None = None,
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
-    so far and the ``dynamic`` obstacles' cells (the plan endpoint).
+    so far and the ``dynamic_obstacles``' cells (the plan endpoint).
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
     green and the preview pale green beneath it.
@@ -282,7 +282,7 @@ def render_plan(
         plan.analysis,
         path=path,
         preview=preview,
-        dynamic=dynamic,
+        dynamic_obstacles=dynamic_obstacles,
         start=plan.start,
         goal=plan.goal,
         robot=robot,
@@ -301,14 +301,14 @@ def render_episode(episode: Episode, *, cell: int = 8, frame_ms: int = 80) -> by
     through a fresh :class:`~planner.Session`: the decision is deterministic, so the replay is
     exact, and it is checked against the episode's trajectory.
     """
-    if episode.obstacles.shape[0] == 0:
+    if episode.dynamic_obstacles.shape[0] == 0:
         raise InvalidInput("the episode was run without record; it has no obstacle cells to draw")
     if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 10:
         raise InvalidInput(f"frame_ms must be an integer >= 10; got {quote(frame_ms)}")
     plan = episode.plan
     session = Session(plan)
     frames = []
-    for t, obstacles in enumerate(episode.obstacles):
+    for t, obstacles in enumerate(episode.dynamic_obstacles):
         if t > 0:
             session.step(obstacles)
         trail = np.asarray(session.state.trajectory, dtype=np.int64)
@@ -316,7 +316,7 @@ def render_episode(episode: Episode, *, cell: int = 8, frame_ms: int = 80) -> by
             plan.analysis,
             path=trail,
             preview=plan.path,
-            dynamic=obstacles,
+            dynamic_obstacles=obstacles,
             start=plan.start,
             goal=plan.goal,
             robot=session.state.position,

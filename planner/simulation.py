@@ -41,9 +41,9 @@ class Episode:
     plan: Plan
     trajectory: npt.NDArray[np.int64]
     """``(n, 2)`` cells the robot stood on, start first (a wait repeats no cell)."""
-    obstacles: npt.NDArray[np.int64]
-    """``(steps + 1, m, 2)``: the obstacles' cells at the start and after each of their moves
-    (``(0, m, 2)`` when the episode was run without ``record``)."""
+    dynamic_obstacles: npt.NDArray[np.int64]
+    """``(steps + 1, m, 2)``: the dynamic obstacles' cells at the start and after each of their
+    moves (``(0, m, 2)`` when the episode was run without ``record``)."""
     metrics: dict[str, Any]
     obstacle_motion: ObstacleMotion = "turns"
     """Whether the obstacles moved before the robot decided (``turns``) or with it."""
@@ -55,21 +55,21 @@ def simulate(
     goal: Any,
     *,
     preset: str = "wide",
-    dynamic: int = 10,
+    dynamic_count: int = 10,
     seed: int = 0,
     max_steps: int | None = None,
     obstacle_motion: ObstacleMotion = "turns",
     **params: Any,
 ) -> Episode:
-    """Plan, then run one seeded episode among ``dynamic`` randomly moving obstacles.
+    """Plan, then run one seeded episode among ``dynamic_count`` randomly moving obstacles.
 
-    >>> e = simulate([[0] * 8 for _ in range(8)], [0, 0], [7, 7], dynamic=3, seed=1)
+    >>> e = simulate([[0] * 8 for _ in range(8)], [0, 0], [7, 7], dynamic_count=3, seed=1)
     >>> e.metrics["reached"], e.metrics["collisions"]
     (True, 0)
     """
     return run_episode(
         plan(grid, start, goal, preset=preset, **params),
-        dynamic=dynamic,
+        dynamic_count=dynamic_count,
         seed=seed,
         max_steps=max_steps,
         obstacle_motion=obstacle_motion,
@@ -79,22 +79,23 @@ def simulate(
 def run_episode(
     plan: Plan,
     *,
-    dynamic: int = 10,
+    dynamic_count: int = 10,
     seed: int = 0,
     max_steps: int | None = None,
     record: bool = True,
     obstacle_motion: ObstacleMotion = "turns",
 ) -> Episode:
-    """Run one seeded episode of ``plan`` among ``dynamic`` randomly moving obstacles.
+    """Run one seeded episode of ``plan`` among ``dynamic_count`` randomly moving obstacles.
 
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
-    off, the obstacles' cells at each step are not kept (``Episode.obstacles`` is empty).
+    off, the obstacles' cells at each step are not kept (``Episode.dynamic_obstacles`` is empty).
     ``obstacle_motion`` is ``turns`` (obstacles move, then the robot) or ``simultaneous``.
     """
     grid = plan.analysis.grid
     H, W = grid.shape
-    if isinstance(dynamic, bool) or not isinstance(dynamic, int) or not 0 <= dynamic <= MAX_DYNAMIC:
-        msg = f"dynamic must be an integer in [0, {MAX_DYNAMIC}]; got {quote(dynamic)}"
+    count = dynamic_count
+    if isinstance(count, bool) or not isinstance(count, int) or not 0 <= count <= MAX_DYNAMIC:
+        msg = f"dynamic_count must be an integer in [0, {MAX_DYNAMIC}]; got {quote(count)}"
         raise InvalidInput(msg, field="dynamic_count")
     if obstacle_motion not in OBSTACLE_MOTIONS:
         msg = f"obstacle_motion must be 'turns' or 'simultaneous'; got {obstacle_motion!r}"
@@ -112,38 +113,41 @@ def run_episode(
     free = free[
         (free != plan.start[0] * W + plan.start[1]) & (free != plan.goal[0] * W + plan.goal[1])
     ]
-    if dynamic > free.size:
-        msg = f"dynamic_count {dynamic} exceeds the {free.size} free cells besides start and goal"
+    if dynamic_count > free.size:
+        msg = (
+            f"dynamic_count {dynamic_count} exceeds the {free.size} free cells besides start "
+            "and goal"
+        )
         raise InvalidInput(msg, field="dynamic_count")
-    cells = rng.choice(free, size=dynamic, replace=False)
-    obstacles = np.ascontiguousarray(np.stack(np.divmod(cells, W), axis=1).astype(np.int64))
+    cells = rng.choice(free, size=dynamic_count, replace=False)
+    dynamic_obstacles = np.ascontiguousarray(np.stack(np.divmod(cells, W), axis=1).astype(np.int64))
     occupied = np.zeros((H, W), dtype=np.int32)
-    occupied[obstacles[:, 0], obstacles[:, 1]] = 1
-    history = [obstacles.copy()] if record else []
+    occupied[dynamic_obstacles[:, 0], dynamic_obstacles[:, 1]] = 1
+    history = [dynamic_obstacles.copy()] if record else []
     session = Session(plan)
     collisions = 0
     step_seconds = 0.0
     steps = 0
     while steps < max_steps and session.state.status not in ("arrived", "blocked"):
         r, c = session.state.position
-        before = obstacles.copy()
+        before = dynamic_obstacles.copy()
         if not simultaneous:
-            K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
+            K._move_obstacles(grid, occupied, dynamic_obstacles, r, c, rng.random(dynamic_count))
         t0 = time.perf_counter()
-        step = session.step(obstacles)
+        step = session.step(dynamic_obstacles)
         step_seconds += time.perf_counter() - t0
         if simultaneous:
             # They move at once with the robot: away from the cell it stood on at the start.
-            K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
+            K._move_obstacles(grid, occupied, dynamic_obstacles, r, c, rng.random(dynamic_count))
         if record:
-            history.append(obstacles.copy())
+            history.append(dynamic_obstacles.copy())
         steps += 1
         pr, pc = step.position
         landed = occupied[pr, pc] > 0
         swapped = bool(
             np.any(
                 (before[:, 0] == pr) & (before[:, 1] == pc)
-                & (obstacles[:, 0] == r) & (obstacles[:, 1] == c)
+                & (dynamic_obstacles[:, 0] == r) & (dynamic_obstacles[:, 1] == c)
             )
         )  # fmt: skip
         if landed or swapped:
@@ -171,7 +175,7 @@ def run_episode(
         "step_us": round(step_seconds / max(steps, 1) * 1e6, 3),
         "episode_ms": round((time.perf_counter() - t_start) * 1e3, 3),
     }
-    shape = (len(history), dynamic, 2)
+    shape = (len(history), dynamic_count, 2)
     obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)
     return Episode(plan, trajectory, obstacle_cells, metrics, obstacle_motion)
 
@@ -191,7 +195,7 @@ def warm_up() -> None:
             p = plan(grid, (0, 0), (5, 5), preset=preset, patience=0)
             p.analysis.gate_cells()
             _ = p.min_clearance
-            run_episode(p, dynamic=2, seed=0, max_steps=4)
-            run_episode(p, dynamic=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
+            run_episode(p, dynamic_count=2, seed=0, max_steps=4)
+            run_episode(p, dynamic_count=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
             session = Session(p)
             session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel

@@ -18,7 +18,7 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
     return await engine.pool.run(
         planner.run_episode,
         plan,
-        dynamic=body.dynamic_count,
+        dynamic_count=body.dynamic_count,
         seed=body.seed,
         max_steps=body.max_steps,
         obstacle_motion=body.obstacle_motion,

@@ -42,7 +42,9 @@ def test_plan_error_names_the_value(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_simulate_prints_metrics(capsys: pytest.CaptureFixture[str]) -> None:
     args = ["simulate", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26"]
-    code, out, _ = run_cli([*args, "--dynamic", "5", "--seed", "3", "--preset", "wfs-mmas"], capsys)
+    code, out, _ = run_cli(
+        [*args, "--dynamic-count", "5", "--seed", "3", "--preset", "wfs-mmas"], capsys
+    )
     assert code == 0
     metrics = json.loads(out)
     assert metrics["collisions"] == 0
@@ -137,7 +139,9 @@ def test_plan_on_a_ros_map_errors_are_one_line(ros: Path, tmp_path: Path) -> Non
 
 def test_simulate_takes_the_obstacle_motion(capsys: pytest.CaptureFixture[str]) -> None:
     args = ["simulate", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26"]
-    code, out, _ = run_cli([*args, "--dynamic", "8", "--obstacle-motion", "simultaneous"], capsys)
+    code, out, _ = run_cli(
+        [*args, "--dynamic-count", "8", "--obstacle-motion", "simultaneous"], capsys
+    )
     assert code == 0
     metrics = json.loads(out)
     assert metrics["obstacle_motion"] == "simultaneous"

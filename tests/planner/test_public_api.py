@@ -58,7 +58,7 @@ def _outside_calls() -> list[tuple[str, Callable[[], object]]]:
         ("Session.step obstacles", lambda: planner.Session(p).step([[-1, 2]])),
         ("simulate", lambda: planner.simulate(GRID, [0, 0], [9, 9])),
         ("render_plan", lambda: planner.render_plan(p, trajectory=[[0, 0], [4, 4]])),
-        ("render_plan dynamic", lambda: planner.render_plan(p, dynamic=[[0, -3]])),
+        ("render_plan dynamic", lambda: planner.render_plan(p, dynamic_obstacles=[[0, -3]])),
     ]
 
 

@@ -62,7 +62,7 @@ def test_colours_are_the_papers() -> None:
 def test_plan_png_colours_at_known_cells() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
     assert p.analysis.state[2, 3] == 2  # the corridor cell is sealed
-    image = decode(render_plan(p, dynamic=[[6, 0]], cell=CELL))
+    image = decode(render_plan(p, dynamic_obstacles=[[6, 0]], cell=CELL))
     assert image.format == "PNG"
     assert image.size == (10 * CELL, 7 * CELL)
     assert at(image, (2, 0)) == COLOURS["obstacle"]
@@ -126,25 +126,25 @@ def test_rejects_bad_cell_size(cell: object) -> None:
 def test_rejects_cells_outside_the_map() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9))
     with pytest.raises(planner.InvalidInput, match=r"\[7, 0\] is outside"):
-        render_plan(p, dynamic=[[7, 0]])
+        render_plan(p, dynamic_obstacles=[[7, 0]])
 
 
 def test_episode_gif_frames_follow_the_robot() -> None:
-    episode = planner.simulate(ROOM, (0, 0), (6, 9), dynamic=3, seed=2)
+    episode = planner.simulate(ROOM, (0, 0), (6, 9), dynamic_count=3, seed=2)
     image = decode(render_episode(episode, cell=CELL))
     assert image.format == "GIF"
     assert image.size == (10 * CELL, 7 * CELL)
-    assert frames(image) == len(episode.obstacles)
+    assert frames(image) == len(episode.dynamic_obstacles)
     image.seek(frames(image) - 1)
     last = image.convert("RGB")
     assert at(last, (6, 9)) == COLOURS["robot"]  # the robot on the goal
-    for r, c in episode.obstacles[-1].tolist():
+    for r, c in episode.dynamic_obstacles[-1].tolist():
         assert at(last, (r, c)) == COLOURS["dynamic"]
 
 
 def test_episode_without_record_is_refused() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9))
-    episode = planner.run_episode(p, dynamic=1, record=False)
+    episode = planner.run_episode(p, dynamic_count=1, record=False)
     with pytest.raises(planner.InvalidInput, match="record"):
         render_episode(episode)
 
@@ -152,7 +152,7 @@ def test_episode_without_record_is_refused() -> None:
 def test_render_cli_writes_png_and_gif(tmp_path: Path) -> None:
     png, gif = tmp_path / "env6.png", tmp_path / "env6.gif"
     args = ["render", "env6:2", "--start", "0", "0", "--goal", "49", "49", "--out", str(png)]
-    args += ["--animate", str(gif), "--cell", "4", "--field", "clean", "--dynamic", "5"]
+    args += ["--animate", str(gif), "--cell", "4", "--field", "clean", "--dynamic-count", "5"]
     assert main(args) == 0
     assert decode(png.read_bytes()).size == (200, 200)
     assert frames(decode(gif.read_bytes())) > 50

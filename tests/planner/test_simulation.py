@@ -18,15 +18,15 @@ TIMINGS = {"analysis_ms", "step_us", "episode_ms"}
 
 def test_a_seeded_episode_is_reproducible() -> None:
     grid = planner.read_map(str(EXAMPLE_MAP))
-    a = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=5)
-    b = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=5)
+    a = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic_count=12, seed=5)
+    b = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic_count=12, seed=5)
     np.testing.assert_array_equal(a.trajectory, b.trajectory)
-    np.testing.assert_array_equal(a.obstacles, b.obstacles)
+    np.testing.assert_array_equal(a.dynamic_obstacles, b.dynamic_obstacles)
     assert {k: v for k, v in a.metrics.items() if k not in TIMINGS} == {
         k: v for k, v in b.metrics.items() if k not in TIMINGS
     }
-    c = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=12, seed=6)
-    assert not np.array_equal(a.obstacles, c.obstacles)
+    c = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic_count=12, seed=6)
+    assert not np.array_equal(a.dynamic_obstacles, c.dynamic_obstacles)
 
 
 @pytest.mark.parametrize("preset", sorted(planner.PRESETS))
@@ -36,7 +36,7 @@ def test_episodes_reach_the_goal_without_collisions(preset: str, seed: int) -> N
     grid = (rng.random((30, 30)) < 0.2).astype(np.uint8)
     grid[0, 0] = grid[29, 29] = 0
     try:
-        e = planner.simulate(grid, (0, 0), (29, 29), preset=preset, dynamic=15, seed=seed)
+        e = planner.simulate(grid, (0, 0), (29, 29), preset=preset, dynamic_count=15, seed=seed)
     except planner.NoValidPath:
         return
     m = e.metrics
@@ -47,10 +47,10 @@ def test_episodes_reach_the_goal_without_collisions(preset: str, seed: int) -> N
     assert e.trajectory[-1].tolist() == [29, 29]
     assert m["moves"] == len(e.trajectory) - 1
     assert m["iterations"] == m["moves"] + m["waits"]
-    assert e.obstacles.shape == (m["iterations"] + 1, 15, 2)
+    assert e.dynamic_obstacles.shape == (m["iterations"] + 1, 15, 2)
     # Obstacles walk on free cells only, one legal move (or none) per step, never onto the robot.
-    assert (grid[e.obstacles[..., 0], e.obstacles[..., 1]] == 0).all()
-    assert np.abs(np.diff(e.obstacles, axis=0)).max() <= 1
+    assert (grid[e.dynamic_obstacles[..., 0], e.dynamic_obstacles[..., 1]] == 0).all()
+    assert np.abs(np.diff(e.dynamic_obstacles, axis=0)).max() <= 1
     k = e.plan.wave.k
     assert m["arc_cost"] == pytest.approx(float(k[e.trajectory[1:, 0], e.trajectory[1:, 1]].sum()))
     assert 0.0 <= m["contact_ratio"] <= 1.0
@@ -59,7 +59,7 @@ def test_episodes_reach_the_goal_without_collisions(preset: str, seed: int) -> N
 
 def test_no_dynamic_obstacles_follows_the_preview() -> None:
     grid = planner.read_map(str(EXAMPLE_MAP))
-    e = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic=0)
+    e = planner.simulate(grid, EXAMPLE_START, EXAMPLE_GOAL, dynamic_count=0)
     np.testing.assert_array_equal(e.trajectory, e.plan.path)
     assert e.metrics["path_length"] == pytest.approx(e.plan.length)
 
@@ -67,15 +67,17 @@ def test_no_dynamic_obstacles_follows_the_preview() -> None:
 def test_bad_simulation_inputs_are_named() -> None:
     grid = np.zeros((3, 3), dtype=np.uint8)
     with pytest.raises(planner.InvalidInput, match="dynamic_count 8 exceeds the 7 free cells"):
-        planner.simulate(grid, (0, 0), (2, 2), dynamic=8)
-    with pytest.raises(planner.InvalidInput, match="dynamic must be an integer"):
-        planner.simulate(grid, (0, 0), (2, 2), dynamic=-1)
+        planner.simulate(grid, (0, 0), (2, 2), dynamic_count=8)
+    with pytest.raises(planner.InvalidInput, match="dynamic_count must be an integer"):
+        planner.simulate(grid, (0, 0), (2, 2), dynamic_count=-1)
     with pytest.raises(planner.InvalidInput, match="max_steps must be a positive integer; got 0"):
         planner.simulate(grid, (0, 0), (2, 2), max_steps=0)
 
 
 def test_max_steps_bounds_an_episode() -> None:
-    e = planner.simulate(np.zeros((1, 20), dtype=np.uint8), (0, 0), (0, 19), dynamic=0, max_steps=5)
+    e = planner.simulate(
+        np.zeros((1, 20), dtype=np.uint8), (0, 0), (0, 19), dynamic_count=0, max_steps=5
+    )
     assert e.metrics["iterations"] == 5
     assert not e.metrics["reached"]
 
@@ -83,9 +85,9 @@ def test_max_steps_bounds_an_episode() -> None:
 def test_many_obstacles_without_recording() -> None:
     grid = np.zeros((60, 60), dtype=np.uint8)
     e = planner.run_episode(
-        planner.plan(grid, (0, 0), (59, 59)), dynamic=900, seed=2, record=False, max_steps=400
+        planner.plan(grid, (0, 0), (59, 59)), dynamic_count=900, seed=2, record=False, max_steps=400
     )
-    assert e.obstacles.shape == (0, 900, 2)
+    assert e.dynamic_obstacles.shape == (0, 900, 2)
     assert e.metrics["collisions"] == 0
     assert e.metrics["iterations"] >= 59
 
@@ -99,14 +101,16 @@ def crowded(seed: int) -> np.ndarray:
 
 def test_simultaneous_obstacles_move_after_the_robot_decides_and_never_onto_its_cell() -> None:
     grid = crowded(1)
-    e = planner.simulate(grid, (0, 0), (23, 23), dynamic=30, seed=3, obstacle_motion="simultaneous")
+    e = planner.simulate(
+        grid, (0, 0), (23, 23), dynamic_count=30, seed=3, obstacle_motion="simultaneous"
+    )
     assert e.obstacle_motion == "simultaneous"
     robot = recount_positions(e)  # decided from the obstacles at each tick's start
     moved = [cell for i, cell in enumerate(robot) if i == 0 or cell != robot[i - 1]]
     assert moved == [tuple(c) for c in e.trajectory.tolist()]
     for t in range(len(robot) - 1):
-        assert robot[t] not in {tuple(o) for o in e.obstacles[t + 1].tolist()}
-    assert np.abs(np.diff(e.obstacles, axis=0)).max() <= 1
+        assert robot[t] not in {tuple(o) for o in e.dynamic_obstacles[t + 1].tolist()}
+    assert np.abs(np.diff(e.dynamic_obstacles, axis=0)).max() <= 1
     assert e.metrics["collisions"] == 0  # wide: dynamic_margin 1
 
 
@@ -120,7 +124,7 @@ def test_collisions_are_counted_honestly(motion: str) -> None:
         for margin in (0, 1):
             try:
                 e = planner.simulate(
-                    grid, (0, 0), (23, 23), preset="shortest", dynamic=60, seed=seed,
+                    grid, (0, 0), (23, 23), preset="shortest", dynamic_count=60, seed=seed,
                     obstacle_motion=motion, dynamic_margin=margin,  # type: ignore[arg-type]
                 )  # fmt: skip
             except planner.NoValidPath:
@@ -129,11 +133,13 @@ def test_collisions_are_counted_honestly(motion: str) -> None:
             # Recount from the record: the robot's cell after each tick against the obstacles'.
             robot = recount_positions(e)
             recount = sum(
-                robot[t + 1] in {tuple(o) for o in e.obstacles[t + 1].tolist()}
+                robot[t + 1] in {tuple(o) for o in e.dynamic_obstacles[t + 1].tolist()}
                 or any(
                     tuple(a) == robot[t + 1] and tuple(b) == robot[t]
                     for a, b in zip(
-                        e.obstacles[t].tolist(), e.obstacles[t + 1].tolist(), strict=True
+                        e.dynamic_obstacles[t].tolist(),
+                        e.dynamic_obstacles[t + 1].tolist(),
+                        strict=True,
                     )
                 )
                 for t in range(len(robot) - 1)
@@ -150,8 +156,10 @@ def recount_positions(e: planner.Episode) -> list[tuple[int, int]]:
     """The robot's cell at the start and after every tick, from a re-run session's steps."""
     session = planner.Session(e.plan)
     out = [session.state.position]
-    for t in range(len(e.obstacles) - 1):
-        seen = e.obstacles[t + 1] if e.obstacle_motion == "turns" else e.obstacles[t]
+    for t in range(len(e.dynamic_obstacles) - 1):
+        seen = (
+            e.dynamic_obstacles[t + 1] if e.obstacle_motion == "turns" else e.dynamic_obstacles[t]
+        )
         out.append(session.step(seen).position)
     return out
 

@@ -182,7 +182,7 @@ async def test_simulate_is_the_planners_episode(client: httpx.AsyncClient) -> No
     r = await client.post(f"/maps/{map_id}/simulate", json=body)
     assert r.status_code == 200
     got = r.json()
-    want = planner.simulate(GRID, [0, 0], [4, 5], preset="mmas", dynamic=3, seed=5)
+    want = planner.simulate(GRID, [0, 0], [4, 5], preset="mmas", dynamic_count=3, seed=5)
     assert got["trajectory"] == want.trajectory.tolist()
     timing = {"analysis_ms", "step_us", "episode_ms"}
     assert {k: v for k, v in got["metrics"].items() if k not in timing} == {
