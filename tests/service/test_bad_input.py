@@ -46,7 +46,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("non-ascii letter", "POST", "/maps", {"rows": [".é"]}, 422, ["rows[0]", "'é'"]),
     ("ragged rows", "POST", "/maps", {"rows": ["...", ".."]}, 422, ["rows[1]", "2 characters"]),
     ("empty rows", "POST", "/maps", {"rows": []}, 422, ["rows", "empty"]),
-    ("both encodings", "POST", "/maps", {"grid": [[0]], "rows": ["."]}, 422, ["grid", "rows", "both"]),
+    ("both encodings", "POST", "/maps", {"grid": [[0]], "rows": ["."]}, 422, ["grid", "rows", "exactly one"]),
     ("neither encoding", "POST", "/maps", {"start": [0, 0]}, 422, ["grid", "rows", "neither"]),
     ("start without goal", "POST", "/maps", {"rows": ROWS, "start": [0, 0]}, 422, ["'goal'"]),
     ("too many cells", "POST", "/maps", {"rows": ["." * 65] * 65}, 413, ["rows", "65 x 65", "4225", "4096"]),
