@@ -150,7 +150,14 @@ def test_the_client_uploads_a_ros_map_and_plans_in_meters(live_url: str, ros: Pa
         assert info.resolution == 0.05
         assert info.plan is not None
         assert info.plan.params["robot_radius"] == RADIUS
+        assert info.plan.preview.min_clearance_m is not None
         assert info.plan.preview.min_clearance_m > RADIUS
+        assert info.plan.preview.path_xy is not None
+        assert info.plan.preview.path_xy[0] == pytest.approx([start["x"], start["y"]])
+        far = {"x": start["x"] + 5.0, "y": start["y"], "radius": 0.1}
+        step = client.step(info.plan.plan_id, [far], seq=0)
+        assert step.position_xy is not None
+        assert step.position_xy == pytest.approx(frame_centers(m, [step.position])[0].tolist())
         png = client.render_plan(info.plan.plan_id)
     with Image.open(io.BytesIO(png)) as picture:
         assert max(picture.size) <= MAX_IMAGE_SIDE
