@@ -5,7 +5,10 @@ the shared ROS maps, over ASGI and through a real uvicorn (and the Python client
 from __future__ import annotations
 
 import io
+import json
 import math
+import shutil
+import subprocess
 from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
@@ -401,3 +404,30 @@ async def test_multipart_needs_both_parts_and_known_fields(small: httpx.AsyncCli
     as_json = await small.post("/maps", json={"yaml": "image: m.pgm", "image": "x"})
     assert as_json.status_code == 422
     assert "multipart" in as_json.json()["detail"]
+
+
+def test_the_readme_walkthrough_runs_as_written(live_url: str, ros: Path, tmp_path: Path) -> None:
+    if shutil.which("curl") is None:
+        pytest.skip("curl is not installed")
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    section = readme.split("### A real robot map, step by step", 1)[1]
+    script = section.split("```sh\n", 1)[1].split("```", 1)[0]
+    script = script.replace("R=../shared/maps/ros", f"R={ros}")
+    script = script.replace("localhost:8000", live_url.removeprefix("http://"))
+    run = subprocess.run(
+        ["bash", "-euo", "pipefail", "-c", script],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert run.returncode == 0, run.stderr
+    plan = json.loads((tmp_path / "plan.json").read_text())
+    assert plan["params"]["robot_radius"] == RADIUS
+    assert plan["start"] == [26, 136]
+    assert plan["preview"]["length_m"] == pytest.approx(18.531371)
+    assert '"move":"WAIT"' in run.stdout
+    assert '"position":[26,137]' in run.stdout
+    for name in ("plan.png", "map.png"):
+        assert (tmp_path / name).read_bytes().startswith(b"\x89PNG"), name
