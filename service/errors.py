@@ -158,8 +158,8 @@ async def _service_error(request: Request, exc: Exception) -> JSONResponse:
 
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
-    # The tags of the cell-or-point unions are no part of where the value was.
-    # (never at loc[1], which names a body field or a query parameter such as "cell").
+    # The tags of the cell-or-point unions are no part of where the value was (a tag is never
+    # loc[1], which names a body field or a query parameter, such as "cell").
     errors = [
         {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
         for e in exc.errors()
