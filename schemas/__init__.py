@@ -4,17 +4,22 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 """
 
 from schemas.errors import ErrorPublic
-from schemas.maps import MapCreate, MapPublic
+from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     PRESET_NAMES,
+    UNION_TAGS,
     AnalysisPublic,
     Cell,
+    CellOrPoint,
+    Circle,
+    Obstacle,
     PlanCreate,
     PlanDetail,
     PlanPublic,
+    Point,
     Preset,
     PreviewPublic,
     TrajectoryMetrics,
@@ -26,18 +31,24 @@ from schemas.steps import StepCreate, StepPublic
 __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
+    "MULTIPART_FIELDS",
     "PRESET_NAMES",
+    "UNION_TAGS",
     "AnalysisPublic",
     "CacheStats",
     "Cell",
+    "CellOrPoint",
+    "Circle",
     "ErrorPublic",
     "HealthPublic",
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "Obstacle",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
+    "Point",
     "PoolStats",
     "Preset",
     "PreviewPublic",

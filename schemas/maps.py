@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic.json_schema import SkipJsonSchema
 
 from schemas.plans import (
     EXAMPLE_MAP,
@@ -12,17 +13,54 @@ from schemas.plans import (
     EXAMPLE_PLAN,
     PARAMS_DESCRIPTION,
     STRICT,
-    Cell,
+    CellOrPoint,
     PlanPublic,
     Preset,
+    RobotRadius,
+    UnknownPolicy,
 )
 
-__all__ = ["MapCreate", "MapPublic"]
+__all__ = ["MULTIPART_FIELDS", "MapCreate", "MapPublic"]
+
+EXAMPLE_OCCUPANCY_GRID: dict[str, Any] = {
+    "info": {
+        "resolution": 0.5,
+        "width": 3,
+        "height": 2,
+        "origin": {
+            "position": {"x": -1.0, "y": 0.0, "z": 0.0},
+            "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0},
+        },
+    },
+    "data": [0, 0, 0, 0, 100, -1],
+}
+
+MULTIPART_FIELDS: dict[str, Any] = {
+    "type": "object",
+    "required": ["yaml", "image"],
+    "properties": {
+        "yaml": {"type": "string", "format": "binary", "description": "A map_server map YAML."},
+        "image": {
+            "type": "string",
+            "format": "binary",
+            "description": "The PGM/PNG/BMP image it describes (the YAML's `image` is not read).",
+        },
+        "start": {"type": "string", "description": 'JSON: a cell `[r, c]` or `{"x", "y"}`.'},
+        "goal": {"type": "string", "description": "JSON, as `start`."},
+        "preset": {"type": "string", "description": "A preset name, as in JSON bodies."},
+        "params": {"type": "string", "description": "JSON object of parameter overrides."},
+        "allow_narrow": {"type": "string", "description": "`true` or `false`."},
+        "robot_radius": {"type": "string", "description": "Meters, e.g. `0.22`."},
+        "unknown": {"type": "string", "description": "`blocked` or `free`."},
+    },
+}
+"""The ``multipart/form-data`` form of ``POST /maps``, for ``/docs``: parts ``yaml`` and
+``image``, and the JSON body's other fields as form fields (each value JSON, or a bare word)."""
 
 
 class MapCreate(BaseModel):
-    """A map as a ``grid`` of 0/1 or as Moving AI ``rows`` (exactly one), with an optional
-    ``start`` and ``goal`` that also create a plan."""
+    """A map (exactly one of ``grid``, ``rows``, ``occupancy_grid``, or the multipart parts
+    ``yaml`` and ``image``), with an optional ``start`` and ``goal`` that also create a plan."""
 
     model_config = ConfigDict(
         **STRICT,
@@ -30,28 +68,78 @@ class MapCreate(BaseModel):
             "examples": [
                 EXAMPLE_MAP,
                 {"grid": [[1 if ch == "@" else 0 for ch in row] for row in EXAMPLE_MAP["rows"]]},
+                {"grid": [[0, 0, -1], [0, 1, 0]], "resolution": 0.05, "origin": [-1.0, 2.0, 0.0]},
+                {
+                    "occupancy_grid": EXAMPLE_OCCUPANCY_GRID,
+                    "start": {"x": -0.75, "y": 0.75},
+                    "goal": {"x": 0.25, "y": 0.75},
+                    "robot_radius": 0.2,
+                },
             ]
         },
     )
 
     grid: list[list[int]] | None = Field(
-        default=None, description="Rows of cells: 0 free, 1 blocked."
+        default=None, description="Rows of cells: 0 free, 1 blocked, -1 unknown; row 0 on top."
     )
     rows: list[str] | None = Field(
         default=None,
         description="Rows of Moving AI characters: `.` `G` `S` free, `@` `T` `O` `W` blocked.",
     )
-    start: Cell | None = None
-    goal: Cell | None = None
+    occupancy_grid: dict[str, Any] | None = Field(
+        default=None,
+        description="A `nav_msgs/OccupancyGrid` as rosbridge writes it: `info` (`resolution`, "
+        "`width`, `height`, `origin` pose) and `data`, row-major, row 0 at the origin (the "
+        "bottom of the image), -1 unknown or 0..100.",
+        examples=[EXAMPLE_OCCUPANCY_GRID],
+    )
+    resolution: float | None = Field(
+        default=None, description="With `grid`/`rows`: meters per cell (default 1)."
+    )
+    origin: list[float] | None = Field(
+        default=None,
+        description="With `grid`/`rows`: `[x, y, yaw]` of the bottom-left cell's lower-left "
+        "corner (default `[0, 0, 0]`).",
+    )
+    yaml: SkipJsonSchema[bytes | None] = None
+    """multipart/form-data only: the ``yaml`` part."""
+    image: SkipJsonSchema[bytes | None] = None
+    """multipart/form-data only: the ``image`` part."""
+    start: CellOrPoint | None = None
+    goal: CellOrPoint | None = None
     preset: Preset = "wide"
     params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
     allow_narrow: bool | None = None
+    robot_radius: RobotRadius = None
+    unknown: UnknownPolicy = None
+
+    @field_validator("yaml", "image", mode="before")
+    @classmethod
+    def _parts_only(cls, value: Any) -> Any:
+        if value is not None and not isinstance(value, bytes):
+            raise ValueError("a ROS map comes as multipart/form-data parts 'yaml' and 'image'")
+        return value
 
     @model_validator(mode="after")
     def _one_encoding_and_both_ends(self) -> MapCreate:
-        if (self.grid is None) == (self.rows is None):
-            given = "both" if self.grid is not None else "neither"
-            raise ValueError(f"give exactly one of 'grid' or 'rows'; got {given}")
+        kinds = ("grid", "rows", "occupancy_grid", "yaml")
+        given = [k for k in kinds if getattr(self, k) is not None]
+        if self.image is not None and self.yaml is None:
+            raise ValueError("the 'image' part needs its 'yaml' part")
+        if len(given) != 1:
+            got = " and ".join(given) if given else "neither"
+            raise ValueError(
+                "give exactly one map: 'grid', 'rows', 'occupancy_grid', or the multipart "
+                f"parts 'yaml' and 'image'; got {got}"
+            )
+        if self.yaml is not None and self.image is None:
+            raise ValueError("the 'yaml' part needs its 'image' part (the YAML's image name is "
+                             "not looked up)")  # fmt: skip
+        framed = [k for k in ("resolution", "origin") if getattr(self, k) is not None]
+        if framed and given[0] not in ("grid", "rows"):
+            raise ValueError(
+                f"{' and '.join(framed)} go with 'grid' or 'rows'; a {given[0]} map has its own"
+            )
         if (self.start is None) != (self.goal is None):
             missing = "goal" if self.goal is None else "start"
             raise ValueError(f"'start' and 'goal' go together; {missing!r} is missing")
@@ -69,14 +157,26 @@ class MapPublic(BaseModel):
                     "height": 5,
                     "width": 6,
                     "free_cells": 28,
+                    "occupied_cells": 2,
+                    "unknown_cells": 0,
+                    "resolution": 1.0,
+                    "origin": [0.0, 0.0, 0.0],
                     "plan": {**EXAMPLE_PLAN, "preview": {**EXAMPLE_PLAN["preview"]}},
                 }
             ]
         }
     )
 
-    map_id: str = Field(description="Hex SHA-256 of the map's shape and cells.")
+    map_id: str = Field(
+        description="Hex SHA-256 of the map's shape, occupancy, resolution and origin."
+    )
     height: int = Field(ge=1)
     width: int = Field(ge=1)
-    free_cells: int = Field(ge=0)
+    free_cells: int = Field(ge=0, description="Known cells below the occupied threshold (65).")
+    occupied_cells: int = Field(ge=0, description="Cells of occupancy 65 or more.")
+    unknown_cells: int = Field(ge=0, description="Cells of occupancy -1.")
+    resolution: float = Field(gt=0, description="Meters per cell.")
+    origin: list[float] = Field(
+        min_length=3, max_length=3, description="`[x, y, yaw]` of the map's lower-left corner."
+    )
     plan: PlanPublic | None = Field(default=None, description="When `start` and `goal` were given.")

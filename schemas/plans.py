@@ -4,22 +4,31 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
 __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
     "PRESET_NAMES",
     "STRICT",
+    "UNION_TAGS",
+    "XY",
     "AnalysisPublic",
     "Cell",
+    "CellOrPoint",
+    "Circle",
+    "Obstacle",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
+    "Point",
     "Preset",
     "PreviewPublic",
+    "RobotRadius",
     "Status",
     "TrajectoryMetrics",
+    "Unknown",
+    "UnknownPolicy",
 ]
 
 STRICT = ConfigDict(extra="forbid", strict=True)
@@ -31,6 +40,82 @@ Coordinate = Annotated[int, Field(ge=0, le=2**31 - 1)]
 Cell = Annotated[list[Coordinate], Field(min_length=2, max_length=2, examples=[[0, 9]])]
 """A ``[row, col]`` cell, row 0 at the top."""
 
+Meters = Annotated[float, Field(allow_inf_nan=False)]
+XY = Annotated[list[float], Field(min_length=2, max_length=2, examples=[[1.25, 0.75]])]
+"""An ``[x, y]`` point in the map frame, meters (in answers: a cell's center)."""
+
+
+class Point(BaseModel):
+    """A point in the map frame, in meters: it means the cell that contains it."""
+
+    model_config = ConfigDict(**STRICT, json_schema_extra={"examples": [{"x": 1.2, "y": 0.4}]})
+
+    x: Meters
+    y: Meters
+
+
+class Circle(BaseModel):
+    """A round dynamic obstacle in meters: it blocks, for one step, every cell whose center is
+    within ``radius + robot_radius`` of ``(x, y)``."""
+
+    model_config = ConfigDict(
+        **STRICT, json_schema_extra={"examples": [{"x": 1.2, "y": 0.4, "radius": 0.3}]}
+    )
+
+    x: Meters
+    y: Meters
+    radius: Meters = Field(ge=0, le=1e6)
+
+
+def _cell_or_mapping(tag: str) -> Any:
+    def pick(value: Any) -> str:
+        return tag if isinstance(value, dict | BaseModel) else "cell"
+
+    return Discriminator(pick)
+
+
+CellOrPoint = Annotated[
+    Annotated[list[Coordinate], Field(min_length=2, max_length=2), Tag("cell")]
+    | Annotated[Point, Tag("point")],
+    _cell_or_mapping("point"),
+    Field(examples=[[0, 9], {"x": 1.2, "y": 0.4}]),
+]
+"""A ``[row, col]`` cell or a point ``{"x", "y"}`` in meters."""
+
+Obstacle = Annotated[
+    Annotated[list[Coordinate], Field(min_length=2, max_length=2), Tag("cell")]
+    | Annotated[Circle, Tag("circle")],
+    _cell_or_mapping("circle"),
+]
+"""A dynamic obstacle: a ``[row, col]`` cell or a circle ``{"x", "y", "radius"}`` in meters."""
+
+UNION_TAGS = frozenset({"cell", "point", "circle"})
+"""The tags of those unions: error locations leave them out (``start[0]``, not
+``start.cell[0]``)."""
+
+Unknown = Literal["blocked", "free"]
+
+RobotRadius = Annotated[
+    float | None,
+    Field(
+        default=None,
+        ge=0,
+        le=100,
+        allow_inf_nan=False,
+        description="The robot's radius in meters (the planner parameter `robot_radius`, default "
+        "0): a cell is traversable when free and its center is more than this from the nearest "
+        "blocked cell's center.",
+    ),
+]
+UnknownPolicy = Annotated[
+    Unknown | None,
+    Field(
+        default=None,
+        description="How unknown cells and the area outside the map count (the planner "
+        "parameter `unknown`): `blocked` (default) or `free`.",
+    ),
+]
+
 Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
 PRESET_NAMES: tuple[str, ...] = ("wide", "wfs-mmas", "mmas", "shortest")
 
@@ -39,7 +124,9 @@ Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"
 PARAMS_DESCRIPTION = (
     "Overrides of single planner parameters, each checked by the planner (an unknown name or a "
     "value of the wrong type is a 422): `alpha`, `beta`, `clean_weight`, `clean_radius`, "
-    "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`."
+    "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
+    "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
+    "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells)."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -93,8 +180,14 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "min_clearance": 1.0,
         "mean_clearance": 1.1553,
         "contact_ratio": 1.0,
+        "path_xy": [[0.5, 4.5], [1.5, 3.5], [2.5, 3.5], [3.5, 3.5], [4.5, 3.5], [4.5, 2.5],
+                    [4.5, 1.5], [5.5, 0.5]],
+        "length_m": 7.828427,
+        "min_clearance_m": 1.0,
+        "mean_clearance_m": 1.15533,
     },
-}
+}  # fmt: skip
+EXAMPLE_PLAN["position_xy"] = [0.5, 4.5]
 
 EXAMPLE_METRICS: dict[str, Any] = {
     "iterations": 1,
@@ -106,6 +199,9 @@ EXAMPLE_METRICS: dict[str, Any] = {
     "min_clearance": 1.0,
     "mean_clearance": 1.0,
     "contact_ratio": 1.0,
+    "length_m": 1.0,
+    "min_clearance_m": 1.0,
+    "mean_clearance_m": 1.0,
 }
 
 
@@ -129,8 +225,8 @@ class PlanCreate(BaseModel):
     )
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
-    start: Cell
-    goal: Cell
+    start: CellOrPoint
+    goal: CellOrPoint
     preset: Preset = "wide"
     params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
     allow_narrow: bool | None = Field(
@@ -138,6 +234,8 @@ class PlanCreate(BaseModel):
         description="Plan through tight tunnels when sealing them cuts the start off the goal "
         "(the planner parameter `allow_narrow`; default true).",
     )
+    robot_radius: RobotRadius = None
+    unknown: UnknownPolicy = None
 
 
 class AnalysisPublic(BaseModel):
@@ -163,6 +261,12 @@ class PreviewPublic(BaseModel):
     min_clearance: float = Field(ge=0)
     mean_clearance: float = Field(ge=0)
     contact_ratio: float = Field(ge=0, le=1, description="Share of cells touching an obstacle.")
+    path_xy: list[XY] = Field(description="The path's cell centers in the map frame, meters.")
+    length_m: float = Field(ge=0, description="The length in meters (cell centers to centers).")
+    min_clearance_m: float = Field(
+        ge=0, description="Least distance from a path cell to a blocked cell's center, meters."
+    )
+    mean_clearance_m: float = Field(ge=0, description="`min_clearance_m`'s mean, in meters.")
 
 
 class PlanPublic(BaseModel):
@@ -178,6 +282,7 @@ class PlanPublic(BaseModel):
     params: dict[str, Any] = Field(description="The effective parameter values.")
     status: Status
     position: Cell
+    position_xy: XY = Field(description="The robot's cell's center in meters.")
     narrow_fallback: bool = Field(
         default=False,
         description="The robot is now on a way through tight tunnels that sealing would shut "
@@ -202,6 +307,9 @@ class TrajectoryMetrics(BaseModel):
     min_clearance: float = Field(ge=0)
     mean_clearance: float = Field(ge=0)
     contact_ratio: float = Field(ge=0, le=1)
+    length_m: float = Field(ge=0, description="The trajectory's length in meters.")
+    min_clearance_m: float = Field(ge=0)
+    mean_clearance_m: float = Field(ge=0)
 
 
 class PlanDetail(PlanPublic):
@@ -215,7 +323,9 @@ class PlanDetail(PlanPublic):
                     "status": "moving",
                     "position": [1, 0],
                     "iteration": 1,
+                    "position_xy": [0.5, 3.5],
                     "trajectory": [[0, 0], [1, 0]],
+                    "trajectory_xy": [[0.5, 4.5], [0.5, 3.5]],
                     "metrics": EXAMPLE_METRICS,
                 }
             ]
@@ -224,4 +334,5 @@ class PlanDetail(PlanPublic):
 
     iteration: int = Field(ge=0)
     trajectory: list[Cell]
+    trajectory_xy: list[XY] = Field(description="The trajectory's cell centers, meters.")
     metrics: TrajectoryMetrics

@@ -6,7 +6,16 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import PARAMS_DESCRIPTION, STRICT, Cell, Preset, Status
+from schemas.plans import (
+    PARAMS_DESCRIPTION,
+    STRICT,
+    Cell,
+    CellOrPoint,
+    Preset,
+    RobotRadius,
+    Status,
+    UnknownPolicy,
+)
 
 __all__ = ["SimulationCreate", "SimulationMetrics", "SimulationPublic"]
 
@@ -25,6 +34,9 @@ EXAMPLE_METRICS: dict[str, Any] = {
     "min_clearance": 1.0,
     "mean_clearance": 1.0,
     "contact_ratio": 1.0,
+    "length_m": 2.828427,
+    "min_clearance_m": 1.0,
+    "mean_clearance_m": 1.0,
     "collisions": 0,
     "analysis_ms": 0.05,
     "step_us": 4.2,
@@ -45,11 +57,13 @@ class SimulationCreate(BaseModel):
         }
     )  # fmt: skip
 
-    start: Cell
-    goal: Cell
+    start: CellOrPoint
+    goal: CellOrPoint
     preset: Preset = "wide"
     params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
     allow_narrow: bool | None = None
+    robot_radius: RobotRadius = None
+    unknown: UnknownPolicy = None
     dynamic_count: int = Field(default=10, ge=0, description="How many obstacles move about.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1)
     obstacle_motion: Literal["turns", "simultaneous"] = Field(
@@ -83,6 +97,9 @@ class SimulationMetrics(BaseModel):
     min_clearance: float = Field(ge=0)
     mean_clearance: float = Field(ge=0)
     contact_ratio: float = Field(ge=0, le=1)
+    length_m: float = Field(ge=0, description="The trajectory's length in meters.")
+    min_clearance_m: float = Field(ge=0)
+    mean_clearance_m: float = Field(ge=0)
     collisions: int = Field(ge=0, description="Steps ending on an obstacle's cell: always 0.")
     analysis_ms: float = Field(ge=0)
     step_us: float = Field(ge=0, description="Mean compute time of one step.")

@@ -6,7 +6,7 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import STRICT, Cell, Status
+from schemas.plans import STRICT, XY, Cell, CellOrPoint, Obstacle, Status
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
@@ -19,7 +19,10 @@ class StepCreate(BaseModel):
     model_config = ConfigDict(
         **STRICT,
         json_schema_extra={
-            "examples": [{"seq": 0, "dynamic_obstacles": [[1, 2]], "position": [0, 0]}]
+            "examples": [
+                {"seq": 0, "dynamic_obstacles": [[1, 2]], "position": [0, 0]},
+                {"seq": 1, "dynamic_obstacles": [[1, 2], {"x": 3.1, "y": 2.4, "radius": 0.3}]},
+            ]
         },
     )
 
@@ -29,10 +32,14 @@ class StepCreate(BaseModel):
         le=2**62,
         description="The last step's `seq` + 1 for a new step; the last `seq` again for a retry.",
     )
-    dynamic_obstacles: list[Cell] = Field(
-        default_factory=list, description="Cells occupied by dynamic obstacles this step."
+    dynamic_obstacles: list[Obstacle] = Field(
+        default_factory=list,
+        description="Dynamic obstacles this step: cells `[r, c]`, and circles `{x, y, radius}` "
+        "in meters, each blocking every cell whose center is within `radius + robot_radius`.",
     )
-    position: Cell | None = Field(default=None, description="Where the robot really is.")
+    position: CellOrPoint | None = Field(
+        default=None, description="Where the robot really is: a cell or a point in meters."
+    )
 
 
 class StepPublic(BaseModel):
@@ -45,6 +52,7 @@ class StepPublic(BaseModel):
                     "seq": 0,
                     "previous": [0, 0],
                     "position": [1, 0],
+                    "position_xy": [0.5, 3.5],
                     "move": "S",
                     "status": "moving",
                     "iteration": 1,
@@ -60,6 +68,7 @@ class StepPublic(BaseModel):
     seq: int = Field(ge=0)
     previous: Cell
     position: Cell = Field(description="The cell to move to now.")
+    position_xy: XY = Field(description="That cell's center in meters.")
     move: Move
     status: Status
     iteration: int = Field(ge=0)

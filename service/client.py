@@ -197,6 +197,11 @@ class Preview(_Result):
     min_clearance: float
     mean_clearance: float
     contact_ratio: float
+    path_xy: list[list[float]] | None = None
+    """The path's cell centers in meters (None from a server before robot maps)."""
+    length_m: float | None = None
+    min_clearance_m: float | None = None
+    mean_clearance_m: float | None = None
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Preview:
@@ -207,6 +212,10 @@ class Preview(_Result):
             min_clearance=d["min_clearance"],
             mean_clearance=d["mean_clearance"],
             contact_ratio=d["contact_ratio"],
+            path_xy=d.get("path_xy"),
+            length_m=d.get("length_m"),
+            min_clearance_m=d.get("min_clearance_m"),
+            mean_clearance_m=d.get("mean_clearance_m"),
             raw=d,
         )
 
@@ -276,6 +285,11 @@ class MapInfo(_Result):
     free_cells: int
     plan: Plan | None
     created: bool | None
+    occupied_cells: int | None = None
+    unknown_cells: int | None = None
+    resolution: float | None = None
+    """Meters per cell (None from a server before robot maps)."""
+    origin: list[float] | None = None
 
     @classmethod
     def from_json(cls, d: dict[str, Any], *, created: bool | None = None) -> MapInfo:
@@ -287,6 +301,10 @@ class MapInfo(_Result):
             free_cells=d["free_cells"],
             plan=Plan.from_json(plan) if plan is not None else None,
             created=created,
+            occupied_cells=d.get("occupied_cells"),
+            unknown_cells=d.get("unknown_cells"),
+            resolution=d.get("resolution"),
+            origin=d.get("origin"),
             raw=d,
         )
 
@@ -304,6 +322,8 @@ class Step(_Result):
     path_length: float
     arc_cost: float
     remaining: float | None
+    position_xy: list[float] | None = None
+    """The new cell's center in meters (None from a server before robot maps)."""
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Step:
@@ -317,6 +337,7 @@ class Step(_Result):
             path_length=d["path_length"],
             arc_cost=d["arc_cost"],
             remaining=d["remaining"],
+            position_xy=d.get("position_xy"),
             raw=d,
         )
 

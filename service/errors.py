@@ -1,7 +1,7 @@
 """The one place where errors become HTTP answers.
 
 PlannerError (planner)                    HTTP
-├── InvalidInput                          422
+├── InvalidInput                          422 (START_OCCUPIED / GOAL_OCCUPIED when so named)
 ├── NoValidPath                           422, detail contains NO_VALID_PATH
 └── SequenceConflict                      409
 ServiceError (here)
@@ -21,7 +21,7 @@ from fastapi.responses import JSONResponse
 
 import planner
 from planner._errors import QUOTE_LIMIT, quote
-from schemas import ErrorPublic
+from schemas import UNION_TAGS, ErrorPublic
 
 __all__ = [
     "NotFound",
@@ -139,10 +139,16 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
     return JSONResponse(body.model_dump(), status_code=status, headers=headers)
 
 
+_NAMED_CODES = ("START_OCCUPIED", "GOAL_OCCUPIED")
+"""Codes the planner puts first in an InvalidInput's message: the answer's ``code`` too."""
+
+
 async def _planner_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, planner.PlannerError)
     status = next((s for kind, s in _PLANNER_STATUS.items() if isinstance(exc, kind)), 422)
-    return problem(status, exc.message, field=exc.field, code=exc.code)
+    named = exc.message.split(":", 1)[0]
+    code = named if named in _NAMED_CODES else exc.code
+    return problem(status, exc.message, field=exc.field, code=code)
 
 
 async def _service_error(request: Request, exc: Exception) -> JSONResponse:
@@ -152,7 +158,12 @@ async def _service_error(request: Request, exc: Exception) -> JSONResponse:
 
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
-    errors = exc.errors()
+    # The tags of the cell-or-point unions are no part of where the value was (a tag is never
+    # loc[1], which names a body field or a query parameter, such as "cell").
+    errors = [
+        {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
+        for e in exc.errors()
+    ]
     # A map can be megabytes: echo only the start of what was received, and only a few errors.
     parts = [_describe(e) for e in errors[:3]]
     if len(errors) > 3:

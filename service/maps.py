@@ -1,19 +1,19 @@
-"""Maps: decode an upload, keep it by its content hash, describe it, draw it."""
+"""Maps: decode an upload (grid, rows, OccupancyGrid, or ROS YAML + image), keep it by its
+content hash, describe it, draw it."""
 
 from __future__ import annotations
 
-import hashlib
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import planner
 from schemas import MapCreate, PlanCreate
 from service import plans
 from service.engine import Engine, cell_size
 from service.errors import TooLarge
-from service.stores import Grid
 
-__all__ = ["MapView", "add_map", "get_map", "map_id_of", "render_map"]
+__all__ = ["MapView", "add_map", "get_map", "render_map"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -21,21 +21,16 @@ class MapView:
     """A stored map, and the plan made with its upload when one was asked for."""
 
     map_id: str
-    grid: Grid
+    robot_map: planner.RobotMap
     plan: plans.PlanView | None = None
-
-
-def map_id_of(grid: Grid) -> str:
-    """The hex SHA-256 of a map's shape and cells: the same for every encoding of one map."""
-    h, w = grid.shape
-    return hashlib.sha256(f"{h}x{w}:".encode() + grid.tobytes()).hexdigest()
 
 
 async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
     """Keep the map (True when new); plan on it too when the body has a start and a goal."""
-    grid = await engine.pool.run(_decode, body, engine.settings.max_map_cells)
-    map_id = map_id_of(grid)
-    created = await engine.store.put_map(map_id, grid)
+    robot_map = await engine.pool.run(_decode, body, engine.settings.max_map_cells)
+    map_id = robot_map.map_id
+    created = await engine.store.put_map(map_id, robot_map)
+    engine.remember(map_id, robot_map)
     plan = None
     if body.start is not None and body.goal is not None:
         request = PlanCreate(
@@ -45,33 +40,62 @@ async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
             preset=body.preset,
             params=body.params,
             allow_narrow=body.allow_narrow,
+            robot_radius=body.robot_radius,
+            unknown=body.unknown,
         )
         plan = await plans.create_plan(engine, request)
-    return MapView(map_id, grid, plan), created
+    return MapView(map_id, robot_map, plan), created
 
 
 async def get_map(engine: Engine, map_id: str) -> MapView:
-    return MapView(map_id, await engine.grid(map_id))
+    return MapView(map_id, await engine.robot_map(map_id))
 
 
 async def render_map(
-    engine: Engine, map_id: str, preset: str, field: Literal["clean"] | None, cell: int | None
+    engine: Engine,
+    map_id: str,
+    preset: str,
+    field: Literal["clean"] | None,
+    cell: int | None,
+    overrides: dict[str, Any],
 ) -> bytes:
-    analysis, _ = await engine.analysis(map_id, planner.resolve_params(preset))
+    analysis, _ = await engine.analysis(map_id, planner.resolve_params(preset, **overrides))
     size = cell_size(analysis.shape, cell)
     return await engine.pool.run(planner.render_map, analysis, field=field, cell=size)
 
 
-def _decode(body: MapCreate, limit: int) -> Grid:
-    if body.rows is not None:
-        name, height, width = "rows", len(body.rows), len(body.rows[0]) if body.rows else 0
-    else:
-        assert body.grid is not None
-        name, height, width = "grid", len(body.grid), len(body.grid[0]) if body.grid else 0
-    # Checked before numpy sees the cells: a map too large is refused without copying it.
+def _too_large(name: str, height: int, width: int, limit: int) -> None:
     if height * width > limit:
         msg = f"a {height} x {width} map has {height * width} cells; the limit is {limit}"
         raise TooLarge(msg, field=name)
+
+
+def _decode(body: MapCreate, limit: int) -> planner.RobotMap:
+    # Every size is checked before numpy sees the cells: a map too large is refused without
+    # copying it (an image, from its header, before its pixels are decoded).
+    if body.yaml is not None:
+        assert body.image is not None
+        meta = planner.parse_map_yaml(body.yaml)
+        width, height = planner.image_size(body.image)
+        _too_large("image", height, width, limit)
+        return planner.decode_map_image(body.image, meta)
+    if body.occupancy_grid is not None:
+        info = body.occupancy_grid.get("info")
+        if isinstance(info, Mapping):
+            w, h = info.get("width"), info.get("height")
+            if isinstance(w, int) and isinstance(h, int):
+                _too_large("occupancy_grid", h, w, limit)
+        return planner.occupancy_grid_map(body.occupancy_grid)
+    frame: dict[str, Any] = {}
+    if body.resolution is not None:
+        frame["resolution"] = body.resolution
+    if body.origin is not None:
+        frame["origin"] = body.origin
     if body.rows is not None:
-        return planner.parse_rows(body.rows)
-    return planner.as_grid(body.grid)
+        height, width = len(body.rows), len(body.rows[0]) if body.rows else 0
+        _too_large("rows", height, width, limit)
+        return planner.grid_map(planner.parse_rows(body.rows), name="rows", **frame)
+    assert body.grid is not None
+    height, width = len(body.grid), len(body.grid[0]) if body.grid else 0
+    _too_large("grid", height, width, limit)
+    return planner.grid_map(body.grid, **frame)

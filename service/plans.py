@@ -9,16 +9,20 @@ from __future__ import annotations
 
 import secrets
 from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
 
 import planner
 from planner._errors import quote
-from schemas import PlanCreate, StepCreate
-from service.engine import Engine, cell_size, overrides
+from schemas import Circle, PlanCreate, Point, StepCreate
+from service.engine import Engine, cell_size, frame_map, overrides, where
 from service.errors import NotFound
 from service.stores import PlanRecord
 
 __all__ = [
     "PlanView",
+    "StepView",
     "create_plan",
     "delete_plan",
     "get_plan",
@@ -38,9 +42,19 @@ class PlanView:
     state: planner.SessionState
 
 
+@dataclass(frozen=True, slots=True)
+class StepView:
+    """A step's answer, the plan's frame (for the answer's meters) and every cell the dynamic
+    obstacles blocked (circles as the cells they cover)."""
+
+    step: planner.Step
+    frame: planner.MapFrame
+    obstacles: list[list[int]]
+
+
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
     plan, cache_hit = await engine.build_plan(
-        body.map_id, body.start, body.goal, body.preset, overrides(body)
+        body.map_id, where(body.start), where(body.goal), body.preset, overrides(body)
     )
     plan_id = secrets.token_hex(16)
     state = planner.Session(plan).state
@@ -52,6 +66,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "preset": plan.preset,
         "params": plan.params.as_dict(),
         "narrow_fallback": plan.narrow_fallback,
+        "plain": plan.analysis.plain,
         "cache_hit": cache_hit,
         "state": stored,
     }
@@ -73,9 +88,11 @@ async def delete_plan(engine: Engine, plan_id: str) -> None:
         raise _unknown_plan(plan_id)
 
 
-async def step(engine: Engine, plan_id: str, body: StepCreate) -> planner.Step:
+async def step(engine: Engine, plan_id: str, body: StepCreate) -> StepView:
     """Load the robot's state, decide its move, save the state: under the plan's lock, so
-    concurrent steps never lose a move."""
+    concurrent steps never lose a move. A ``position`` point means the cell containing it; a
+    circle obstacle, the cells it covers (:func:`planner.circle_cells`, with the robot's
+    radius)."""
     limit = engine.settings.max_dynamic_obstacles
     if len(body.dynamic_obstacles) > limit:
         msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
@@ -91,19 +108,35 @@ async def step(engine: Engine, plan_id: str, body: StepCreate) -> planner.Step:
             trajectory = [tuple(record["state"]["position"])]
         state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
         session = planner.Session(plan, state)
-        args = (body.dynamic_obstacles,)
-        if session.may_replan_at(body.position):
-            result = await engine.pool.run(
-                session.step, *args, position=body.position, seq=body.seq
-            )
+        frame = plan.analysis.frame
+        position = body.position
+        if isinstance(position, Point):
+            position = list(frame.cell_of(position.model_dump(), name="position"))
+        obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
+        args = (obstacles,)
+        if session.may_replan_at(position):
+            result = await engine.pool.run(session.step, *args, position=position, seq=body.seq)
         else:
             # Measured: a step that cannot replan is a few microseconds of bounded work, and
             # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
-            result = session.step(*args, position=body.position, seq=body.seq)
+            result = session.step(*args, position=position, seq=body.seq)
         record["state"] = stored = session.state.as_dict()
         moved = stored.pop("trajectory")[len(trajectory) :]
         await engine.store.put_plan(plan_id, record, append=moved)
-    return result
+    return StepView(result, frame, obstacles)
+
+
+def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:
+    """The cells the step's obstacles block: cells as given, circles as the cells whose
+    centers are within ``radius + robot_radius`` of theirs."""
+    cells: list[list[int]] = [o for o in given if not isinstance(o, Circle)]
+    circles = [o.model_dump() for o in given if isinstance(o, Circle)]
+    if circles:
+        covered = planner.circle_cells(
+            frame_map(plan.analysis.frame), circles, robot_radius=plan.params.robot_radius
+        )
+        cells += np.asarray(covered).tolist()
+    return cells
 
 
 async def render_plan(

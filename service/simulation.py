@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import planner
 from schemas import SimulationCreate
-from service.engine import Engine, overrides
+from service.engine import Engine, overrides, where
 
 __all__ = ["simulate"]
 
@@ -14,7 +14,9 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
     if body.dynamic_count > limit:
         msg = f"dynamic_count {body.dynamic_count} exceeds the limit of {limit}"
         raise planner.InvalidInput(msg, field="dynamic_count")
-    plan, _ = await engine.build_plan(map_id, body.start, body.goal, body.preset, overrides(body))
+    plan, _ = await engine.build_plan(
+        map_id, where(body.start), where(body.goal), body.preset, overrides(body)
+    )
     return await engine.pool.run(
         planner.run_episode,
         plan,

@@ -9,12 +9,21 @@ import numpy as np
 import orjson
 from fastapi import Depends, Query, Request, Response
 from fastapi.routing import APIRoute
+from starlette.datastructures import UploadFile
 
 from service.config import Settings
 from service.engine import Engine
 from service.errors import TooLarge
 
-__all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "MapRoute", "OrjsonRoute", "get_engine"]
+__all__ = [
+    "MULTIPART_PARTS",
+    "PNG_RESPONSE",
+    "CellQuery",
+    "EngineDep",
+    "MapRoute",
+    "OrjsonRoute",
+    "get_engine",
+]
 
 
 async def get_engine(request: Request) -> Engine:
@@ -56,13 +65,15 @@ class OrjsonRoute(APIRoute):
 
         async def route_handler(request: Request) -> Response:
             request = _OrjsonRequest(request.scope, request.receive)
-            await self.check_body(request)
+            request = await self.check_body(request)
             return await handler(request)
 
         return route_handler
 
-    async def check_body(self, request: Request) -> None:
-        """A look at the raw body before it is parsed (errors raised here reach the handlers)."""
+    async def check_body(self, request: Request) -> Request:
+        """A look at the raw body before it is parsed (errors raised here reach the handlers);
+        the request to handle."""
+        return request
 
 
 # Every cell of a map is one byte of the body: a Moving AI letter in `rows`, a 0 or a 1 in
@@ -73,15 +84,33 @@ _CELL_BYTES[np.frombuffer(b".GS@OTW01", dtype=np.uint8)] = True
 CELL_SLACK = 4096
 
 
+_LETTER_BYTES = np.zeros(256, dtype=bool)
+_LETTER_BYTES[np.frombuffer(b".GS@OTW", dtype=np.uint8)] = True
+
+MULTIPART_PARTS = ("yaml", "image")
+"""The multipart parts that stay bytes; every other form field is JSON (or a bare word)."""
+
+
 class MapRoute(OrjsonRoute):
     """Refuses a map over ``PLANNER_MAX_MAP_CELLS`` from its raw bytes, before they become
-    Python objects (the engine checks the exact shape after parsing)."""
+    Python objects (the engine checks the exact shape after parsing), and reads a
+    ``multipart/form-data`` upload into the fields of the JSON body.
 
-    async def check_body(self, request: Request) -> None:
+    An OccupancyGrid's values take 1 to 3 digits each, so its body is bounded by its commas
+    (one between two values) rather than by its digits.
+    """
+
+    async def check_body(self, request: Request) -> Request:
         if request.method != "POST":
-            return
+            return request
+        if request.headers.get("content-type", "").startswith("multipart/form-data"):
+            return await _form_as_json(request)
         body = await request.body()
-        cells = int(np.count_nonzero(_CELL_BYTES[np.frombuffer(body, dtype=np.uint8)]))
+        raw = np.frombuffer(body, dtype=np.uint8)
+        if b'"occupancy_grid"' in body:
+            cells = max(body.count(b","), int(np.count_nonzero(_LETTER_BYTES[raw])))
+        else:
+            cells = int(np.count_nonzero(_CELL_BYTES[raw]))
         limit = cast(Settings, request.app.state.settings).max_map_cells
         if cells > limit + CELL_SLACK:
             msg = (
@@ -89,3 +118,30 @@ class MapRoute(OrjsonRoute):
                 "(refused before parsing)"
             )
             raise TooLarge(msg, field="map")
+        return request
+
+
+async def _form_as_json(request: Request) -> Request:
+    """The form's fields as the JSON body's: the parts ``yaml`` and ``image`` as bytes, any
+    other field's value parsed as JSON (``[0, 3]``, ``{"x": 1.5, "y": 2}``, ``0.22``, ``true``)
+    or, when it is not JSON, kept as the text it is (``wide``, ``free``). The body model then
+    validates them as it validates JSON (an unknown field is refused)."""
+    fields: dict[str, Any] = {}
+    async with request.form(max_files=len(MULTIPART_PARTS), max_fields=32) as form:
+        for name, value in form.multi_items():
+            data = await value.read() if isinstance(value, UploadFile) else value.encode()
+            if name in MULTIPART_PARTS:
+                fields[name] = data
+            else:
+                text = data.decode("utf-8", "replace")
+                try:
+                    fields[name] = orjson.loads(text)
+                except orjson.JSONDecodeError:
+                    fields[name] = text
+    # FastAPI reads a JSON body for the body model: this request is one, its JSON the fields.
+    headers = [(k, v) for k, v in request.scope["headers"] if k != b"content-type"]
+    scope = {**request.scope, "headers": [*headers, (b"content-type", b"application/json")]}
+    parsed = _OrjsonRequest(scope, request.receive)
+    parsed._body = b"{}"
+    parsed._json = fields
+    return parsed

@@ -10,18 +10,61 @@ import planner
 from planner.planning import clearance_metrics
 from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
 from service.maps import MapView
-from service.plans import PlanView
+from service.plans import PlanView, StepView
 
-__all__ = ["map_public", "plan_detail", "plan_public", "simulation_public", "step_public"]
+__all__ = [
+    "map_public",
+    "meters",
+    "plan_detail",
+    "plan_public",
+    "simulation_public",
+    "step_public",
+]
 
-PREVIEW_KEYS = ("path", "length", "arc_cost", "min_clearance", "mean_clearance", "contact_ratio")
+PREVIEW_KEYS = (
+    "path",
+    "length",
+    "arc_cost",
+    "min_clearance",
+    "mean_clearance",
+    "contact_ratio",
+    "path_xy",
+    "length_m",
+    "min_clearance_m",
+    "mean_clearance_m",
+)
 
 
 def map_public(view: MapView) -> MapPublic:
-    h, w = view.grid.shape
-    free = int(np.count_nonzero(view.grid == 0))
+    m = view.robot_map
+    h, w = m.shape
     plan = None if view.plan is None else plan_public(view.plan)
-    return MapPublic(map_id=view.map_id, height=h, width=w, free_cells=free, plan=plan)
+    return MapPublic(
+        map_id=view.map_id,
+        height=h,
+        width=w,
+        free_cells=m.free_cells(),
+        occupied_cells=m.occupied_cells(),
+        unknown_cells=m.unknown_cells,
+        resolution=m.resolution,
+        origin=list(m.origin),
+        plan=plan,
+    )
+
+
+def meters(trajectory: Any, analysis: planner.Analysis) -> dict[str, float]:
+    """A trajectory's ``length_m``, ``min_clearance_m`` and ``mean_clearance_m``: distances
+    between cell centers and to the nearest blocked cell's center, in meters."""
+    cells = np.asarray(trajectory, dtype=np.int64).reshape(-1, 2)
+    res = analysis.frame.resolution
+    steps = np.abs(np.diff(cells, axis=0)).sum(axis=1)
+    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * np.sqrt(2.0))
+    min_c, mean_c, _ = clearance_metrics(cells, analysis)
+    return {
+        "length_m": round(length * res, 6),
+        "min_clearance_m": round(min_c * res, 6),
+        "mean_clearance_m": round(mean_c * res, 6),
+    }
 
 
 def plan_public(view: PlanView) -> PlanPublic:
@@ -42,26 +85,30 @@ def plan_detail(view: PlanView) -> PlanDetail:
         "min_clearance": round(min_c, 4),
         "mean_clearance": round(mean_c, 4),
         "contact_ratio": round(contact, 4),
+        **meters(trajectory, view.plan.analysis),
     }
+    frame = view.plan.analysis.frame
     return PlanDetail.model_validate(
         {
             **_plan_fields(view),
             "iteration": state.iteration,
             "trajectory": trajectory.tolist(),
+            "trajectory_xy": frame.centers(trajectory).round(6).tolist(),
             "metrics": metrics,
         }
     )
 
 
-def step_public(step: planner.Step) -> StepPublic:
-    return StepPublic.model_validate(step.as_dict())
+def step_public(view: StepView) -> StepPublic:
+    xy = view.frame.centers([view.step.position]).round(6)[0].tolist()
+    return StepPublic.model_validate({**view.step.as_dict(), "position_xy": xy})
 
 
 def simulation_public(episode: planner.Episode) -> SimulationPublic:
     return SimulationPublic.model_validate(
         {
             "trajectory": episode.trajectory.tolist(),
-            "metrics": episode.metrics,
+            "metrics": {**episode.metrics, **meters(episode.trajectory, episode.plan.analysis)},
             "obstacle_motion": episode.obstacle_motion,
         }
     )
@@ -79,6 +126,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         "status": view.state.status,
         "narrow_fallback": view.state.narrow_fallback,
         "position": list(view.state.position),
+        "position_xy": view.plan.analysis.frame.centers([view.state.position]).round(6)[0].tolist(),
         "analysis": {
             "gates": s["gates"],
             "tunnels": s["tunnels"],

@@ -7,7 +7,16 @@ Store (``base``)            the interface and the formats every store keeps
 
 from __future__ import annotations
 
-from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
+from service.stores.base import (
+    Cells,
+    Grid,
+    PlanRecord,
+    Store,
+    decode_map,
+    encode_map,
+    pack,
+    unpack,
+)
 from service.stores.memory import MemoryStore
 from service.stores.redis import RedisStore
 
@@ -18,6 +27,8 @@ __all__ = [
     "PlanRecord",
     "RedisStore",
     "Store",
+    "decode_map",
+    "encode_map",
     "open_store",
     "pack",
     "unpack",

@@ -17,7 +17,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Cells", "Grid", "PlanRecord", "Store", "pack", "unpack"]
+from planner.robot_maps import MapFrame, RobotMap
+
+__all__ = ["Cells", "Grid", "PlanRecord", "Store", "decode_map", "encode_map", "pack", "unpack"]
 
 Grid = npt.NDArray[np.uint8]
 PlanRecord = dict[str, Any]
@@ -34,6 +36,33 @@ def unpack(data: bytes) -> list[tuple[int, int]]:
     return list(map(tuple, np.frombuffer(data, dtype="<i4").reshape(-1, 2).tolist()))
 
 
+MAP_MAGIC = b"occ1 "
+
+
+def encode_map(robot_map: RobotMap) -> bytes:
+    """A map as bytes: ``b"occ1 {H}x{W} {resolution} {ox} {oy} {yaw}:"`` (floats as ``repr``,
+    exact) then the occupancy, one int8 a cell, row 0 (the top) first."""
+    (h, w), res, (ox, oy, yaw) = robot_map.shape, robot_map.resolution, robot_map.origin
+    head = f"{h}x{w} {res!r} {ox!r} {oy!r} {yaw!r}:".encode()
+    return MAP_MAGIC + head + robot_map.occupancy.tobytes()
+
+
+def decode_map(data: bytes) -> RobotMap:
+    """:func:`encode_map`'s map back (read-only); also reads the older ``b"{H}x{W}:"`` + 0/1
+    cells of plain grids."""
+    if not data.startswith(MAP_MAGIC):
+        shape, _, cells = data.partition(b":")
+        h, w = (int(n) for n in shape.split(b"x"))
+        grid = np.frombuffer(cells, dtype=np.uint8).reshape(h, w)
+        occupancy = (grid * np.uint8(100)).astype(np.int8)
+        return RobotMap(occupancy, MapFrame((h, w)))
+    head, _, cells = data[len(MAP_MAGIC) :].partition(b":")
+    size, res, ox, oy, yaw = head.decode().split(" ")
+    h, w = (int(n) for n in size.split("x"))
+    occupancy = np.frombuffer(cells, dtype=np.int8).reshape(h, w)
+    return RobotMap(occupancy, MapFrame((h, w), float(res), (float(ox), float(oy), float(yaw))))
+
+
 class Store(ABC):
     """Maps by ``map_id`` (kept) and plans by ``plan_id`` (forgotten after a TTL).
 
@@ -44,12 +73,12 @@ class Store(ABC):
     kind: str
 
     @abstractmethod
-    async def put_map(self, map_id: str, grid: Grid) -> bool:
-        """Keep a map; True when it was not known before."""
+    async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
+        """Keep a map (occupancy, resolution, origin); True when it was not known before."""
 
     @abstractmethod
-    async def get_map(self, map_id: str) -> Grid | None:
-        """The map's 0/1 grid (read-only), or None."""
+    async def get_map(self, map_id: str) -> RobotMap | None:
+        """The map (read-only), or None."""
 
     @abstractmethod
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:

@@ -10,7 +10,8 @@ from contextlib import asynccontextmanager
 
 import orjson
 
-from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
+from planner.robot_maps import RobotMap
+from service.stores.base import Cells, PlanRecord, Store, pack, unpack
 
 __all__ = ["MemoryStore"]
 
@@ -23,21 +24,19 @@ class MemoryStore(Store):
     def __init__(self, *, ttl_seconds: float, clock: Callable[[], float] = time.monotonic) -> None:
         self._ttl = ttl_seconds
         self._clock = clock
-        self._maps: dict[str, Grid] = {}
+        self._maps: dict[str, RobotMap] = {}
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
         # An entry: (expiry, the record as JSON, the trajectory log).
         self._plans: OrderedDict[str, tuple[float, bytes, bytearray]] = OrderedDict()
         self._locks: dict[str, asyncio.Lock] = {}
 
-    async def put_map(self, map_id: str, grid: Grid) -> bool:
+    async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         if map_id in self._maps:
             return False
-        grid = grid.copy()
-        grid.flags.writeable = False
-        self._maps[map_id] = grid
+        self._maps[map_id] = robot_map  # read-only, and never shared with a writer
         return True
 
-    async def get_map(self, map_id: str) -> Grid | None:
+    async def get_map(self, map_id: str) -> RobotMap | None:
         return self._maps.get(map_id)
 
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:

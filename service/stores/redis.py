@@ -2,7 +2,8 @@
 
 Keys, all under ``planner:``:
 
-- ``planner:map:{map_id}``: ``b"{height}x{width}:"`` then the cells, one byte each; kept.
+- ``planner:map:{map_id}``: the map as :func:`~service.stores.base.encode_map` writes it (a
+  header with shape, resolution and origin, then the occupancy, one byte a cell); kept.
 - ``planner:plan:{plan_id}``: the plan's record as JSON; expires ``PLANNER_PLAN_TTL_SECONDS``
   after its last write.
 - ``planner:path:{plan_id}``: the robot's trajectory, packed cells appended with ``APPEND``;
@@ -21,7 +22,6 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from contextvars import ContextVar
 
-import numpy as np
 import orjson
 from redis import exceptions as rx
 from redis.asyncio import Redis
@@ -30,8 +30,9 @@ from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 
 from planner._errors import quote
+from planner.robot_maps import RobotMap
 from service.errors import StoreUnavailable
-from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
+from service.stores.base import Cells, PlanRecord, Store, decode_map, encode_map, pack, unpack
 
 __all__ = ["LOCK_TIMEOUT", "LOCK_WAIT", "SOCKET_TIMEOUT", "RedisStore"]
 
@@ -91,22 +92,14 @@ class RedisStore(Store):
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._fenced_set = self._redis.register_script(_FENCED_SET)
 
-    async def put_map(self, map_id: str, grid: Grid) -> bool:
-        h, w = grid.shape
+    async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         async with self._reaching():
-            created = await self._redis.set(
-                f"planner:map:{map_id}", f"{h}x{w}:".encode() + grid.tobytes(), nx=True
-            )
+            created = await self._redis.set(f"planner:map:{map_id}", encode_map(robot_map), nx=True)
         return bool(created)
 
-    async def get_map(self, map_id: str) -> Grid | None:
+    async def get_map(self, map_id: str) -> RobotMap | None:
         value = await self._get(f"planner:map:{map_id}")
-        if value is None:
-            return None
-        shape, _, cells = value.partition(b":")
-        h, w = (int(n) for n in shape.split(b"x"))
-        # frombuffer over bytes: read-only, as the store's contract says.
-        return np.frombuffer(cells, dtype=np.uint8).reshape(h, w)
+        return None if value is None else decode_map(value)
 
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         held = _held.get()

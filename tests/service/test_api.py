@@ -30,6 +30,7 @@ async def test_same_map_same_id_whichever_encoding(client: httpx.AsyncClient) ->
     expected = hashlib.sha256(b"5x6:" + np.array(GRID, dtype=np.uint8).tobytes()).hexdigest()
     assert body == {
         "map_id": expected, "height": 5, "width": 6, "free_cells": 27, "plan": None,
+        "occupied_cells": 3, "unknown_cells": 0, "resolution": 1.0, "origin": [0.0, 0.0, 0.0],
     }  # fmt: skip
     shown = await client.get(f"/maps/{expected}")
     assert shown.status_code == 200
@@ -185,9 +186,17 @@ async def test_simulate_is_the_planners_episode(client: httpx.AsyncClient) -> No
     want = planner.simulate(GRID, [0, 0], [4, 5], preset="mmas", dynamic_count=3, seed=5)
     assert got["trajectory"] == want.trajectory.tolist()
     timing = {"analysis_ms", "step_us", "episode_ms"}
-    assert {k: v for k, v in got["metrics"].items() if k not in timing} == {
+    in_meters = {"length_m", "min_clearance_m", "mean_clearance_m"}
+    assert {k: v for k, v in got["metrics"].items() if k not in timing | in_meters} == {
         k: v for k, v in want.metrics.items() if k not in timing
     }
+    # 1 m a cell: the meters are the cells' figures (the length with diagonals of sqrt 2).
+    m = got["metrics"]
+    assert m["min_clearance_m"] == pytest.approx(want.metrics["min_clearance"], abs=1e-4)
+    assert m["mean_clearance_m"] == pytest.approx(want.metrics["mean_clearance"], abs=1e-4)
+    steps = np.abs(np.diff(want.trajectory, axis=0)).sum(axis=1)
+    straight, diagonal = int((steps == 1).sum()), int((steps == 2).sum())
+    assert m["length_m"] == pytest.approx(straight + diagonal * 2**0.5, abs=1e-5)
     assert got["metrics"]["collisions"] == 0
     again = await client.post(f"/maps/{map_id}/simulate", json=body)
     assert again.json()["trajectory"] == got["trajectory"]

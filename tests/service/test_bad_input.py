@@ -33,6 +33,7 @@ ROWS = ["......", ".@@...", "......", "...@..", "......"]
 WALLED = ["..@..", "..@..", "..@.."]
 CORRIDOR = ["........", "........", "@@@.@@@@", "........", "........"]
 OK = {"start": [0, 0], "goal": [4, 5]}
+INFO = {"resolution": 0.05, "width": 3, "height": 2, "origin": {"position": {"x": 0.0, "y": 0.0}}}
 
 # (name, method, url, json body or raw bytes, status, substrings of detail)
 CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
@@ -46,7 +47,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("non-ascii letter", "POST", "/maps", {"rows": [".é"]}, 422, ["rows[0]", "'é'"]),
     ("ragged rows", "POST", "/maps", {"rows": ["...", ".."]}, 422, ["rows[1]", "2 characters"]),
     ("empty rows", "POST", "/maps", {"rows": []}, 422, ["rows", "empty"]),
-    ("both encodings", "POST", "/maps", {"grid": [[0]], "rows": ["."]}, 422, ["grid", "rows", "both"]),
+    ("both encodings", "POST", "/maps", {"grid": [[0]], "rows": ["."]}, 422, ["grid", "rows", "exactly one"]),
     ("neither encoding", "POST", "/maps", {"start": [0, 0]}, 422, ["grid", "rows", "neither"]),
     ("start without goal", "POST", "/maps", {"rows": ROWS, "start": [0, 0]}, 422, ["'goal'"]),
     ("too many cells", "POST", "/maps", {"rows": ["." * 65] * 65}, 413, ["rows", "65 x 65", "4225", "4096"]),
@@ -108,6 +109,34 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("dynamic_count float", "POST", "/maps/{map}/simulate", {**OK, "dynamic_count": 2.0}, 422, ["dynamic_count", "2.0"]),
     ("allow_narrow integer", "POST", "/plan", {"map_id": "{map}", **OK, "allow_narrow": 1}, 422, ["allow_narrow", "1"]),
     ("preset not text", "POST", "/plan", {"map_id": "{map}", **OK, "preset": 1}, 422, ["preset", "1"]),
+    # Robot maps (API.md "Robot maps in meters"); bad YAML + image uploads: test_robot_maps.py.
+    ("data length", "POST", "/maps", {"occupancy_grid": {"info": INFO, "data": [0] * 5}}, 422, ["occupancy_grid.data", "5 values", "3 x 2 = 6"]),
+    ("data value", "POST", "/maps", {"occupancy_grid": {"info": INFO, "data": [0, 0, 101, 0, 0, 0]}}, 422, ["occupancy_grid.data", "101", "index 2"]),
+    ("data value -2", "POST", "/maps", {"occupancy_grid": {"info": INFO, "data": [0, -2, 0, 0, 0, 0]}}, 422, ["occupancy_grid.data", "-2"]),
+    ("no info", "POST", "/maps", {"occupancy_grid": {"data": []}}, 422, ["occupancy_grid", "'info'"]),
+    ("zero resolution", "POST", "/maps", {"occupancy_grid": {"info": {**INFO, "resolution": 0}, "data": [0] * 6}}, 422, ["occupancy_grid.info.resolution", "0"]),
+    ("width of text", "POST", "/maps", {"occupancy_grid": {"info": {**INFO, "width": "3"}, "data": [0] * 6}}, 422, ["occupancy_grid.info.width", "'3'"]),
+    ("cells by the header", "POST", "/maps", {"occupancy_grid": {"info": {**INFO, "width": 100, "height": 100}, "data": []}}, 413, ["occupancy_grid", "100 x 100", "10000", "4096"]),
+    ("grid resolution negative", "POST", "/maps", {"grid": [[0, -1]], "resolution": -0.1}, 422, ["resolution", "-0.1"]),
+    ("grid origin of two", "POST", "/maps", {"grid": [[0, -1]], "origin": [1.0, 2.0]}, 422, ["origin", "[1.0, 2.0]"]),
+    ("grid cell -2", "POST", "/maps", {"grid": [[0, -2]]}, 422, ["grid", "found -2 at [0, 1]"]),
+    ("frame with an OccupancyGrid", "POST", "/maps", {"occupancy_grid": {"info": INFO, "data": [0] * 6}, "resolution": 1.0}, 422, ["resolution", "own"]),
+    ("two maps", "POST", "/maps", {"grid": [[0]], "occupancy_grid": {"info": INFO, "data": [0] * 6}}, 422, ["exactly one", "grid and occupancy_grid"]),
+    ("point without y", "POST", "/plan", {"map_id": "{map}", "start": {"x": 0.5}, "goal": [4, 5]}, 422, ["start.y", "Field required"]),
+    ("point with z", "POST", "/plan", {"map_id": "{map}", "start": {"x": 0.5, "y": 0.5, "z": 0}, "goal": [4, 5]}, 422, ["start.z", "unknown field"]),
+    ("point of text", "POST", "/plan", {"map_id": "{map}", "start": {"x": "0.5", "y": 0.5}, "goal": [4, 5]}, 422, ["start.x", "'0.5'"]),
+    ("point outside", "POST", "/plan", {"map_id": "{map}", "start": {"x": 0.5, "y": 0.5}, "goal": {"x": 9.5, "y": 0.5}}, 422, ["goal", "9.5", "outside the map", "resolution 1"]),
+    ("point on obstacle", "POST", "/plan", {"map_id": "{map}", "start": {"x": 1.5, "y": 3.5}, "goal": [4, 5]}, 422, ["start", "(cell [1, 1])", "obstacle"]),
+    ("robot_radius negative", "POST", "/plan", {"map_id": "{map}", **OK, "robot_radius": -0.1}, 422, ["robot_radius", "-0.1"]),
+    ("robot_radius text", "POST", "/plan", {"map_id": "{map}", **OK, "robot_radius": "big"}, 422, ["robot_radius", "'big'"]),
+    ("robot_radius twice", "POST", "/plan", {"map_id": "{map}", **OK, "robot_radius": 0.2, "params": {"robot_radius": 0.3}}, 422, ["robot_radius", "0.2", "0.3", "disagree"]),
+    ("unknown policy", "POST", "/maps/{map}/simulate", {**OK, "unknown": "maybe"}, 422, ["unknown", "'maybe'"]),
+    ("unknown policy in params", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"unknown": "maybe"}}, 422, ["unknown must be 'blocked' or 'free'", "'maybe'"]),
+    ("start occupied by the radius", "POST", "/plan", {"map_id": "{map}", **OK, "robot_radius": 1.0}, 422, ["START_OCCUPIED", "start [0, 0]", "robot_radius 1"]),
+    ("circle without radius", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0}]}, 422, ["dynamic_obstacles[0].radius", "Field required"]),
+    ("circle radius negative", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": -1}]}, 422, ["dynamic_obstacles[0].radius", "-1"]),
+    ("circle with extra", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": 1, "z": 0}]}, 422, ["dynamic_obstacles[0].z", "unknown field"]),
+    ("position point outside", "POST", "/plan/{plan}/step", {"position": {"x": -1.0, "y": 0.5}}, 422, ["position", "-1.0", "outside the map"]),
 ]  # fmt: skip
 
 
@@ -224,6 +253,31 @@ async def test_a_map_far_over_the_cell_limit_is_refused_unparsed(
     assert r.status_code == 413, r.text
     assert "about 10000 map cells" in r.json()["detail"]
     assert "refused before parsing" in r.json()["detail"]
+
+
+async def test_an_occupancy_grid_far_over_the_cell_limit_is_refused_unparsed(
+    client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from service.api import deps
+
+    async def never(self: Any) -> Any:
+        raise AssertionError("the body was parsed")
+
+    monkeypatch.setattr(deps._OrjsonRequest, "json", never)
+    info = {**INFO, "width": 100, "height": 100}
+    r = await client.post("/maps", json={"occupancy_grid": {"info": info, "data": [100] * 10_000}})
+    assert r.status_code == 413, r.text
+    assert "refused before parsing" in r.json()["detail"]
+
+
+async def test_an_occupancy_grid_of_hundreds_at_the_limit_is_served(
+    client: httpx.AsyncClient,
+) -> None:
+    # 4096 values of 100: 12288 digits, more than the limit, but 4095 commas: served.
+    info = {**INFO, "width": 64, "height": 64}
+    r = await client.post("/maps", json={"occupancy_grid": {"info": info, "data": [100] * 4096}})
+    assert r.status_code == 201, r.text
+    assert r.json()["occupied_cells"] == 4096
 
 
 async def test_a_map_at_the_cell_limit_is_served(client: httpx.AsyncClient) -> None:

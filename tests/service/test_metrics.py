@@ -13,6 +13,7 @@ from fastapi import FastAPI
 from prometheus_client.parser import text_string_to_metric_families
 from prometheus_client.samples import Sample
 
+import planner
 from service.config import Settings
 from service.main import create_app
 from service.metrics import UNMATCHED
@@ -147,7 +148,7 @@ async def test_pool_gauges_follow_four_big_uploads_on_one_worker(
 async def test_the_redis_store_counts_maps_and_live_plans(redis_server: RedisServer) -> None:
     store = RedisStore(redis_server.url, ttl_seconds=60)
     try:
-        grid = random_map(4, 4, 0.0, seed=0).astype("uint8")
+        grid = planner.grid_map(random_map(4, 4, 0.0, seed=0))
         await store.put_map("a", grid)
         await store.put_map("b", grid)
         for plan_id in ("p", "q", "r"):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+import planner
 from service.config import Settings
 from service.errors import StoreUnavailable
 from service.stores import MemoryStore, RedisStore, open_store
@@ -28,14 +29,26 @@ async def store(redis_server: RedisServer) -> AsyncIterator[RedisStore]:
 
 @pytest.mark.anyio
 async def test_maps_are_kept_once_and_come_back_read_only(store: RedisStore) -> None:
-    grid = np.array([[0, 1, 0], [0, 0, 1]], dtype=np.uint8)
-    assert await store.put_map("m", grid) is True
-    assert await store.put_map("m", grid) is False
+    robot_map = planner.grid_map([[0, 1, -1], [0, 0, 1]], resolution=0.05, origin=[-1.5, 2, 0.3])
+    assert await store.put_map("m", robot_map) is True
+    assert await store.put_map("m", robot_map) is False
     got = await store.get_map("m")
     assert got is not None
-    np.testing.assert_array_equal(got, grid)
-    assert not got.flags.writeable
+    np.testing.assert_array_equal(got.occupancy, [[0, 100, -1], [0, 0, 100]])
+    assert (got.resolution, got.origin) == (0.05, (-1.5, 2.0, 0.3))
+    assert got.map_id == robot_map.map_id
+    assert not got.occupancy.flags.writeable
     assert await store.get_map("other") is None
+
+
+@pytest.mark.anyio
+async def test_maps_stored_before_frames_read_back_as_plain_maps(store: RedisStore) -> None:
+    grid = np.array([[0, 1, 0], [0, 0, 1]], dtype=np.uint8)
+    await store._redis.set("planner:map:old", b"2x3:" + grid.tobytes())
+    got = await store.get_map("old")
+    assert got is not None
+    assert got.plain
+    assert got.map_id == planner.grid_map(grid).map_id
 
 
 @pytest.mark.anyio
@@ -50,7 +63,7 @@ async def test_plans_are_written_read_and_deleted(store: RedisStore) -> None:
 
 @pytest.mark.anyio
 async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
-    await store.put_map("m", np.zeros((2, 2), dtype=np.uint8))
+    await store.put_map("m", planner.grid_map(np.zeros((2, 2), dtype=np.uint8)))
     await store.put_plan("p", {})
     async with store.plan_lock("p"):
         keys = sorted(await store._redis.keys("*"))

@@ -6,7 +6,8 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Response, status
 
-from schemas import MapCreate, MapPublic, Preset
+from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, Preset
+from schemas.plans import Unknown
 from service import maps
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
@@ -24,12 +25,19 @@ router = APIRouter(tags=["maps"], route_class=MapRoute)
     status_code=status.HTTP_201_CREATED,
     summary="Upload a map, and plan on it when start and goal are given",
     responses={200: {"model": MapPublic, "description": "The map was known already."}, **ERRORS},
+    openapi_extra={
+        "requestBody": {"content": {"multipart/form-data": {"schema": MULTIPART_FIELDS}}}
+    },
 )
 async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> MapPublic:
-    """Upload a map as `grid` (0 free, 1 blocked) or as Moving AI `rows`. Its `map_id` is the
-    hex SHA-256 of its shape and cells: the same whichever encoding was sent. `201` the first
-    time, `200` after. With `start` and `goal` (and `preset`, `params`, `allow_narrow`) a plan
-    is created too and returned under `plan`, as from `POST /plan`."""
+    """Upload a map as JSON `grid` (0 free, 1 blocked, -1 unknown; optional `resolution` and
+    `origin`), Moving AI `rows`, or a rosbridge `occupancy_grid`; or as `multipart/form-data`
+    with the parts `yaml` (a ROS map_server YAML) and `image` (its PGM/PNG/BMP), the other
+    fields then as form fields. Its `map_id` hashes shape, occupancy, resolution and origin:
+    the same whichever encoding was sent. `201` the first time, `200` after. With `start` and
+    `goal` (cells or points in meters; and `preset`, `params`, `allow_narrow`, `robot_radius`,
+    `unknown`) a plan is created too and returned under `plan`, as from `POST /plan`. An image
+    whose header gives more than `PLANNER_MAX_MAP_CELLS` pixels is a `413`, before decoding."""
     view, created = await maps.add_map(engine, body)
     if not created:
         response.status_code = status.HTTP_200_OK
@@ -38,7 +46,8 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
 
 @router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
-    """The `map_id`, `height`, `width` and `free_cells` of an uploaded map."""
+    """The `map_id`, `height`, `width`, `free_cells`, `occupied_cells`, `unknown_cells`,
+    `resolution` and `origin` of an uploaded map."""
     return present.map_public(await maps.get_map(engine, map_id))
 
 
@@ -56,8 +65,19 @@ async def render_map(
         Literal["clean"] | None, Query(description="Tint free cells by their clean penalty.")
     ] = None,
     cell: CellQuery = None,
+    robot_radius: Annotated[
+        float | None,
+        Query(ge=0, le=100, description="The robot's radius in meters: draws its C-space margin."),
+    ] = None,
+    unknown: Annotated[
+        Unknown | None, Query(description="How unknown cells count: `blocked` or `free`.")
+    ] = None,
 ) -> Response:
     """The map as the paper draws it: obstacles black, tight-tunnel cells orange (when the
-    preset seals them), gates red; with `field=clean`, free cells tinted by their penalty."""
-    png = await maps.render_map(engine, map_id, preset, field, cell)
+    preset seals them), gates red; with `field=clean`, free cells tinted by their penalty. On a
+    robot map, unknown cells grey-blue, the configuration space's margin for `robot_radius`
+    pink, with a legend and a scale bar in meters."""
+    overrides = {"robot_radius": robot_radius, "unknown": unknown}
+    given = {name: value for name, value in overrides.items() if value is not None}
+    png = await maps.render_map(engine, map_id, preset, field, cell, given)
     return Response(png, media_type="image/png")

@@ -58,13 +58,17 @@ async def delete_plan(plan_id: str, engine: EngineDep) -> None:
     responses=responses(404, 409, 413, 422),
 )
 async def step(plan_id: str, body: StepCreate, engine: EngineDep, bus: BusDep) -> StepPublic:
-    """Give the cells dynamic obstacles occupy now (and optionally where the robot really is);
-    the answer is the cell to move to, which the service records. `seq`, when given, must be
+    """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
+    optionally where the robot really is, a cell or a point); the answer is the cell to move
+    to (and its center `position_xy`), which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    answer = present.step_public(await plans.step(engine, plan_id, body))
-    obstacles = body.model_dump(mode="json", include={"dynamic_obstacles"})
-    await bus.publish(plan_id, {**answer.model_dump(mode="json"), **obstacles})
+    view = await plans.step(engine, plan_id, body)
+    answer = present.step_public(view)
+    # The live viewer draws cells: circles go out as the cells they blocked.
+    await bus.publish(
+        plan_id, {**answer.model_dump(mode="json"), "dynamic_obstacles": view.obstacles}
+    )
     return answer
 
 
