@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -79,6 +79,10 @@ class Params:
     """Cells (Chebyshev distance) around each dynamic obstacle treated as blocked for a step: 1
     covers every cell an obstacle can reach in one move, so a robot moving at the same time as
     the obstacles never meets one; 0 blocks only the cells they occupy (the paper's robot)."""
+    dynamic_margin_m: float | None = None
+    """The same margin in meters, for maps in meters: when set, a plan uses
+    ``ceil(dynamic_margin_m / resolution)`` cells as its ``dynamic_margin`` (say 0.3 m for people
+    walking about at a step of 0.2 s)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -96,7 +100,8 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "occupied_threshold": (1, 100),
     "wide_weight": (0.0, 1000.0),
     "wide_distance": (0.0, 100.0),
-    "dynamic_margin": (0, 8),
+    "dynamic_margin": (0, 16),
+    "dynamic_margin_m": (0.0, 5.0),
 }
 
 _PAPER = Params(
@@ -151,6 +156,8 @@ def _check(name: str, value: Any) -> Any:
             choices = " or ".join(repr(c) for c in _CHOICES[name])
             raise InvalidInput(f"{name} must be {choices}; got {quote(value)}", field=field)
         return value
+    if name == "dynamic_margin_m" and value is None:
+        return None
     if name in ("seal_tunnels", "allow_narrow"):
         if not isinstance(value, bool):
             raise InvalidInput(f"{name} must be true or false; got {quote(value)}", field=field)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -16,7 +17,7 @@ from planner import _kernels as K
 from planner._errors import InvalidInput, NoValidPath
 from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
 from planner.grids import as_cell, as_grid
-from planner.params import Params, resolve_params
+from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.robot_maps import RobotMap, grid_map, quote
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
@@ -225,6 +226,8 @@ def plan(
             wave, narrow = narrow_wave, True
     if not reaches(wave, analysis, s):
         raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
+    if p.dynamic_margin_m is not None:
+        p = dataclasses.replace(p, dynamic_margin=_margin_cells(p.dynamic_margin_m, analysis))
     return Plan(
         start=s,
         goal=g,
@@ -235,6 +238,21 @@ def plan(
         narrow_fallback=narrow,
         elapsed_ms=(time.perf_counter() - t0) * 1e3,
     )
+
+
+def _margin_cells(meters: float, analysis: Analysis) -> int:
+    """``dynamic_margin_m`` in cells of the analysed map: every cell an obstacle within that many
+    meters may cover."""
+    resolution = analysis.frame.resolution
+    cells = math.ceil(meters / resolution - 1e-9)
+    high = int(PARAMETER_RANGES["dynamic_margin"][1])
+    if cells > high:
+        msg = (
+            f"dynamic_margin_m {meters:g} is {cells} cells of {resolution:g} m on this map; at "
+            f"most {high} cells ({high * resolution:g} m)"
+        )
+        raise InvalidInput(msg, field="params.dynamic_margin_m")
+    return cells
 
 
 def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:

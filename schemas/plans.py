@@ -162,6 +162,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "wide_weight": 80.0,
         "wide_distance": 0.6,
         "dynamic_margin": 1,
+        "dynamic_margin_m": None,
     },
     "status": "ready",
     "position": [0, 0],

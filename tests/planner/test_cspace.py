@@ -228,3 +228,19 @@ def test_start_and_goal_in_the_margin_are_named(ros: Path) -> None:
         planner.plan(
             robot_map, {"x": -3.0, "y": 1.0}, (150, 150), analysis=analysis, robot_radius=RADIUS
         )
+
+
+def test_dynamic_margin_in_meters_becomes_cells_of_the_map() -> None:
+    robot_map = planner.grid_map(np.zeros((20, 20), dtype=np.int8), resolution=0.05)
+    p = planner.plan(robot_map, [0, 0], [19, 19], dynamic_margin_m=0.3)
+    assert p.params.dynamic_margin == 6  # 0.3 m of 0.05 m cells
+    assert (
+        planner.plan(robot_map, [0, 0], [19, 19], dynamic_margin_m=0.26).params.dynamic_margin == 6
+    )
+    assert planner.plan(robot_map, [0, 0], [19, 19]).params.dynamic_margin == 1  # cells, unset
+    # The margin holds while stepping: an obstacle 0.3 m away holds the robot up...
+    assert planner.Session(p).step([[0, 6]]).move == "WAIT"
+    # ...and one cell further it does not.
+    assert planner.Session(p).step([[0, 8]]).move != "WAIT"
+    with pytest.raises(planner.InvalidInput, match="dynamic_margin_m 1 is 20 cells"):
+        planner.plan(robot_map, [0, 0], [19, 19], dynamic_margin_m=1.0)

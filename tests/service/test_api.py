@@ -257,7 +257,8 @@ async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
     plan = r.json()
     shown_plan = example("PlanPublic")
     assert plan["preview"] == shown_plan["preview"]
-    assert plan["params"] == shown_plan["params"]
+    # /openapi.json leaves null values out of examples (dynamic_margin_m: null)
+    assert {k: v for k, v in plan["params"].items() if v is not None} == shown_plan["params"]
     assert plan["analysis"]["narrow_fallback"] is False
     r = await client.post(f"/plan/{plan['plan_id']}/step", json=example("StepCreate"))
     assert r.status_code == 200, r.text
