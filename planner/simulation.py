@@ -9,6 +9,7 @@ generator, so an episode is reproducible.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +24,8 @@ from planner.session import Session
 __all__ = ["Episode", "run_episode", "simulate", "warm_up"]
 
 MAX_DYNAMIC = 10_000
+STOP_EVERY = 256
+"""Steps of an episode between two questions to its ``stop`` callable (about a millisecond)."""
 
 
 @dataclass(frozen=True, eq=False, slots=True)
@@ -70,11 +73,14 @@ def run_episode(
     seed: int = 0,
     max_steps: int | None = None,
     record: bool = True,
+    stop: Callable[[], bool] | None = None,
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic`` randomly moving obstacles.
 
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
     off, the obstacles' cells at each step are not kept (``Episode.obstacles`` is empty).
+    ``stop``, when given, is asked every ``STOP_EVERY`` steps whether to end the episode where
+    it is (a caller's deadline or cancel flag: no thread can be stopped from outside).
     """
     grid = plan.analysis.grid
     H, W = grid.shape
@@ -106,6 +112,8 @@ def run_episode(
     step_seconds = 0.0
     steps = 0
     while steps < max_steps and session.state.status not in ("arrived", "blocked"):
+        if stop is not None and steps % STOP_EVERY == 0 and steps and stop():
+            break
         r, c = session.state.position
         K._move_obstacles(grid, occupied, obstacles, r, c, rng.random(dynamic))
         if record:

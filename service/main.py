@@ -36,8 +36,15 @@ TAGS = [
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     """Open the store, the cache and the pool; compile the kernels before the first request."""
     settings: Settings = app.state.settings
-    store = open_store(settings.store_url, ttl_seconds=settings.plan_ttl_seconds)
-    pool = Pool(settings.pool_size)
+    store = open_store(
+        settings.store_url,
+        ttl_seconds=settings.plan_ttl_seconds,
+        map_bytes=settings.map_store_bytes,
+        map_ttl_seconds=settings.map_ttl_seconds,
+    )
+    pool = Pool(
+        settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs
+    )
     engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
     try:
         await engine.warm()
@@ -60,7 +67,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     errors.install(app)
-    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
+    app.add_middleware(
+        BodyLimit,
+        max_bytes=settings.max_body_bytes,
+        max_step_bytes=settings.max_step_body_bytes,
+        body_timeout=settings.body_timeout_seconds,
+        request_timeout=settings.request_timeout_seconds,
+    )
     app.include_router(api_router)
     return app
 

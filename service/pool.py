@@ -1,17 +1,25 @@
-"""The worker pool that runs planner kernels off the event loop.
+"""The worker pools that run planner kernels off the event loop.
 
 Threads, not processes: the numba kernels release the GIL (``nogil=True``), so threads run them
 in parallel while sharing the cached arrays without copying or pickling them
 (``benchmarks/pool.py`` measures both).
+
+Two pools: heavy jobs (analyses, plans, renders, simulations) share ``size`` workers and a
+bounded queue, beyond which they are refused with 503 at once; steps that replan have workers of
+their own, so a client stepping a robot never waits behind another client's analyses
+(``benchmarks/fairness.py`` measures it).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import functools
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import ParamSpec, TypeVar
+
+from service.errors import Busy
 
 __all__ = ["Pool"]
 
@@ -20,15 +28,43 @@ R = TypeVar("R")
 
 
 class Pool:
-    """At most ``size`` planner calls at once; the rest wait their turn without blocking."""
+    """At most ``size`` heavy planner calls at once and ``max_queued`` more waiting their turn
+    (without blocking); steps on ``step_size`` workers of their own."""
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, *, step_size: int = 1, max_queued: int | None = None) -> None:
         self.size = size
+        self.max_queued = max_queued
+        self.jobs = 0  # heavy jobs running or waiting
         self._executor = ThreadPoolExecutor(max_workers=size, thread_name_prefix="planner")
+        self._steps = ThreadPoolExecutor(max_workers=step_size, thread_name_prefix="step")
 
     async def run(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
+        """``fn`` on a heavy worker; :class:`Busy` (503) when the queue is full."""
+        if self.max_queued is not None and self.jobs >= self.size + self.max_queued:
+            msg = (
+                f"the service is busy: {self.jobs} heavy jobs are running or queued "
+                f"(PLANNER_MAX_QUEUED_JOBS is {self.max_queued}); retry later"
+            )
+            raise Busy(msg)
+        self.jobs += 1
+        try:
+            return await self._on(self._executor, fn, *args, **kwargs)
+        finally:
+            self.jobs -= 1
+
+    async def run_step(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
+        """``fn`` on a step worker: never queued behind heavy jobs."""
+        return await self._on(self._steps, fn, *args, **kwargs)
+
+    @staticmethod
+    async def _on(
+        executor: ThreadPoolExecutor, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs
+    ) -> R:
         loop = asyncio.get_running_loop()
-        return await loop.run_in_executor(self._executor, functools.partial(fn, *args, **kwargs))
+        # The caller's context goes along: the worker's cache entries count for its tenant.
+        call = functools.partial(contextvars.copy_context().run, fn, *args, **kwargs)
+        return await loop.run_in_executor(executor, call)
 
     def close(self) -> None:
         self._executor.shutdown(wait=True, cancel_futures=True)
+        self._steps.shutdown(wait=True, cancel_futures=True)

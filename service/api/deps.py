@@ -13,6 +13,7 @@ from fastapi.routing import APIRoute
 from service.config import Settings
 from service.engine import Engine
 from service.errors import TooLarge
+from service.guards import check_depth
 
 __all__ = ["PNG_RESPONSE", "CellQuery", "EngineDep", "MapRoute", "OrjsonRoute", "get_engine"]
 
@@ -56,6 +57,8 @@ class OrjsonRoute(APIRoute):
 
         async def route_handler(request: Request) -> Response:
             request = _OrjsonRequest(request.scope, request.receive)
+            if request.method in ("POST", "PUT", "PATCH"):
+                check_depth(await request.body())
             await self.check_body(request)
             return await handler(request)
 

@@ -10,70 +10,162 @@ from contextlib import asynccontextmanager
 
 import orjson
 
+from service.errors import InsufficientStorage
 from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
+from service.tenants import scoped
 
 __all__ = ["MemoryStore"]
 
 
 class MemoryStore(Store):
-    """Everything in this process: for one uvicorn worker."""
+    """Everything in this process: for one uvicorn worker.
+
+    Maps take at most ``max_map_bytes``: a new map evicts the least recently used maps that no
+    live plan uses, and is refused (507) when those do not free enough.
+    """
 
     kind = "memory"
 
-    def __init__(self, *, ttl_seconds: float, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        *,
+        ttl_seconds: float,
+        max_map_bytes: int | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self._ttl = ttl_seconds
         self._clock = clock
-        self._maps: dict[str, Grid] = {}
+        self.max_map_bytes = max_map_bytes
+        self.map_bytes = 0
+        self._maps: OrderedDict[str, Grid] = OrderedDict()  # least recently used first
+        self._plans_on: dict[str, int] = {}  # live plans per stored map key
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
-        # An entry: (expiry, the record as JSON, the trajectory log).
-        self._plans: OrderedDict[str, tuple[float, bytes, bytearray]] = OrderedDict()
-        self._locks: dict[str, asyncio.Lock] = {}
+        # An entry: (expiry, the record as JSON, the trajectory log, its map's key).
+        self._plans: OrderedDict[str, tuple[float, bytes, bytearray, str | None]] = OrderedDict()
+        # A lock and how many steps hold or wait for it: dropped when none does.
+        self._locks: dict[str, tuple[asyncio.Lock, int]] = {}
 
     async def put_map(self, map_id: str, grid: Grid) -> bool:
-        if map_id in self._maps:
+        key = scoped(map_id)
+        if key in self._maps:
+            self._maps.move_to_end(key)
             return False
+        self._make_room(grid.nbytes)
         grid = grid.copy()
         grid.flags.writeable = False
-        self._maps[map_id] = grid
+        self._maps[key] = grid
+        self.map_bytes += grid.nbytes
         return True
 
     async def get_map(self, map_id: str) -> Grid | None:
-        return self._maps.get(map_id)
+        key = scoped(map_id)
+        grid = self._maps.get(key)
+        if grid is not None:
+            self._maps.move_to_end(key)
+        return grid
 
-    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
+    async def put_plan(
+        self, plan_id: str, record: PlanRecord, *, append: Cells = (), existing: bool = False
+    ) -> bool:
         self._expire()
-        entry = self._plans.get(plan_id)
-        log = entry[2] if entry else bytearray()
+        key = scoped(plan_id)
+        entry = self._plans.get(key)
+        if entry is None and existing:
+            return False  # deleted (or expired) while a step was in flight: it stays so
+        if entry is None:
+            map_key = scoped(record["map_id"]) if "map_id" in record else None
+            if map_key is not None:
+                self._plans_on[map_key] = self._plans_on.get(map_key, 0) + 1
+            log = bytearray()
+        else:
+            log, map_key = entry[2], entry[3]
         log += pack(append)  # in place: appending costs what it appends
         # Serialised like a networked store would, so a record never shares state with a caller.
-        self._plans[plan_id] = (self._clock() + self._ttl, orjson.dumps(record), log)
-        self._plans.move_to_end(plan_id)
+        self._plans[key] = (self._clock() + self._ttl, orjson.dumps(record), log, map_key)
+        self._plans.move_to_end(key)
+        if map_key is not None and map_key in self._maps:
+            self._maps.move_to_end(map_key)
+        return True
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         self._expire()
-        entry = self._plans.get(plan_id)
+        entry = self._plans.get(scoped(plan_id))
         return None if entry is None else dict(orjson.loads(entry[1]))
 
     async def get_trajectory(self, plan_id: str) -> list[tuple[int, int]]:
         self._expire()
-        entry = self._plans.get(plan_id)
+        entry = self._plans.get(scoped(plan_id))
         return [] if entry is None else unpack(bytes(entry[2]))
 
     async def delete_plan(self, plan_id: str) -> bool:
-        self._locks.pop(plan_id, None)
-        return self._plans.pop(plan_id, None) is not None
+        self._expire()
+        return self._forget(scoped(plan_id))
 
     @asynccontextmanager
-    async def plan_lock(self, plan_id: str) -> AsyncIterator[None]:
-        lock = self._locks.setdefault(plan_id, asyncio.Lock())
-        async with lock:
-            yield
+    async def plan_lock(self, plan_id: str) -> AsyncIterator[PlanRecord | None]:
+        key = scoped(plan_id)
+        if await self.get_plan(plan_id) is None:
+            yield None  # no lock is made for a plan that does not exist
+            return
+        lock, users = self._locks.get(key, (asyncio.Lock(), 0))
+        self._locks[key] = (lock, users + 1)
+        try:
+            async with lock:
+                # Read under the lock: the previous holder's write, or its delete, is seen.
+                yield await self.get_plan(plan_id)
+        finally:
+            lock, users = self._locks[key]
+            if users == 1:
+                del self._locks[key]
+            else:
+                self._locks[key] = (lock, users - 1)
+
+    @property
+    def lock_count(self) -> int:
+        """Locks held or waited for now (for tests: none is left behind)."""
+        return len(self._locks)
+
+    def _make_room(self, size: int) -> None:
+        limit = self.max_map_bytes
+        if limit is None or self.map_bytes + size <= limit:
+            return
+        if size > limit:
+            msg = f"a map of {size} bytes is over PLANNER_MAP_STORE_BYTES ({limit})"
+            raise InsufficientStorage(msg, field="map")
+        idle = [k for k in self._maps if not self._plans_on.get(k)]  # least recent first
+        freed = 0
+        for key in idle:
+            if self.map_bytes - freed + size <= limit:
+                break
+            freed += self._maps[key].nbytes
+        if self.map_bytes - freed + size > limit:
+            msg = (
+                f"the map store is full: PLANNER_MAP_STORE_BYTES ({limit}) is taken by maps that "
+                "live plans use; delete plans or retry when they expire"
+            )
+            raise InsufficientStorage(msg, field="map")
+        for key in idle:
+            if self.map_bytes + size <= limit:
+                break
+            self.map_bytes -= self._maps.pop(key).nbytes
+
+    def _forget(self, key: str) -> bool:
+        entry = self._plans.pop(key, None)
+        if entry is None:
+            return False
+        map_key = entry[3]
+        if map_key is not None:
+            left = self._plans_on.get(map_key, 1) - 1
+            if left:
+                self._plans_on[map_key] = left
+            else:
+                self._plans_on.pop(map_key, None)
+        return True
 
     def _expire(self) -> None:
         now = self._clock()
         while self._plans:
-            plan_id, (expires, _, _) = next(iter(self._plans.items()))
-            if expires > now:
+            key, entry = next(iter(self._plans.items()))
+            if entry[0] > now:
                 break
-            del self._plans[plan_id]
-            self._locks.pop(plan_id, None)
+            self._forget(key)
