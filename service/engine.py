@@ -21,6 +21,7 @@ from service.config import Settings
 from service.errors import NotFound
 from service.pool import Pool
 from service.stores import Grid, PlanRecord, Store
+from service.tenants import scoped
 
 __all__ = ["MAX_IMAGE_SIDE", "Engine", "analysis_key", "cell_size", "overrides", "wave_key"]
 
@@ -29,13 +30,14 @@ MAX_IMAGE_SIDE = 8192
 
 
 def analysis_key(map_id: str, params: planner.Params) -> Hashable:
-    """The cache key of a map's analysis for ``params``."""
-    return ("analysis", map_id, *params.analysis_key)
+    """The cache key of a map's analysis for ``params`` (the tenant's: see ``tenants``)."""
+    return ("analysis", scoped(map_id), *params.analysis_key)
 
 
 def wave_key(map_id: str, params: planner.Params, goal: Any, narrow: bool) -> Hashable:
     """The cache key of a goal wave over that analysis (``narrow``: over the unsealed grid)."""
-    return ("wave", map_id, *params.analysis_key, tuple(goal), params.diagonal_cost, narrow)
+    key = ("wave", scoped(map_id), *params.analysis_key, tuple(goal), params.diagonal_cost)
+    return (*key, narrow)
 
 
 def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:

@@ -9,6 +9,7 @@ from fastapi import FastAPI
 
 from service import errors
 from service.api import api_router
+from service.auth import ApiKeys
 from service.cache import ByteLRU
 from service.config import Settings
 from service.engine import Engine
@@ -45,7 +46,8 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     pool = Pool(
         settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs
     )
-    engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
+    cache = ByteLRU(settings.cache_bytes, shares=max(1, len(settings.keys)))
+    engine = Engine(settings, store, cache, pool)
     try:
         await engine.warm()
         app.state.engine = engine
@@ -74,6 +76,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         body_timeout=settings.body_timeout_seconds,
         request_timeout=settings.request_timeout_seconds,
     )
+    app.add_middleware(ApiKeys, keys=settings.keys)  # outermost: no key, nothing is read
     app.include_router(api_router)
     return app
 
