@@ -141,7 +141,8 @@ async def test_the_memory_map_store_evicts_idle_maps_and_refuses_when_plans_hold
     await store.put_plan("p", {"map_id": "m1"})  # m1 has a live plan
     assert await store.put_map("m4", grids[4])  # evicts m2, the least recently used idle map
     assert await store.get_map("m2") is None
-    assert await store.get_map("m0") is not None and await store.get_map("m1") is not None
+    assert await store.get_map("m0") is not None
+    assert await store.get_map("m1") is not None
     await store.put_plan("q", {"map_id": "m0"})
     await store.put_plan("r", {"map_id": "m3"})
     await store.put_plan("s", {"map_id": "m4"})
@@ -248,7 +249,8 @@ async def test_api_keys_guard_every_endpoint_but_the_open_ones_and_split_tenants
         assert again.status_code == 201
         assert again.json()["map_id"] == map_id
         health = (await client.get("/healthz")).text
-        assert "alpha" not in health and "beta" not in health
+        assert "alpha" not in health
+        assert "beta" not in health
 
 
 async def test_one_tenant_cannot_evict_another_tenants_cache_entries() -> None:
@@ -267,5 +269,6 @@ async def test_one_tenant_cannot_evict_another_tenants_cache_entries() -> None:
     for i in range(20):  # b thrashes the cache
         await put("b", f"b{i}")
     TENANT.set("")
-    assert cache.peek("a0") is not None and cache.peek("a1") is not None
+    assert cache.peek("a0") is not None
+    assert cache.peek("a1") is not None
     assert cache.bytes <= 1000
