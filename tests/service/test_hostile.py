@@ -9,6 +9,7 @@ plan's lock frees it within ~2 s.
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import threading
 import time
@@ -243,7 +244,9 @@ def _race(client_a: httpx.Client, client_b: httpx.Client, trials: int) -> None:
         _, plan_id, preview = _plan(client_a)
         results: dict[str, int] = {}
 
-        def stepping(plan_id: str = plan_id, cell: list[int] = preview[1]) -> None:
+        def stepping(
+            plan_id: str = plan_id, cell: list[int] = preview[1], results: dict[str, int] = results
+        ) -> None:
             body = {"dynamic_obstacles": [cell]}
             results["step"] = client_a.post(f"/plan/{plan_id}/step", json=body).status_code
 
@@ -269,62 +272,60 @@ def test_delete_racing_a_step_on_the_memory_store(server: Replica) -> None:
 
 
 def test_delete_racing_a_step_on_redis(redis_server: RedisServer, tmp_path: Path) -> None:
-    with replicas(redis_server.url, tmp_path, 2) as (one, two):
-        with (
-            httpx.Client(base_url=one.url, trust_env=False, timeout=30) as a,
-            httpx.Client(base_url=two.url, trust_env=False, timeout=30) as b,
-        ):
-            _race(a, b, 40)
-            _race(a, a, 10)  # on one replica too
+    with (
+        replicas(redis_server.url, tmp_path, 2) as (one, two),
+        httpx.Client(base_url=one.url, trust_env=False, timeout=30) as a,
+        httpx.Client(base_url=two.url, trust_env=False, timeout=30) as b,
+    ):
+        _race(a, b, 40)
+        _race(a, a, 10)  # on one replica too
 
 
 def test_a_replica_killed_holding_a_lock_frees_it_within_two_seconds(
     redis_server: RedisServer, tmp_path: Path
 ) -> None:
     env = {"PLANNER_POOL_SIZE": "1", "PLANNER_MAX_MAP_CELLS": str(1 << 22)}
-    with replicas(redis_server.url, tmp_path, 2, env) as (one, two):
-        with (
-            httpx.Client(base_url=one.url, trust_env=False, timeout=60) as a,
-            httpx.Client(base_url=two.url, trust_env=False, timeout=60) as b,
-        ):
-            _, plan_id, _ = _plan(a)  # analysed on one only
-            # Two's only heavy worker runs a long episode (~180,000 steps, seconds)...
-            big = b.post("/maps", json={"rows": serpentine(901, 600)}).json()["map_id"]
-            episode = {"start": [0, 0], "goal": [900, 599], "preset": "shortest"}
-            episode["max_steps"] = 200_000
-            threading.Thread(
-                target=lambda: _quietly(b.post, f"/maps/{big}/simulate", json=episode),
-                daemon=True,
-            ).start()
-            time.sleep(0.3)
-            # ...so a step there, needing the plan's analysis, holds the lock while it waits.
-            threading.Thread(
-                target=lambda: _quietly(b.post, f"/plan/{plan_id}/step", json={}), daemon=True
-            ).start()
-            store = redis.Redis.from_url(redis_server.url)
-            lock = f"planner:lock:{plan_id}"
-            try:
-                deadline = time.monotonic() + 20
-                while not store.exists(lock):
-                    assert time.monotonic() < deadline, "the step never took the lock"
-                    time.sleep(0.01)
-                time.sleep(2.5)  # held past its 2 s life: renewed meanwhile
-                assert store.exists(lock)
-                two.kill()  # SIGKILL, mid-hold
-                t0 = time.monotonic()
-                while store.exists(lock):
-                    assert time.monotonic() - t0 < 3, "the dead replica's lock is still held"
-                    time.sleep(0.02)
-                freed = time.monotonic() - t0
-            finally:
-                store.close()
-            assert freed <= 2.2
-            assert a.post(f"/plan/{plan_id}/step", json={}).status_code == 200
+    with (
+        replicas(redis_server.url, tmp_path, 2, env) as (one, two),
+        httpx.Client(base_url=one.url, trust_env=False, timeout=60) as a,
+        httpx.Client(base_url=two.url, trust_env=False, timeout=60) as b,
+    ):
+        _, plan_id, _ = _plan(a)  # analysed on one only
+        # Two's only heavy worker runs a long episode (~180,000 steps, seconds)...
+        big = b.post("/maps", json={"rows": serpentine(901, 600)}).json()["map_id"]
+        episode: dict[str, Any] = {"start": [0, 0], "goal": [900, 599], "max_steps": 200_000}
+        episode["preset"] = "shortest"
+        threading.Thread(
+            target=lambda: _quietly(b.post, f"/maps/{big}/simulate", json=episode),
+            daemon=True,
+        ).start()
+        time.sleep(0.3)
+        # ...so a step there, needing the plan's analysis, holds the lock while it waits.
+        threading.Thread(
+            target=lambda: _quietly(b.post, f"/plan/{plan_id}/step", json={}), daemon=True
+        ).start()
+        store = redis.Redis.from_url(redis_server.url)
+        lock = f"planner:lock:{plan_id}"
+        try:
+            deadline = time.monotonic() + 20
+            while not store.exists(lock):
+                assert time.monotonic() < deadline, "the step never took the lock"
+                time.sleep(0.01)
+            time.sleep(2.5)  # held past its 2 s life: renewed meanwhile
+            assert store.exists(lock)
+            two.kill()  # SIGKILL, mid-hold
+            t0 = time.monotonic()
+            while store.exists(lock):
+                assert time.monotonic() - t0 < 3, "the dead replica's lock is still held"
+                time.sleep(0.02)
+            freed = time.monotonic() - t0
+        finally:
+            store.close()
+        assert freed <= 2.2
+        assert a.post(f"/plan/{plan_id}/step", json={}).status_code == 200
 
 
 def _quietly(call: Any, *args: Any, **kwargs: Any) -> None:
     """A request whose server may be killed under it."""
-    try:
+    with contextlib.suppress(httpx.HTTPError):
         call(*args, **kwargs)
-    except httpx.HTTPError:
-        pass
