@@ -34,4 +34,6 @@ EXPOSE 8000
 # 200 while the store answers, 503 (unhealthy) while it does not: see /healthz.
 HEALTHCHECK --interval=10s --timeout=5s --start-period=30s --retries=3 \
     CMD ["python", "-c", "import urllib.request; urllib.request.urlopen('http://127.0.0.1:8000/healthz', timeout=4)"]
-CMD ["uvicorn", "service.main:app", "--host", "0.0.0.0", "--port", "8000"]
+# Idle keep-alive connections closed after 5 s; beyond 4096 connections and requests at once, new
+# ones get 503 at once rather than queueing (slow bodies are cut by PLANNER_BODY_TIMEOUT_SECONDS).
+CMD ["uvicorn", "service.main:app", "--host", "0.0.0.0", "--port", "8000", "--timeout-keep-alive", "5", "--limit-concurrency", "4096", "--backlog", "4096", "--timeout-graceful-shutdown", "10", "--no-server-header"]

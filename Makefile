@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+# As in the Dockerfile: idle keep-alive connections closed after 5 s, at most 4096 at once.
+UVICORN_LIMITS := --timeout-keep-alive 5 --limit-concurrency 4096 --backlog 4096 --no-server-header
 
 .PHONY: run serve demo test lint typecheck unit scen-all bench clean
 
@@ -15,7 +17,7 @@ $(STAMP): pyproject.toml
 run: serve  ## the main job: the service on 127.0.0.1:8000, in-memory store (docs at /docs)
 
 serve: $(STAMP)  ## the HTTP service on 127.0.0.1:8000 (API docs at /docs)
-	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000
+	$(PY) -m uvicorn service.main:app --host 127.0.0.1 --port 8000 $(UVICORN_LIMITS)
 
 demo: $(STAMP)  ## plan on the bundled example map, printed and explained
 	$(PY) -m planner demo

@@ -218,3 +218,10 @@ def test_redis_runs_with_a_password_from_an_env_file_and_a_memory_bound(
     assert redis["environment"]["REDISCLI_AUTH"].startswith("${REDIS_PASSWORD:?")
     url = compose["services"]["planner"]["environment"]["PLANNER_STORE_URL"]
     assert url.startswith("redis://:${REDIS_PASSWORD}@redis:")
+
+
+def test_uvicorn_runs_with_keep_alive_and_concurrency_limits() -> None:
+    command = dict(_dockerfile())["CMD"]
+    for flag in ("--timeout-keep-alive", "--limit-concurrency"):
+        assert f'"{flag}"' in command
+        assert flag in (ROOT / "Makefile").read_text(encoding="utf-8")
