@@ -9,6 +9,7 @@ analysis and wave again by key (:meth:`Engine.plan_of`) without resolving or reb
 
 from __future__ import annotations
 
+import math
 from collections.abc import Hashable
 from dataclasses import dataclass
 from typing import Any
@@ -18,15 +19,25 @@ from planner._errors import quote
 from schemas import PlanCreate, SimulationCreate
 from service.cache import ByteLRU
 from service.config import Settings
-from service.errors import NotFound
+from service.errors import NotFound, TooLarge
 from service.pool import Pool
 from service.stores import Grid, PlanRecord, Store
 from service.tenants import scoped
 
-__all__ = ["MAX_IMAGE_SIDE", "Engine", "analysis_key", "cell_size", "overrides", "wave_key"]
+__all__ = [
+    "MAX_IMAGE_PIXELS",
+    "MAX_IMAGE_SIDE",
+    "Engine",
+    "analysis_key",
+    "cell_size",
+    "overrides",
+    "wave_key",
+]
 
 MAX_IMAGE_SIDE = 8192
 """Pixels on a picture's longer side at most: a 4096 x 4096 map at 2 pixels a cell."""
+MAX_IMAGE_PIXELS = 4096 * 4096
+"""Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
 
 
 def analysis_key(map_id: str, params: planner.Params) -> Hashable:
@@ -59,6 +70,14 @@ def cell_size(shape: tuple[int, int], cell: int | None) -> int:
             f"the limit is {MAX_IMAGE_SIDE} (use cell <= {max(1, MAX_IMAGE_SIDE // side)})"
         )
         raise planner.InvalidInput(msg, field="cell")
+    pixels = shape[0] * shape[1] * cell * cell
+    if pixels > MAX_IMAGE_PIXELS:
+        fits = max(1, math.isqrt(MAX_IMAGE_PIXELS // (shape[0] * shape[1])))
+        msg = (
+            f"cell {cell} would draw the {shape[0]} x {shape[1]} map in {pixels} pixels; the "
+            f"limit is {MAX_IMAGE_PIXELS} (use cell <= {fits})"
+        )
+        raise TooLarge(msg, field="cell")
     return cell
 
 

@@ -146,6 +146,17 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "field": "body",
         "code": "TOO_LARGE",
     },
+    504: {
+        "detail": "the request ran over 30 s (PLANNER_REQUEST_TIMEOUT_SECONDS) and was stopped",
+        "field": None,
+        "code": "TIMED_OUT",
+    },
+    507: {
+        "detail": "the map store is full: PLANNER_MAP_STORE_BYTES (2147483648) is taken by maps "
+        "that live plans use; delete plans or retry when they expire",
+        "field": "map",
+        "code": "STORE_FULL",
+    },
     422: {
         "detail": "start [3, 0] is outside the 3 x 3 map",
         "field": "start",
@@ -157,14 +168,15 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """``responses=`` for a route, so that ``/docs`` and clients know its errors' shape.
 
-    Every route reaches the store, so every route may answer 503.
+    Every route reaches the store and runs under the request timeout, so every route may
+    answer 503 and 504.
     """
     return {
         status: {
             "model": ErrorPublic,
             "content": {"application/json": {"example": _EXAMPLES[status]}},
         }
-        for status in (*statuses, 503)
+        for status in (*statuses, 503, 504)
     }
 
 

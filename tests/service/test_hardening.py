@@ -272,3 +272,15 @@ async def test_one_tenant_cannot_evict_another_tenants_cache_entries() -> None:
     assert cache.peek("a0") is not None
     assert cache.peek("a1") is not None
     assert cache.bytes <= 1000
+
+
+async def test_a_picture_over_the_pixel_limit_is_refused_naming_it() -> None:
+    settings = SMALL.model_copy(update={"max_map_cells": 100_000, "max_body_bytes": 1 << 20})
+    async with serving(settings) as client:
+        map_id = (await client.post("/maps", json={"rows": serpentine(300, 300)})).json()["map_id"]
+        r = await client.get(f"/maps/{map_id}/render.png", params={"cell": 16})
+        assert r.status_code == 413
+        assert "the limit is 16777216 (use cell <= 13)" in r.json()["detail"]
+        r = await client.get(f"/maps/{map_id}/render.png", params={"cell": 13})
+        assert r.status_code == 200
+        assert r.headers["content-type"] == "image/png"
