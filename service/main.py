@@ -42,6 +42,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         ttl_seconds=settings.plan_ttl_seconds,
         map_bytes=settings.map_store_bytes,
         map_ttl_seconds=settings.map_ttl_seconds,
+        shares=max(1, len(settings.keys)),
     )
     pool = Pool(
         settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs

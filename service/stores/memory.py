@@ -12,7 +12,7 @@ import orjson
 
 from service.errors import InsufficientStorage
 from service.stores.base import Cells, Grid, PlanRecord, Store, pack, unpack
-from service.tenants import scoped
+from service.tenants import TENANT, scoped
 
 __all__ = ["MemoryStore"]
 
@@ -31,12 +31,16 @@ class MemoryStore(Store):
         *,
         ttl_seconds: float,
         max_map_bytes: int | None = None,
+        shares: int = 1,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._ttl = ttl_seconds
         self._clock = clock
         self.max_map_bytes = max_map_bytes
         self.map_bytes = 0
+        # Each tenant's maps take at most an equal share: one key cannot evict another's maps.
+        self._share = None if max_map_bytes is None else max_map_bytes // max(1, shares)
+        self._held: dict[str, int] = {}  # map bytes per tenant
         self._maps: OrderedDict[str, Grid] = OrderedDict()  # least recently used first
         self._plans_on: dict[str, int] = {}  # live plans per stored map key
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
@@ -55,6 +59,7 @@ class MemoryStore(Store):
         grid.flags.writeable = False
         self._maps[key] = grid
         self.map_bytes += grid.nbytes
+        self._held[TENANT.get()] = self._held.get(TENANT.get(), 0) + grid.nbytes
         return True
 
     async def get_map(self, map_id: str) -> Grid | None:
@@ -126,28 +131,44 @@ class MemoryStore(Store):
         return len(self._locks)
 
     def _make_room(self, size: int) -> None:
-        limit = self.max_map_bytes
-        if limit is None or self.map_bytes + size <= limit:
+        limit, share = self.max_map_bytes, self._share
+        if limit is None or share is None:
             return
-        if size > limit:
-            msg = f"a map of {size} bytes is over PLANNER_MAP_STORE_BYTES ({limit})"
-            raise InsufficientStorage(msg, field="map")
-        idle = [k for k in self._maps if not self._plans_on.get(k)]  # least recent first
-        freed = 0
-        for key in idle:
-            if self.map_bytes - freed + size <= limit:
-                break
-            freed += self._maps[key].nbytes
-        if self.map_bytes - freed + size > limit:
-            msg = (
-                f"the map store is full: PLANNER_MAP_STORE_BYTES ({limit}) is taken by maps that "
-                "live plans use; delete plans or retry when they expire"
-            )
-            raise InsufficientStorage(msg, field="map")
-        for key in idle:
-            if self.map_bytes + size <= limit:
-                break
-            self.map_bytes -= self._maps.pop(key).nbytes
+        tenant = TENANT.get()
+        if size > share:
+            msg = f"a map of {size} bytes is over this key's share of PLANNER_MAP_STORE_BYTES "
+            raise InsufficientStorage(msg + f"({share} of {limit})", field="map")
+        # The tenant's own idle maps, least recently used first, until it is within its share;
+        # then anyone's idle maps until all are within the whole bound. Nothing is evicted when
+        # that would not make room.
+        own = [k for k in self._maps if _owner(k) == tenant and not self._plans_on.get(k)]
+        over = self._held.get(tenant, 0) + size - share
+        if over > sum(self._maps[k].nbytes for k in own):
+            raise self._full(limit)
+        self._evict(own, over)
+        idle = [k for k in self._maps if not self._plans_on.get(k)]
+        over = self.map_bytes + size - limit
+        if over > sum(self._maps[k].nbytes for k in idle):
+            raise self._full(limit)
+        self._evict(idle, over)
+
+    def _evict(self, keys: list[str], over: int) -> None:
+        """Drop maps of ``keys`` in order until ``over`` bytes are freed."""
+        for key in keys:
+            if over <= 0:
+                return
+            grid = self._maps.pop(key)
+            over -= grid.nbytes
+            self.map_bytes -= grid.nbytes
+            self._held[_owner(key)] -= grid.nbytes
+
+    @staticmethod
+    def _full(limit: int) -> InsufficientStorage:
+        msg = (
+            f"the map store is full: PLANNER_MAP_STORE_BYTES ({limit}) is taken by maps that "
+            "live plans use; delete plans or retry when they expire"
+        )
+        return InsufficientStorage(msg, field="map")
 
     def _forget(self, key: str) -> bool:
         entry = self._plans.pop(key, None)
@@ -169,3 +190,8 @@ class MemoryStore(Store):
             if entry[0] > now:
                 break
             self._forget(key)
+
+
+def _owner(key: str) -> str:
+    """The tenant of a stored map key (``""`` without keys): map ids themselves hold no dot."""
+    return key.split(".", 1)[0] if "." in key else ""

@@ -5,6 +5,7 @@ API keys and tenants, per-tenant cache shares."""
 from __future__ import annotations
 
 import asyncio
+import threading
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -16,9 +17,10 @@ from pydantic import SecretStr
 
 from service.cache import ByteLRU
 from service.config import Settings
-from service.errors import InsufficientStorage
+from service.errors import Busy, InsufficientStorage
 from service.guards import MAX_JSON_DEPTH, json_depth
 from service.main import create_app
+from service.pool import Pool
 from service.stores import MemoryStore
 from service.tenants import TENANT
 from tests.service.conftest import SMALL, random_map
@@ -284,3 +286,43 @@ async def test_a_picture_over_the_pixel_limit_is_refused_naming_it() -> None:
         r = await client.get(f"/maps/{map_id}/render.png", params={"cell": 13})
         assert r.status_code == 200
         assert r.headers["content-type"] == "image/png"
+
+
+async def test_one_tenant_cannot_evict_another_tenants_maps() -> None:
+    store = MemoryStore(ttl_seconds=60, max_map_bytes=4 * 1024 * 1024, shares=2)
+    grids = [random_map(1024, 1024, 0.2, seed) for seed in range(8)]
+    TENANT.set("a")
+    for i in range(2):
+        assert await store.put_map(f"m{i}", grids[i])
+    TENANT.set("b")
+    for i in range(2, 8):  # b's own least recently used maps make room for b
+        assert await store.put_map(f"m{i}", grids[i])
+    assert await store.get_map("m7") is not None
+    assert await store.get_map("m2") is None
+    await store.put_plan("p", {"map_id": "m6"})
+    await store.put_plan("q", {"map_id": "m7"})
+    with pytest.raises(InsufficientStorage):  # b's share is held by its live plans
+        await store.put_map("m8", random_map(1024, 1024, 0.2, 8))
+    TENANT.set("a")
+    assert await store.get_map("m0") is not None
+    assert await store.get_map("m1") is not None
+    TENANT.set("")
+    assert store.map_bytes <= 4 * 1024 * 1024
+
+
+async def test_heavy_jobs_beyond_the_queue_are_refused_and_steps_still_run() -> None:
+    pool = Pool(1, step_size=1, max_queued=1)
+    gate = threading.Event()
+    try:
+        running = [asyncio.ensure_future(pool.run(gate.wait, 10)) for _ in range(2)]
+        await asyncio.sleep(0.05)
+        with pytest.raises(Busy, match="PLANNER_MAX_QUEUED_JOBS is 1") as caught:
+            await pool.run(time.sleep, 0)
+        assert caught.value.status == 503
+        assert await pool.run_step(lambda: 42) == 42  # not behind the heavy queue
+        gate.set()
+        await asyncio.gather(*running)
+        assert pool.jobs == 0
+    finally:
+        gate.set()
+        pool.close()
