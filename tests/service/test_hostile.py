@@ -180,6 +180,31 @@ def test_a_slow_body_gets_408_and_its_connection_closed(server: Replica) -> None
     assert 2.5 < elapsed < 8
 
 
+def test_healthz_answers_while_hundreds_of_connections_trickle_bodies(server: Replica) -> None:
+    tricklers = []
+    try:
+        for _ in range(300):
+            sock = _connect(server)
+            sock.sendall(
+                b"POST /plan HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                b"Content-Length: 100000\r\n\r\n{"
+            )
+            tricklers.append(sock)
+        with httpx.Client(base_url=server.url, trust_env=False) as probe:
+            for _ in range(5):
+                t0 = time.monotonic()
+                assert probe.get("/healthz").status_code == 200
+                assert time.monotonic() - t0 < 0.5
+        # Each gets its 408 within the body timeout, and is closed.
+        deadline = time.monotonic() + 10
+        for sock in tricklers:
+            sock.settimeout(max(0.1, deadline - time.monotonic()))
+            assert sock.recv(64).startswith(b"HTTP/1.1 408")
+    finally:
+        for sock in tricklers:
+            sock.close()
+
+
 def test_an_aborted_upload_logs_one_line_and_no_traceback(server: Replica) -> None:
     before = server.log.read_text()
     for _ in range(3):
