@@ -15,6 +15,7 @@ from __future__ import annotations
 import asyncio
 import contextvars
 import functools
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import ParamSpec, TypeVar
@@ -34,7 +35,9 @@ class Pool:
     def __init__(self, size: int, *, step_size: int = 1, max_queued: int | None = None) -> None:
         self.size = size
         self.max_queued = max_queued
-        self.jobs = 0  # heavy jobs running or waiting
+        self.jobs = 0  # heavy jobs running or waiting, as their callers see them
+        self.running = 0  # calls running in a worker now (a cancelled caller's may go on)
+        self._count = threading.Lock()
         self._executor = ThreadPoolExecutor(max_workers=size, thread_name_prefix="planner")
         self._steps = ThreadPoolExecutor(max_workers=step_size, thread_name_prefix="step")
 
@@ -48,13 +51,22 @@ class Pool:
             raise Busy(msg)
         self.jobs += 1
         try:
-            return await self._on(self._executor, fn, *args, **kwargs)
+            return await self._on(self._executor, self._counted, fn, *args, **kwargs)
         finally:
             self.jobs -= 1
 
     async def run_step(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
         """``fn`` on a step worker: never queued behind heavy jobs."""
         return await self._on(self._steps, fn, *args, **kwargs)
+
+    def _counted(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
+        with self._count:
+            self.running += 1
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            with self._count:
+                self.running -= 1
 
     @staticmethod
     async def _on(

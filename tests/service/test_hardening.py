@@ -206,10 +206,10 @@ async def test_simulation_steps_are_capped_and_a_long_one_is_stopped() -> None:
         assert elapsed < 1.5
         engine = client.app.state.engine  # type: ignore[attr-defined]
         for _ in range(100):  # the worker is free again soon after: the episode stopped
-            if engine.pool.jobs == 0:
+            if engine.pool.running == 0:
                 break
-            await asyncio.sleep(0.02)
-        assert engine.pool.jobs == 0
+            await asyncio.sleep(0.005)
+        assert engine.pool.running == 0
 
 
 async def test_a_step_body_has_its_own_smaller_limit() -> None:
@@ -326,3 +326,49 @@ async def test_heavy_jobs_beyond_the_queue_are_refused_and_steps_still_run() -> 
     finally:
         gate.set()
         pool.close()
+
+
+async def test_a_simulation_whose_client_went_away_is_cancelled() -> None:
+    settings = SMALL.model_copy(
+        update={
+            "max_simulation_steps": 500_000,
+            "max_map_cells": 100_000,
+            "max_body_bytes": 1 << 20,
+        }
+    )
+    app = create_app(settings)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
+            r = await client.post("/maps", json={"rows": serpentine(301, 300)})
+            map_id = r.json()["map_id"]
+        body = b'{"start": [0, 0], "goal": [300, 299], "max_steps": 500000, "preset": "shortest"}'
+        messages: list[dict[str, object]] = [{"type": "http.request", "body": body}]
+        sent: list[dict[str, object]] = []
+
+        async def receive() -> dict[str, object]:
+            if messages:
+                return messages.pop(0)
+            await asyncio.sleep(0.3)  # the client hangs up while the episode runs
+            return {"type": "http.disconnect"}
+
+        async def send(message: dict[str, object]) -> None:
+            sent.append(message)
+
+        scope = {
+            "type": "http", "http_version": "1.1", "method": "POST", "scheme": "http",
+            "path": f"/maps/{map_id}/simulate", "raw_path": b"", "root_path": "",
+            "query_string": b"", "server": ("service", 80), "client": ("127.0.0.1", 1),
+            "headers": [(b"content-type", b"application/json")], "app": app,
+            "state": {},
+        }  # fmt: skip
+        t0 = time.monotonic()
+        await app(scope, receive, send)
+        assert time.monotonic() - t0 < 1.0  # a whole episode takes about a second
+        assert sent == []  # nobody to answer
+        engine = app.state.engine
+        for _ in range(20):  # its worker is free again at once: the episode stopped
+            if engine.pool.running == 0:
+                break
+            await asyncio.sleep(0.005)
+        assert engine.pool.running == 0
