@@ -234,11 +234,18 @@ class RedisStore(Store):
                 raise StoreUnavailable(msg, field="plan_id")
             await asyncio.sleep(min(0.01, max(0.001, int(answer[1]) / 1000)))
         held = _held.set((plan_id, token))
-        renewal = asyncio.ensure_future(self._keep(keys[1], token, lock_ms))
+        # Renewed from a third of its life on: a step done sooner (nearly all) costs a timer.
+        renewal: list[asyncio.Task[None]] = []
+        timer = asyncio.get_running_loop().call_later(
+            lock_ms / 3000,
+            lambda: renewal.append(asyncio.ensure_future(self._keep(keys[1], token, lock_ms))),
+        )
         try:
             yield dict(orjson.loads(answer[1]))
         finally:
-            renewal.cancel()
+            timer.cancel()
+            for task in renewal:
+                task.cancel()
             still = _held.get()
             _held.reset(held)
             if still is not None and still[1]:  # not released by a write: release it now
@@ -247,12 +254,10 @@ class RedisStore(Store):
                     await self._release(keys=[keys[1]], args=[token])
 
     async def _keep(self, lock_key: str, token: str, lock_ms: int) -> None:
-        """Renew the lock every third of its life while its holder steps."""
+        """Renew the lock now and every third of its life while its holder steps."""
         with contextlib.suppress(rx.RedisError):
-            while True:
+            while await self._renew(keys=[lock_key], args=[token, lock_ms]):
                 await asyncio.sleep(lock_ms / 3000)
-                if not await self._renew(keys=[lock_key], args=[token, lock_ms]):
-                    return
 
     async def check(self) -> str | None:
         try:
