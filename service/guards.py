@@ -45,6 +45,8 @@ def json_depth(body: bytes) -> int:
 
 def check_depth(body: bytes, limit: int = MAX_JSON_DEPTH) -> None:
     """``InvalidInput`` (422) naming the depth when ``body`` nests deeper than ``limit``."""
+    if body.count(b"[") + body.count(b"{") <= limit:
+        return  # cannot nest deeper than it has brackets: most bodies stop here (~1 us)
     depth = json_depth(body)
     if depth > limit:
         msg = f"the JSON body nests {depth} levels deep; the limit is {limit} (refused unparsed)"

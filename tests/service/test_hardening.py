@@ -14,6 +14,7 @@ import httpx
 import numpy as np
 import pytest
 from pydantic import SecretStr
+from starlette.types import Message
 
 from service.cache import ByteLRU
 from service.config import Settings
@@ -343,16 +344,16 @@ async def test_a_simulation_whose_client_went_away_is_cancelled() -> None:
             r = await client.post("/maps", json={"rows": serpentine(301, 300)})
             map_id = r.json()["map_id"]
         body = b'{"start": [0, 0], "goal": [300, 299], "max_steps": 500000, "preset": "shortest"}'
-        messages: list[dict[str, object]] = [{"type": "http.request", "body": body}]
-        sent: list[dict[str, object]] = []
+        messages: list[Message] = [{"type": "http.request", "body": body}]
+        sent: list[Message] = []
 
-        async def receive() -> dict[str, object]:
+        async def receive() -> Message:
             if messages:
                 return messages.pop(0)
             await asyncio.sleep(0.3)  # the client hangs up while the episode runs
             return {"type": "http.disconnect"}
 
-        async def send(message: dict[str, object]) -> None:
+        async def send(message: Message) -> None:
             sent.append(message)
 
         scope = {
