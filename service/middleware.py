@@ -84,7 +84,7 @@ class BodyLimit:
                 while True:
                     message = await receive()
                     if message["type"] == "http.disconnect":
-                        log.info(
+                        log.warning(
                             "client gone during its request %s %s after %d body bytes",
                             scope["method"], scope["path"][:100], total,
                         )  # fmt: skip
@@ -186,7 +186,7 @@ class BodyLimit:
         with contextlib.suppress(asyncio.CancelledError, Exception):
             await work
         if watcher in done and gone.is_set():
-            log.info("client gone: %s %s cancelled", scope["method"], scope["path"][:100])
+            log.warning("client gone: %s %s cancelled", scope["method"], scope["path"][:100])
             return
         if not started:
             await _answer(scope, send, self._timed_out())

@@ -219,6 +219,7 @@ def test_an_aborted_upload_logs_one_line_and_no_traceback(server: Replica) -> No
         assert c.get("/healthz").status_code == 200
     added = server.log.read_text()[len(before) :]
     assert "Traceback" not in added
+    assert added.count("client gone during its request POST /maps") == 3  # a line each
 
 
 def _rss_kib(pid: int) -> int:
