@@ -15,6 +15,7 @@ either mode. Everything is drawn from one seeded generator, so an episode is rep
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -29,6 +30,8 @@ from planner.session import Session
 __all__ = ["Episode", "ObstacleMotion", "run_episode", "simulate", "warm_up"]
 
 MAX_DYNAMIC = 10_000
+STOP_EVERY = 256
+"""Steps of an episode between two questions to its ``stop`` callable (about a millisecond)."""
 
 ObstacleMotion = Literal["turns", "simultaneous"]
 OBSTACLE_MOTIONS: tuple[ObstacleMotion, ...] = ("turns", "simultaneous")
@@ -84,12 +87,15 @@ def run_episode(
     max_steps: int | None = None,
     record: bool = True,
     obstacle_motion: ObstacleMotion = "turns",
+    stop: Callable[[], bool] | None = None,
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic_count`` randomly moving obstacles.
 
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
     off, the obstacles' cells at each step are not kept (``Episode.dynamic_obstacles`` is empty).
     ``obstacle_motion`` is ``turns`` (obstacles move, then the robot) or ``simultaneous``.
+    ``stop``, when given, is asked every ``STOP_EVERY`` steps whether to end the episode where
+    it is (a caller's deadline or cancel flag: no thread can be stopped from outside).
     """
     grid = plan.analysis.grid
     H, W = grid.shape
@@ -129,6 +135,8 @@ def run_episode(
     step_seconds = 0.0
     steps = 0
     while steps < max_steps and session.state.status not in ("arrived", "blocked"):
+        if stop is not None and steps % STOP_EVERY == 0 and steps and stop():
+            break
         r, c = session.state.position
         before = dynamic_obstacles.copy()
         if not simultaneous:

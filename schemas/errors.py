@@ -31,5 +31,6 @@ class ErrorPublic(BaseModel):
     field: str | None = Field(default=None, description="The input at fault, e.g. `params.alpha`.")
     code: str = Field(
         description="`INVALID_INPUT`, `NO_VALID_PATH`, `SEQUENCE_CONFLICT`, `NOT_FOUND`, "
-        "`TOO_LARGE` or `STORE_UNAVAILABLE`."
+        "`TOO_LARGE`, `UNAUTHORIZED`, `BODY_TIMEOUT`, `BUSY`, `TIMED_OUT`, `STORE_FULL` or "
+        "`STORE_UNAVAILABLE`."
     )

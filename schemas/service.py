@@ -34,7 +34,7 @@ class CacheStats(BaseModel):
 EXAMPLE_STORE_DOWN: dict[str, Any] = {
     "kind": "redis",
     "up": False,
-    "detail": "store unavailable: redis at redis:6379 refused the connection; retry later",
+    "detail": "store unavailable; retry later",
 }
 
 

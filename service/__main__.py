@@ -15,7 +15,12 @@ import uvicorn
 from service.config import Settings
 from service.logs import LOG, log_config
 
-__all__ = ["main"]
+__all__ = ["KEEP_ALIVE_SECONDS", "MAX_CONCURRENCY", "main"]
+
+KEEP_ALIVE_SECONDS = 5
+"""Seconds an idle keep-alive connection stays open."""
+MAX_CONCURRENCY = 4096
+"""Connections and requests at once; beyond, uvicorn answers 503 at once."""
 
 
 class _Server(uvicorn.Server):
@@ -43,6 +48,14 @@ def main() -> int:
             port=settings.port,
             log_config=config,
             access_log=False,  # service.observe writes one JSON line per request instead
+            # Idle keep-alive connections closed after 5 s; beyond 4096 connections and requests
+            # at once, new ones get 503 at once rather than queueing (slow bodies are cut by
+            # PLANNER_BODY_TIMEOUT_SECONDS).
+            timeout_keep_alive=KEEP_ALIVE_SECONDS,
+            limit_concurrency=MAX_CONCURRENCY,
+            backlog=MAX_CONCURRENCY,
+            timeout_graceful_shutdown=10,
+            server_header=False,
         )
     )
     server.run()

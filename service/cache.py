@@ -15,6 +15,8 @@ from collections.abc import Awaitable, Callable, Hashable
 from concurrent.futures import Future
 from typing import Any, Protocol, TypeVar, cast
 
+from service.tenants import TENANT
+
 __all__ = ["ByteLRU", "Sized"]
 
 
@@ -27,7 +29,9 @@ T = TypeVar("T", bound=Sized)
 
 
 class ByteLRU:
-    """Values that know their ``nbytes``, at most ``max_bytes`` of them in all.
+    """Values that know their ``nbytes``, at most ``max_bytes`` of them in all, and at most
+    ``max_bytes // shares`` for each tenant (:mod:`service.tenants`): a tenant over its share
+    evicts its own least recently used entries, never another tenant's.
 
     >>> import asyncio, numpy as np
     >>> cache = ByteLRU(max_bytes=100)
@@ -37,11 +41,14 @@ class ByteLRU:
     (False, 10, True)
     """
 
-    def __init__(self, max_bytes: int) -> None:
+    def __init__(self, max_bytes: int, *, shares: int = 1) -> None:
         self.max_bytes = max_bytes
+        self.share = max_bytes // max(1, shares)
         self.bytes = 0
         self.hits = self.misses = self.evictions = 0
-        self._entries: OrderedDict[Hashable, tuple[Any, int]] = OrderedDict()
+        # An entry: (value, its bytes, its tenant); the bytes each tenant holds beside.
+        self._entries: OrderedDict[Hashable, tuple[Any, int, str]] = OrderedDict()
+        self._held: dict[str, int] = {}
         self._pending: dict[Hashable, Future[Any]] = {}
         self._lock = threading.Lock()
 
@@ -136,11 +143,22 @@ class ByteLRU:
             future.set_exception(error)
 
     def _insert(self, key: Hashable, value: Any, size: int) -> None:
-        if size > self.max_bytes:
+        if size > self.share:
             return
-        self._entries[key] = (value, size)
+        tenant = TENANT.get()
+        if self._held.get(tenant, 0) + size > self.share:
+            for old in [k for k, e in self._entries.items() if e[2] == tenant]:
+                self._evict(old)
+                if self._held.get(tenant, 0) + size <= self.share:
+                    break
+        self._entries[key] = (value, size, tenant)
         self.bytes += size
+        self._held[tenant] = self._held.get(tenant, 0) + size
         while self.bytes > self.max_bytes:
-            _, (_, old) = self._entries.popitem(last=False)
-            self.bytes -= old
-            self.evictions += 1
+            self._evict(next(iter(self._entries)))
+
+    def _evict(self, key: Hashable) -> None:
+        _, size, tenant = self._entries.pop(key)
+        self.bytes -= size
+        self._held[tenant] -= size
+        self.evictions += 1

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, field_validator
+from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 from redis.asyncio.connection import parse_url
 
@@ -49,6 +49,39 @@ class Settings(BaseSettings):
     log_level: Literal["debug", "info", "warning", "error"] = Field(
         default="info", description="JSON log lines at this level and above, on stdout."
     )
+    step_pool_size: int = Field(
+        default=2, ge=1, description="Worker threads reserved for steps that replan."
+    )
+    max_queued_jobs: int = Field(
+        default=64, ge=0, description="Heavy jobs waiting for a worker at most (503 beyond)."
+    )
+    map_store_bytes: int = Field(
+        default=2048 * MIB, ge=1024, description="Bound of the maps kept by the memory store."
+    )
+    map_ttl_seconds: float = Field(
+        default=7 * 24 * 3600.0, ge=0, description="A map unused this long leaves Redis (0: kept)."
+    )
+    request_timeout_seconds: float = Field(
+        default=30.0, gt=0, description="A request running longer is stopped with 504."
+    )
+    body_timeout_seconds: float = Field(
+        default=30.0, gt=0, description="A body not arrived in this time gets 408."
+    )
+    max_step_body_bytes: int = Field(
+        default=MIB, ge=1024, description="Largest body of a step (413 beyond)."
+    )
+    max_simulation_steps: int = Field(
+        default=200_000, ge=1, description="Largest `max_steps` of a simulation (422 beyond)."
+    )
+    api_keys: SecretStr = Field(
+        default=SecretStr(""),
+        description="Comma-separated API keys; empty: the service is open.",
+    )
+
+    @property
+    def keys(self) -> list[str]:
+        """The API keys, without blanks."""
+        return [k.strip() for k in self.api_keys.get_secret_value().split(",") if k.strip()]
 
     @field_validator("store_url")
     @classmethod

@@ -9,6 +9,7 @@ analysis and wave again by key (:meth:`Engine.plan_of`) without resolving or reb
 
 from __future__ import annotations
 
+import math
 from collections import OrderedDict
 from collections.abc import Hashable, Mapping
 from dataclasses import dataclass, field
@@ -23,11 +24,13 @@ from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.cache import ByteLRU
 from service.config import Settings
-from service.errors import NotFound
+from service.errors import NotFound, TooLarge
 from service.pool import Pool
 from service.stores import PlanRecord, Store
+from service.tenants import scoped
 
 __all__ = [
+    "MAX_IMAGE_PIXELS",
     "MAX_IMAGE_SIDE",
     "Engine",
     "analysis_key",
@@ -40,6 +43,8 @@ __all__ = [
 
 MAX_IMAGE_SIDE = 8192
 """Pixels on a picture's longer side at most: a 4096 x 4096 map at 2 pixels a cell."""
+MAX_IMAGE_PIXELS = 4096 * 4096
+"""Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
 
 PLAIN_MEMO = 65536
 """Maps whose plainness (:attr:`planner.RobotMap.plain`) the engine remembers: with it, a
@@ -48,8 +53,9 @@ warm plan or step builds its cache keys without reading the map from the store."
 
 def analysis_key(map_id: str, params: planner.Params, *, plain: bool) -> Hashable:
     """The cache key of a map's analysis for ``params``: :func:`planner.analysis_key` of the
-    stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged."""
-    return ("analysis", map_id, *params_key(params, plain=plain))
+    stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged, and the tenant's
+    (see ``service.tenants``)."""
+    return ("analysis", scoped(map_id), *params_key(params, plain=plain))
 
 
 def wave_key(
@@ -58,7 +64,7 @@ def wave_key(
     """The cache key of a goal wave (``goal`` a cell) over that analysis (``narrow``: over the
     unsealed grid)."""
     key = params_key(params, plain=plain)
-    return ("wave", map_id, *key, tuple(goal), params.diagonal_cost, narrow)
+    return ("wave", scoped(map_id), *key, tuple(goal), params.diagonal_cost, narrow)
 
 
 def where(value: list[int] | Point) -> Any:
@@ -102,6 +108,14 @@ def cell_size(shape: tuple[int, int], cell: int | None) -> int:
             f"the limit is {MAX_IMAGE_SIDE} (use cell <= {max(1, MAX_IMAGE_SIDE // side)})"
         )
         raise planner.InvalidInput(msg, field="cell")
+    pixels = shape[0] * shape[1] * cell * cell
+    if pixels > MAX_IMAGE_PIXELS:
+        fits = max(1, math.isqrt(MAX_IMAGE_PIXELS // (shape[0] * shape[1])))
+        msg = (
+            f"cell {cell} would draw the {shape[0]} x {shape[1]} map in {pixels} pixels; the "
+            f"limit is {MAX_IMAGE_PIXELS} (use cell <= {fits})"
+        )
+        raise TooLarge(msg, field="cell")
     return cell
 
 

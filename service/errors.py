@@ -5,14 +5,22 @@ PlannerError (planner)                    HTTP
 ├── NoValidPath                           422, detail contains NO_VALID_PATH
 └── SequenceConflict                      409
 ServiceError (here)
+├── Unauthorized      no or unknown API key          401, with WWW-Authenticate
 ├── NotFound          unknown map or plan            404
-├── TooLarge          body or map too big            413
-└── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
+├── BodyTimeout       body not arrived in time       408, and the connection closes
+├── TooLarge          body, map or picture too big   413
+├── InsufficientStorage  the map store is full       507
+├── Busy              too many heavy jobs queued     503, with Retry-After
+├── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
+└── TimedOut          over PLANNER_REQUEST_TIMEOUT   504
 RequestValidationError (FastAPI)          422, first errors with where and what was received
+
+A message never names internals (addresses, paths, exception text): those are logged.
 """
 
 from __future__ import annotations
 
+import reprlib
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -20,14 +28,19 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 import planner
-from planner._errors import QUOTE_LIMIT, quote
+from planner._errors import QUOTE_LIMIT
 from schemas import UNION_TAGS, ErrorPublic
 
 __all__ = [
+    "BodyTimeout",
+    "Busy",
+    "InsufficientStorage",
     "NotFound",
     "ServiceError",
     "StoreUnavailable",
+    "TimedOut",
     "TooLarge",
+    "Unauthorized",
     "install",
     "problem",
     "responses",
@@ -60,6 +73,41 @@ class TooLarge(ServiceError):
     code = "TOO_LARGE"
 
 
+class Unauthorized(ServiceError):
+    """``PLANNER_API_KEYS`` is set and the request carries none of them."""
+
+    status = 401
+    code = "UNAUTHORIZED"
+
+
+class BodyTimeout(ServiceError):
+    """The request body did not arrive within ``PLANNER_BODY_TIMEOUT_SECONDS``."""
+
+    status = 408
+    code = "BODY_TIMEOUT"
+
+
+class InsufficientStorage(ServiceError):
+    """The map store is full of maps that live plans still use."""
+
+    status = 507
+    code = "STORE_FULL"
+
+
+class Busy(ServiceError):
+    """Too many heavy jobs (analyses, plans, renders, simulations) are queued; retry later."""
+
+    status = 503
+    code = "BUSY"
+
+
+class TimedOut(ServiceError):
+    """The request ran over ``PLANNER_REQUEST_TIMEOUT_SECONDS``; its work was stopped."""
+
+    status = 504
+    code = "TIMED_OUT"
+
+
 class StoreUnavailable(ServiceError):
     """The store cannot be reached (or a plan's lock not taken) now; the client may retry.
 
@@ -89,7 +137,7 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "code": "SEQUENCE_CONFLICT",
     },
     503: {
-        "detail": "store unavailable: redis at redis:6379 refused the connection; retry later",
+        "detail": "store unavailable; retry later",
         "field": None,
         "code": "STORE_UNAVAILABLE",
     },
@@ -97,6 +145,17 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 67108864",
         "field": "body",
         "code": "TOO_LARGE",
+    },
+    504: {
+        "detail": "the request ran over 30 s (PLANNER_REQUEST_TIMEOUT_SECONDS) and was stopped",
+        "field": None,
+        "code": "TIMED_OUT",
+    },
+    507: {
+        "detail": "the map store is full: PLANNER_MAP_STORE_BYTES (2147483648) is taken by maps "
+        "that live plans use; delete plans or retry when they expire",
+        "field": "map",
+        "code": "STORE_FULL",
     },
     422: {
         "detail": "start [3, 0] is outside the 3 x 3 map",
@@ -109,14 +168,15 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """``responses=`` for a route, so that ``/docs`` and clients know its errors' shape.
 
-    Every route reaches the store, so every route may answer 503.
+    Every route reaches the store and runs under the request timeout, so every route may
+    answer 503 and 504.
     """
     return {
         status: {
             "model": ErrorPublic,
             "content": {"application/json": {"example": _EXAMPLES[status]}},
         }
-        for status in (*statuses, 503)
+        for status in (*statuses, 503, 504)
     }
 
 
@@ -135,8 +195,12 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
         message = message[: MAX_DETAIL - 3] + "..."
     body = ErrorPublic(detail=message, field=field, code=code)
     # A 503 is transient: say when to come back (RFC 9110, 10.2.3).
-    headers = {"Retry-After": "1"} if status == 503 else None
-    return JSONResponse(body.model_dump(), status_code=status, headers=headers)
+    headers = {"Retry-After": "1"} if status == 503 else {}
+    if status == 401:
+        headers["WWW-Authenticate"] = 'Bearer realm="planner"'
+    if status == 408:
+        headers["Connection"] = "close"
+    return JSONResponse(body.model_dump(), status_code=status, headers=headers or None)
 
 
 _NAMED_CODES = ("START_OCCUPIED", "GOAL_OCCUPIED")
@@ -184,7 +248,18 @@ def _describe(error: Any) -> str:
         return f"{where}: malformed JSON at character {error['loc'][-1]}: {ctx.get('error', '')}"
     if error["type"] == "extra_forbidden":
         return f"{where}: unknown field (fields are checked strictly: see the schema)"
-    return f"{where}: {message}; got {quote(error.get('input'))}"
+    return f"{where}: {message}; got {_quote_input(error.get('input'))}"
+
+
+# A received value may be nested deeply (up to the body's depth limit): its repr goes only a
+# few levels down, so describing it can neither recurse far nor grow past the quote limit.
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 4, QUOTE_LIMIT, QUOTE_LIMIT, 40
+
+
+def _quote_input(value: object) -> str:
+    text = _REPR.repr(value)
+    return text if len(text) <= QUOTE_LIMIT else f"{text[: QUOTE_LIMIT - 14]}... ({len(text)} ch)"
 
 
 def _cut(name: object) -> str:

@@ -10,6 +10,7 @@ from fastapi import FastAPI
 
 from service import docs, errors
 from service.api import api_router
+from service.auth import ApiKeys
 from service.cache import ByteLRU
 from service.config import Settings
 from service.engine import Engine
@@ -41,9 +42,18 @@ TAGS = [
 async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     """Open the store, the cache and the pool; compile the kernels before the first request."""
     settings: Settings = app.state.settings
-    store = open_store(settings.store_url, ttl_seconds=settings.plan_ttl_seconds)
-    pool = Pool(settings.pool_size)
-    engine = Engine(settings, store, ByteLRU(settings.cache_bytes), pool)
+    store = open_store(
+        settings.store_url,
+        ttl_seconds=settings.plan_ttl_seconds,
+        map_bytes=settings.map_store_bytes,
+        map_ttl_seconds=settings.map_ttl_seconds,
+        shares=max(1, len(settings.keys)),
+    )
+    pool = Pool(
+        settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs
+    )
+    cache = ByteLRU(settings.cache_bytes, shares=max(1, len(settings.keys)))
+    engine = Engine(settings, store, cache, pool)
     app.state.bus = bus = open_bus(settings.store_url)  # steps for the live viewer
     # What start-up lines and /readyz say: never the store URL, which may hold a password.
     facts = {"store": store_name(store), "pool_size": pool.size}
@@ -88,8 +98,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = Metrics()
     errors.install(app)
     docs.install(app)
-    app.add_middleware(BodyLimit, max_bytes=settings.max_body_bytes)
-    # Outermost: times, counts and logs every answer, the 413s of BodyLimit included.
+    app.add_middleware(
+        BodyLimit,
+        max_bytes=settings.max_body_bytes,
+        max_step_bytes=settings.max_step_body_bytes,
+        body_timeout=settings.body_timeout_seconds,
+        request_timeout=settings.request_timeout_seconds,
+    )
+    app.add_middleware(ApiKeys, keys=settings.keys)  # no key, nothing is read
+    # Outermost: times, counts and logs every answer, the 401s and 413s included.
     app.add_middleware(Observe, metrics=app.state.metrics)
     app.include_router(api_router)
     return app

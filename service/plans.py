@@ -78,7 +78,8 @@ async def get_plan(engine: Engine, plan_id: str) -> PlanView:
     """The plan and the robot's whole state, its trajectory read back from the store's log."""
     record = await _record(engine, plan_id)
     plan = await engine.plan_of(record)
-    trajectory = await engine.store.get_trajectory(plan_id)
+    # A log lost on its own (never written with its record) still shows where the robot is.
+    trajectory = await engine.store.get_trajectory(plan_id) or [record["state"]["position"]]
     state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
     return PlanView(plan_id, record, plan, state)
 
@@ -97,8 +98,9 @@ async def step(engine: Engine, plan_id: str, body: StepCreate) -> StepView:
     if len(body.dynamic_obstacles) > limit:
         msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
         raise planner.InvalidInput(msg, field="dynamic_obstacles")
-    async with engine.store.plan_lock(plan_id):
-        record = await _record(engine, plan_id)
+    async with engine.store.plan_lock(plan_id) as record:
+        if record is None:
+            raise _unknown_plan(plan_id)
         plan = await engine.plan_of(record)
         # The trajectory log is read only for the paper's tabu list: the wide decision needs
         # none of it, and its step then costs the same at any length of episode.
@@ -115,14 +117,19 @@ async def step(engine: Engine, plan_id: str, body: StepCreate) -> StepView:
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         args = (obstacles,)
         if session.may_replan_at(position):
-            result = await engine.pool.run(session.step, *args, position=position, seq=body.seq)
+            # On the steps' own workers: a step never queues behind analyses and renders.
+            result = await engine.pool.run_step(
+                session.step, *args, position=position, seq=body.seq
+            )
         else:
             # Measured: a step that cannot replan is a few microseconds of bounded work, and
             # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
             result = session.step(*args, position=position, seq=body.seq)
         record["state"] = stored = session.state.as_dict()
         moved = stored.pop("trajectory")[len(trajectory) :]
-        await engine.store.put_plan(plan_id, record, append=moved)
+        # Written only if the plan still exists: a DELETE that won the race stays a delete.
+        if not await engine.store.put_plan(plan_id, record, append=moved, existing=True):
+            raise _unknown_plan(plan_id)
     return StepView(result, frame, obstacles)
 
 

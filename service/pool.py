@@ -1,18 +1,26 @@
-"""The worker pool that runs planner kernels off the event loop.
+"""The worker pools that run planner kernels off the event loop.
 
 Threads, not processes: the numba kernels release the GIL (``nogil=True``), so threads run them
 in parallel while sharing the cached arrays without copying or pickling them
 (``benchmarks/pool.py`` measures both).
+
+Two pools: heavy jobs (analyses, plans, renders, simulations) share ``size`` workers and a
+bounded queue, beyond which they are refused with 503 at once; steps that replan have workers of
+their own, so a client stepping a robot never waits behind another client's analyses
+(``benchmarks/fairness.py`` measures it).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import functools
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import ParamSpec, TypeVar
+
+from service.errors import Busy
 
 __all__ = ["Pool"]
 
@@ -21,26 +29,46 @@ R = TypeVar("R")
 
 
 class Pool:
-    """At most ``size`` planner calls at once; the rest wait their turn without blocking."""
+    """At most ``size`` heavy planner calls at once and ``max_queued`` more waiting their turn
+    (without blocking); steps on ``step_size`` workers of their own."""
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, *, step_size: int = 1, max_queued: int | None = None) -> None:
         self.size = size
+        self.max_queued = max_queued
+        self.jobs = 0
+        """Heavy jobs running or waiting, as their callers see them (the queue's bound)."""
         self.busy = 0
-        """Calls running now (``/metrics``)."""
+        """Heavy calls running in a worker now, a cancelled caller's included (``/metrics``)."""
         self.queued = 0
-        """Calls waiting for a free worker (``/metrics``)."""
+        """Heavy calls waiting for a free worker (``/metrics``)."""
         self.warm = False
         """Whether the kernels are compiled (set by the app's lifespan; ``/readyz``)."""
         self._counts = threading.Lock()
         self._executor = ThreadPoolExecutor(max_workers=size, thread_name_prefix="planner")
+        self._steps = ThreadPoolExecutor(max_workers=step_size, thread_name_prefix="step")
 
     async def run(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
-        with self._counts:
-            self.queued += 1
-        future = self._executor.submit(self._call, functools.partial(fn, *args, **kwargs))
-        # A call cancelled before it started (its client gone) never reaches _call.
-        future.add_done_callback(self._dequeue_cancelled)
-        return await asyncio.wrap_future(future)
+        """``fn`` on a heavy worker; :class:`Busy` (503) when the queue is full."""
+        if self.max_queued is not None and self.jobs >= self.size + self.max_queued:
+            msg = (
+                f"the service is busy: {self.jobs} heavy jobs are running or queued "
+                f"(PLANNER_MAX_QUEUED_JOBS is {self.max_queued}); retry later"
+            )
+            raise Busy(msg)
+        self.jobs += 1
+        try:
+            with self._counts:
+                self.queued += 1
+            future = self._executor.submit(self._call, _in_context(fn, *args, **kwargs))
+            # A call cancelled before it started (its client gone) never reaches _call.
+            future.add_done_callback(self._dequeue_cancelled)
+            return await asyncio.wrap_future(future)
+        finally:
+            self.jobs -= 1
+
+    async def run_step(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
+        """``fn`` on a step worker: never queued behind heavy jobs."""
+        return await asyncio.wrap_future(self._steps.submit(_in_context(fn, *args, **kwargs)))
 
     def _call(self, call: Callable[[], R]) -> R:
         with self._counts:
@@ -59,3 +87,10 @@ class Pool:
 
     def close(self) -> None:
         self._executor.shutdown(wait=True, cancel_futures=True)
+        self._steps.shutdown(wait=True, cancel_futures=True)
+
+
+def _in_context(fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> Callable[[], R]:
+    """``fn(*args, **kwargs)`` to run in the caller's context: a worker's cache entries count
+    for the caller's tenant."""
+    return functools.partial(contextvars.copy_context().run, fn, *args, **kwargs)

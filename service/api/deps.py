@@ -14,6 +14,7 @@ from starlette.datastructures import UploadFile
 from service.config import Settings
 from service.engine import Engine
 from service.errors import TooLarge
+from service.guards import check_depth
 
 __all__ = [
     "MULTIPART_PARTS",
@@ -65,6 +66,11 @@ class OrjsonRoute(APIRoute):
 
         async def route_handler(request: Request) -> Response:
             request = _OrjsonRequest(request.scope, request.receive)
+            # JSON is checked for depth before anything parses it; a multipart upload's parts
+            # are bytes (an image) and JSON fields the route parses with orjson's own limit.
+            multipart = request.headers.get("content-type", "").startswith("multipart/")
+            if request.method in ("POST", "PUT", "PATCH") and not multipart:
+                check_depth(await request.body())
             request = await self.check_body(request)
             return await handler(request)
 

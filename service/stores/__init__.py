@@ -35,8 +35,17 @@ __all__ = [
 ]
 
 
-def open_store(url: str, *, ttl_seconds: float) -> Store:
-    """The store that ``PLANNER_STORE_URL`` names: ``memory://`` or a Redis URL."""
+def open_store(
+    url: str,
+    *,
+    ttl_seconds: float,
+    map_bytes: int | None = None,
+    map_ttl_seconds: float = 0,
+    shares: int = 1,
+) -> Store:
+    """The store that ``PLANNER_STORE_URL`` names: ``memory://`` (its maps bounded by
+    ``map_bytes``, each of ``shares`` tenants to an equal share) or a Redis URL (its maps
+    expiring ``map_ttl_seconds`` after their last use; 0: kept)."""
     if url.startswith("memory://"):
-        return MemoryStore(ttl_seconds=ttl_seconds)
-    return RedisStore(url, ttl_seconds=ttl_seconds)
+        return MemoryStore(ttl_seconds=ttl_seconds, max_map_bytes=map_bytes, shares=shares)
+    return RedisStore(url, ttl_seconds=ttl_seconds, map_ttl_seconds=map_ttl_seconds)

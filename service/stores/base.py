@@ -5,6 +5,14 @@ trajectory), never as arrays, so a networked store (``service/stores/redis.py``)
 arrays are rebuilt from the cached analysis and wave. The trajectory, which grows with every
 move, is kept beside the record as an append-only log of packed cells: a step rewrites a record
 of constant size and appends a cell, whatever the length of the episode.
+
+Ids are kept per tenant (:func:`service.tenants.scoped`): every store prefixes the map and plan
+ids it is given with the current request's tenant, so tenants never see each other's data.
+
+A step runs inside :meth:`Store.plan_lock`, which yields the plan's record read under the lock
+(None, and no lock taken, for a plan that does not exist), and writes back with
+``put_plan(..., existing=True)``: a write that finds the plan deleted meanwhile writes nothing,
+so a plan deleted while a step was in flight stays deleted.
 """
 
 from __future__ import annotations
@@ -81,9 +89,12 @@ class Store(ABC):
         """The map (read-only), or None."""
 
     @abstractmethod
-    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
+    async def put_plan(
+        self, plan_id: str, record: PlanRecord, *, append: Cells = (), existing: bool = False
+    ) -> bool:
         """Keep (or replace) a plan's record and add ``append`` to its trajectory, both at once;
-        restarts the plan's TTL."""
+        restarts the plan's TTL (and its map's). With ``existing``, only a plan that still
+        exists is written: False when it was deleted or expired (nothing written then)."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
@@ -98,8 +109,9 @@ class Store(ABC):
         """Forget a plan; True when it existed."""
 
     @abstractmethod
-    def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[None]:
-        """An async context manager held while a plan is read, stepped and written back."""
+    def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[PlanRecord | None]:
+        """An async context manager held while a plan is read, stepped and written back; it
+        yields the plan's record, or None (holding nothing) when the plan does not exist."""
 
     @abstractmethod
     async def counts(self) -> tuple[int, int]:

@@ -158,11 +158,13 @@ def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
 class Replica:
     """The service as uvicorn runs it in production, in a process of its own, on 127.0.0.1."""
 
-    def __init__(self, store_url: str, log: Path) -> None:
+    def __init__(self, store_url: str, log: Path, env: dict[str, str] | None = None) -> None:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.log = log
-        env = {**os.environ, "PLANNER_STORE_URL": store_url, "PLANNER_POOL_SIZE": "1"}
+        env = {
+            **os.environ, "PLANNER_STORE_URL": store_url, "PLANNER_POOL_SIZE": "1", **(env or {})
+        }  # fmt: skip
         args = [sys.executable, "-m", "uvicorn", "service.main:app", "--host", "127.0.0.1"]
         args += ["--port", str(self.port), "--log-level", "warning"]
         with log.open("ab") as out:
@@ -189,12 +191,14 @@ class Replica:
 
 
 @contextmanager
-def replicas(store_url: str, directory: Path, count: int) -> Iterator[list[Replica]]:
+def replicas(
+    store_url: str, directory: Path, count: int, env: dict[str, str] | None = None
+) -> Iterator[list[Replica]]:
     """``count`` uvicorn processes sharing ``store_url``, stopped on the way out."""
     started: list[Replica] = []
     try:
         for i in range(count):
-            started.append(Replica(store_url, directory / f"uvicorn-{i}.log"))
+            started.append(Replica(store_url, directory / f"uvicorn-{i}.log", env))
         for replica in started:
             replica.wait_ready()
         yield started

@@ -202,3 +202,35 @@ def test_the_dockerfile_installs_dependencies_first_and_compiles_as_the_runtime_
     )
     assert kinds.count("HEALTHCHECK") == 1
     assert kinds[-1] == "CMD"
+
+
+def test_redis_runs_with_a_password_from_an_env_file_and_a_memory_bound(
+    compose: dict[str, Any],
+) -> None:
+    redis = compose["services"]["redis"]
+    command = " ".join(redis["command"])
+    assert '--requirepass "$$REDIS_PASSWORD"' in command
+    assert "--maxmemory " in command
+    assert "--maxmemory-policy noeviction" in command
+    # The password is nowhere in the compose file: it comes from docker/.env, which git ignores;
+    # docker/.env.example names the variables and sets no password.
+    assert redis["env_file"] == ".env"
+    example = (COMPOSE.parent / ".env.example").read_text(encoding="utf-8")
+    variables = dict(
+        line.split("=", 1) for line in example.splitlines() if line and not line.startswith("#")
+    )
+    assert variables["REDIS_PASSWORD"] == ""
+    assert variables["REDIS_MAXMEMORY"]
+    assert "docker/.env" in (ROOT / ".gitignore").read_text(encoding="utf-8").split()
+    assert redis["environment"]["REDISCLI_AUTH"].startswith("${REDIS_PASSWORD:?")
+    url = compose["services"]["planner"]["environment"]["PLANNER_STORE_URL"]
+    assert url.startswith("redis://:${REDIS_PASSWORD}@redis:")
+
+
+def test_uvicorn_runs_with_keep_alive_and_concurrency_limits() -> None:
+    # The container and `make run` both start `python -m service`, which sets the limits.
+    assert "service" in dict(_dockerfile())["CMD"]
+    assert "-m service" in (ROOT / "Makefile").read_text(encoding="utf-8")
+    main = (ROOT / "service" / "__main__.py").read_text(encoding="utf-8")
+    for setting in ("timeout_keep_alive=KEEP_ALIVE_SECONDS", "limit_concurrency=MAX_CONCURRENCY"):
+        assert setting in main

@@ -15,7 +15,7 @@ from service.errors import responses
 
 __all__ = ["router"]
 
-ERRORS = responses(404, 413, 422)
+ERRORS = responses(404, 413, 422, 507)
 
 router = APIRouter(tags=["maps"], route_class=MapRoute)
 
@@ -55,7 +55,7 @@ async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     "/maps/{map_id}/render.png",
     summary="A picture of the map and its analysis",
     response_class=Response,
-    responses={**PNG_RESPONSE, **responses(404, 422)},
+    responses={**PNG_RESPONSE, **responses(404, 413, 422)},
 )
 async def render_map(
     map_id: str,

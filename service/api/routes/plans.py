@@ -76,7 +76,7 @@ async def step(plan_id: str, body: StepCreate, engine: EngineDep, bus: BusDep) -
     "/plan/{plan_id}/render.png",
     summary="A picture of the plan and the robot's progress",
     response_class=Response,
-    responses={**PNG_RESPONSE, **responses(404, 422)},
+    responses={**PNG_RESPONSE, **responses(404, 413, 422)},
 )
 async def render_plan(
     plan_id: str,
