@@ -52,7 +52,10 @@ def _entry_points(app: Any) -> tuple[Any, Any]:
     """The step and plan-creation functions of this checkout (the layout changed over time)."""
     engine = app.state.engine
     try:
-        from service import maps, plans  # the layout after issue 10
+        from service.resources import (
+            maps,
+            plans,  # the layout after issue 10
+        )
     except ImportError:
 
         async def create_old(grid: Any, start: list[int], goal: list[int]) -> str:

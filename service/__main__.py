@@ -1,8 +1,9 @@
 """``python -m service``: the service under uvicorn, as ``make run`` and the container start it.
 
-It listens on ``PLANNER_HOST``:``PLANNER_PORT`` and logs JSON lines on stdout (``service.logs``):
-one per request, none of uvicorn's plain-text access lines, and at start one line before the
-warm-up, one after it and one with the address it listens on, the store and the warm-up time.
+It listens on ``PLANNER_HOST``:``PLANNER_PORT`` and logs JSON lines on stdout
+(``service.ops.logs``): one per request, none of uvicorn's plain-text access lines, and at start
+one line before the warm-up, one after it and one with the address it listens on, the store and
+the warm-up time.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import socket
 import uvicorn
 
 from service.config import Settings
-from service.logs import LOG, log_config
+from service.ops.logs import LOG, log_config
 
 __all__ = ["KEEP_ALIVE_SECONDS", "MAX_CONCURRENCY", "main"]
 
@@ -47,7 +48,7 @@ def main() -> int:
             host=settings.host,
             port=settings.port,
             log_config=config,
-            access_log=False,  # service.observe writes one JSON line per request instead
+            access_log=False,  # service.ops.observe writes one JSON line per request instead
             # Idle keep-alive connections closed after 5 s; beyond 4096 connections and requests
             # at once, new ones get 503 at once rather than queueing (slow bodies are cut by
             # PLANNER_BODY_TIMEOUT_SECONDS).

@@ -8,19 +8,20 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from service import docs, errors
+from service import errors
 from service.api import api_router
-from service.auth import ApiKeys
-from service.cache import ByteLRU
 from service.config import Settings
-from service.engine import Engine
-from service.events import open_bus
-from service.logs import LOG
-from service.metrics import Metrics
-from service.middleware import BodyLimit
-from service.observe import Observe
-from service.pool import Pool
+from service.edge.auth import ApiKeys
+from service.edge.middleware import BodyLimit
+from service.ops import docs
+from service.ops.logs import LOG
+from service.ops.metrics import Metrics
+from service.ops.observe import Observe
 from service.stores import Store, open_store
+from service.viewer.events import open_bus
+from service.work.cache import ByteLRU
+from service.work.engine import Engine
+from service.work.pool import Pool
 
 __all__ = ["app", "create_app", "store_name"]
 
@@ -91,7 +92,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         description=DESCRIPTION,
         lifespan=lifespan,
         openapi_tags=TAGS,
-        docs_url=None,  # served by service.docs, with no CDN
+        docs_url=None,  # served by service.ops.docs, with no CDN
         redoc_url=None,
     )
     app.state.settings = settings

@@ -12,9 +12,9 @@ from fastapi.routing import APIRoute
 from starlette.datastructures import UploadFile
 
 from service.config import Settings
-from service.engine import Engine
+from service.edge.guards import check_depth
 from service.errors import TooLarge
-from service.guards import check_depth
+from service.work.engine import Engine
 
 __all__ = [
     "MULTIPART_PARTS",

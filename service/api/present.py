@@ -9,8 +9,8 @@ import numpy as np
 import planner
 from planner.planning import clearance_metrics
 from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
-from service.maps import MapView
-from service.plans import PlanView, StepView
+from service.resources.maps import MapView
+from service.resources.plans import PlanView, StepView
 
 __all__ = [
     "map_public",

@@ -6,7 +6,7 @@ arrays are rebuilt from the cached analysis and wave. The trajectory, which grow
 move, is kept beside the record as an append-only log of packed cells: a step rewrites a record
 of constant size and appends a cell, whatever the length of the episode.
 
-Ids are kept per tenant (:func:`service.tenants.scoped`): every store prefixes the map and plan
+Ids are kept per tenant (:func:`service.edge.tenants.scoped`): every store prefixes the map and plan
 ids it is given with the current request's tenant, so tenants never see each other's data.
 
 A step runs inside :meth:`Store.plan_lock`, which yields the plan's record read under the lock

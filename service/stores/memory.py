@@ -11,9 +11,9 @@ from contextlib import asynccontextmanager
 import orjson
 
 from planner.robot_maps import RobotMap
+from service.edge.tenants import TENANT, scoped
 from service.errors import InsufficientStorage
 from service.stores.base import Cells, PlanRecord, Store, pack, unpack
-from service.tenants import TENANT, scoped
 
 __all__ = ["MemoryStore"]
 

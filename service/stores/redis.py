@@ -12,7 +12,7 @@ Keys, all under ``planner:``:
 - ``planner:lock:{plan_id}``: held by the replica stepping the plan, for ``LOCK_TIMEOUT``
   seconds renewed while it steps: a replica that dies holding it frees it within that time.
 
-With API keys, ids are the tenant's (``{tenant}.{id}``, :func:`service.tenants.scoped`).
+With API keys, ids are the tenant's (``{tenant}.{id}``, :func:`service.edge.tenants.scoped`).
 
 Analyses stay in each replica's own cache: they are recomputed from the map on a miss. This is
 the one module that knows ``redis``: its errors become :class:`StoreUnavailable` (or
@@ -39,9 +39,9 @@ from redis.backoff import NoBackoff
 
 from planner._errors import quote
 from planner.robot_maps import RobotMap
+from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import Cells, PlanRecord, Store, decode_map, encode_map, pack, unpack
-from service.tenants import scoped
 
 __all__ = ["LOCK_TIMEOUT", "LOCK_WAIT", "SOCKET_TIMEOUT", "RedisStore"]
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from fastapi import FastAPI
 
-from service import engine as engine_module
-from service.cache import ByteLRU
+from service.work import engine as engine_module
+from service.work.cache import ByteLRU
 
 pytestmark = pytest.mark.anyio
 

@@ -37,7 +37,7 @@ def test_importing_the_client_imports_no_fastapi_and_builds_no_app() -> None:
     code = (
         "import sys, service.client; "
         "loaded = [m for m in sys.modules if m.split('.')[0] in ('fastapi', 'starlette')"
-        " or m in ('service.main', 'service.engine', 'planner')]; "
+        " or m in ('service.main', 'service.work.engine', 'planner')]; "
         "assert not loaded, loaded"
     )
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True)

@@ -17,14 +17,14 @@ from pydantic import SecretStr
 from starlette.types import Message
 
 import planner
-from service.cache import ByteLRU
 from service.config import Settings
+from service.edge.guards import MAX_JSON_DEPTH, json_depth
+from service.edge.tenants import TENANT
 from service.errors import Busy, InsufficientStorage
-from service.guards import MAX_JSON_DEPTH, json_depth
 from service.main import create_app
-from service.pool import Pool
 from service.stores import MemoryStore
-from service.tenants import TENANT
+from service.work.cache import ByteLRU
+from service.work.pool import Pool
 from tests.service.conftest import SMALL, random_map
 
 pytestmark = pytest.mark.anyio

@@ -12,9 +12,9 @@ import httpx
 import pytest
 from fastapi import FastAPI
 
-from service.cgroup import available_cpus, parse_cpu_max
 from service.config import Settings
-from service.engine import Engine
+from service.work.cgroup import available_cpus, parse_cpu_max
+from service.work.engine import Engine
 from tests.service.conftest import RedisServer, replicas
 
 

@@ -16,7 +16,7 @@ from prometheus_client.samples import Sample
 import planner
 from service.config import Settings
 from service.main import create_app
-from service.metrics import UNMATCHED
+from service.ops.metrics import UNMATCHED
 from service.stores import RedisStore
 from tests.service.conftest import RedisServer, random_map
 

@@ -9,8 +9,8 @@ import httpx
 import pytest
 
 from service.config import Settings
-from service.engine import Engine
 from service.main import create_app
+from service.work.engine import Engine
 from tests.service.conftest import random_map
 
 pytestmark = pytest.mark.anyio

@@ -8,10 +8,10 @@ from fastapi import APIRouter, Query, Response, status
 
 from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, Preset
 from schemas.plans import Unknown
-from service import maps
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
+from service.resources import maps
 
 __all__ = ["router"]
 

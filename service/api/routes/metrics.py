@@ -1,11 +1,11 @@
-"""``/metrics``: the service's Prometheus metrics (``service.metrics``)."""
+"""``/metrics``: the service's Prometheus metrics (``service.ops.metrics``)."""
 
 from __future__ import annotations
 
 from fastapi import APIRouter, Request, Response
 from prometheus_client import CONTENT_TYPE_LATEST
 
-from service.metrics import Metrics
+from service.ops.metrics import Metrics
 
 __all__ = ["router"]
 

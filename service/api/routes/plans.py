@@ -7,11 +7,11 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Query, Response, status
 
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
-from service import plans
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
 from service.errors import responses
-from service.events import BusDep
+from service.resources import plans
+from service.viewer.events import BusDep
 
 __all__ = ["router"]
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from schemas import SimulationCreate, SimulationPublic
-from service import simulation
 from service.api import present
 from service.api.deps import EngineDep, OrjsonRoute
 from service.errors import responses
+from service.resources import simulation
 
 __all__ = ["router"]
 

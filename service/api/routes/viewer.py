@@ -12,16 +12,16 @@ from fastapi import APIRouter
 from fastapi.responses import HTMLResponse, StreamingResponse
 from starlette.background import BackgroundTask
 
-from service import plans
 from service.api.deps import EngineDep
 from service.errors import responses
-from service.events import BusDep, Subscription
+from service.resources import plans
+from service.viewer.events import BusDep, Subscription
 
 __all__ = ["router"]
 
 router = APIRouter(tags=["plans"])
 
-PAGE = (resources.files("service") / "viewer.html").read_text(encoding="utf-8")
+PAGE = (resources.files("service.viewer") / "viewer.html").read_text(encoding="utf-8")
 
 
 @router.get(

@@ -15,7 +15,7 @@ from collections.abc import Awaitable, Callable, Hashable
 from concurrent.futures import Future
 from typing import Any, Protocol, TypeVar, cast
 
-from service.tenants import TENANT
+from service.edge.tenants import TENANT
 
 __all__ = ["ByteLRU", "Sized"]
 
@@ -30,7 +30,7 @@ T = TypeVar("T", bound=Sized)
 
 class ByteLRU:
     """Values that know their ``nbytes``, at most ``max_bytes`` of them in all, and at most
-    ``max_bytes // shares`` for each tenant (:mod:`service.tenants`): a tenant over its share
+    ``max_bytes // shares`` for each tenant (:mod:`service.edge.tenants`): a tenant over its share
     evicts its own least recently used entries, never another tenant's.
 
     >>> import asyncio, numpy as np

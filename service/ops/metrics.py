@@ -14,7 +14,7 @@ from prometheus_client.registry import Collector
 from service.errors import StoreUnavailable
 
 if TYPE_CHECKING:
-    from service.engine import Engine
+    from service.work.engine import Engine
 
 __all__ = ["BUCKETS", "UNMATCHED", "Metrics"]
 

@@ -40,7 +40,7 @@ HEARTBEAT = 15.0
 
 Event = dict[str, Any]
 Queue = asyncio.Queue[Event]
-_LOG = logging.getLogger("service.events")
+_LOG = logging.getLogger("service.viewer.events")
 
 
 class Subscription(ABC):

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import planner
 from schemas import SimulationCreate
-from service.cancel import cancelled
-from service.engine import Engine, overrides, where
+from service.edge.cancel import cancelled
 from service.errors import TimedOut
+from service.work.engine import Engine, overrides, where
 
 __all__ = ["simulate"]
 

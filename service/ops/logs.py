@@ -1,5 +1,5 @@
 """JSON log lines, one object per line on stdout: the request lines of
-:class:`service.observe.Observe`, the start-up lines, and uvicorn's own messages.
+:class:`service.ops.observe.Observe`, the start-up lines, and uvicorn's own messages.
 
 ``python -m service`` installs :func:`log_config` (uvicorn's plain-text access line is off: the
 service writes its own). Fields of a line beyond ``time``, ``level``, ``logger`` and

@@ -16,9 +16,9 @@ import numpy as np
 import planner
 from planner._errors import quote
 from schemas import Circle, PlanCreate, Point, StepCreate
-from service.engine import Engine, cell_size, frame_map, overrides, where
 from service.errors import NotFound
 from service.stores import PlanRecord
+from service.work.engine import Engine, cell_size, frame_map, overrides, where
 
 __all__ = [
     "PlanView",

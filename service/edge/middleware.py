@@ -6,7 +6,7 @@
   line in the log.
 - The work: a request running over ``PLANNER_REQUEST_TIMEOUT_SECONDS`` is stopped with 504, and
   the work of a heavy request (an upload, a plan, a render, a simulation) whose client went away
-  is cancelled; both set the request's cancel flag (:mod:`service.cancel`), which long
+  is cancelled; both set the request's cancel flag (:mod:`service.edge.cancel`), which long
   computations poll.
 """
 
@@ -21,7 +21,7 @@ from collections.abc import Iterator
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.cancel import CANCEL
+from service.edge.cancel import CANCEL
 from service.errors import BodyTimeout, ServiceError, TimedOut, TooLarge, problem
 
 __all__ = ["BodyLimit"]

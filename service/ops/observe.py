@@ -1,5 +1,5 @@
 """Pure ASGI middleware around every request: its ``X-Request-ID``, its metrics and its one
-JSON log line (``service.logs``).
+JSON log line (``service.ops.logs``).
 
 The request id is the client's ``X-Request-ID`` when it is a plain token (letters, digits,
 ``._:-``, at most 128), else a new random one; the answer carries it back, whatever its status.
@@ -14,8 +14,8 @@ import uuid
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.logs import ACCESS, REQUEST_ID
-from service.metrics import UNMATCHED, Metrics
+from service.ops.logs import ACCESS, REQUEST_ID
+from service.ops.metrics import UNMATCHED, Metrics
 
 __all__ = ["HEADER", "Observe", "route_of"]
 

@@ -9,9 +9,9 @@ from typing import Any, Literal
 
 import planner
 from schemas import MapCreate, PlanCreate
-from service import plans
-from service.engine import Engine, cell_size
 from service.errors import TooLarge
+from service.resources import plans
+from service.work.engine import Engine, cell_size
 
 __all__ = ["MapView", "add_map", "get_map", "render_map"]
 

@@ -2,7 +2,7 @@
 
 A key comes as ``Authorization: Bearer <key>`` or ``X-API-Key: <key>``; it is compared with
 each configured key in constant time (:func:`hmac.compare_digest`), and the request then acts
-for that key's tenant (:mod:`service.tenants`). A request without a known key is refused with
+for that key's tenant (:mod:`service.edge.tenants`). A request without a known key is refused with
 401 before its body is read.
 """
 
@@ -12,8 +12,8 @@ import hmac
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from service.edge.tenants import TENANT, tenant_of
 from service.errors import Unauthorized, problem
-from service.tenants import TENANT, tenant_of
 
 __all__ = ["OPEN_PATHS", "ApiKeys"]
 

@@ -22,12 +22,12 @@ from planner._errors import quote
 from planner.analysis import params_key
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
-from service.cache import ByteLRU
 from service.config import Settings
+from service.edge.tenants import scoped
 from service.errors import NotFound, TooLarge
-from service.pool import Pool
 from service.stores import PlanRecord, Store
-from service.tenants import scoped
+from service.work.cache import ByteLRU
+from service.work.pool import Pool
 
 __all__ = [
     "MAX_IMAGE_PIXELS",
@@ -54,7 +54,7 @@ warm plan or step builds its cache keys without reading the map from the store."
 def analysis_key(map_id: str, params: planner.Params, *, plain: bool) -> Hashable:
     """The cache key of a map's analysis for ``params``: :func:`planner.analysis_key` of the
     stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged, and the tenant's
-    (see ``service.tenants``)."""
+    (see ``service.edge.tenants``)."""
     return ("analysis", scoped(map_id), *params_key(params, plain=plain))
 
 

@@ -12,7 +12,7 @@ from contextvars import ContextVar
 __all__ = ["CANCEL", "cancelled"]
 
 CANCEL: ContextVar[threading.Event | None] = ContextVar("planner_cancel", default=None)
-"""Set by :class:`service.middleware.BodyLimit` for each request."""
+"""Set by :class:`service.edge.middleware.BodyLimit` for each request."""
 
 
 def cancelled() -> threading.Event:
