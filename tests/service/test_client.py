@@ -251,7 +251,7 @@ def test_a_store_out_of_reach_raises_unavailable_with_its_retry_after() -> None:
 
 def test_the_readme_example_runs(live_url: str, tmp_path: Path, monkeypatch: Any) -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme.split("### The Python client", 1)[1]
+    section = readme.split("## The Python client", 1)[1]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
     assert 'PlannerClient("http://127.0.0.1:8000")' in code
     monkeypatch.chdir(tmp_path)

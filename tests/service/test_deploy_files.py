@@ -1,4 +1,5 @@
-"""The deployment files agree with each other and with the README's "Deploying" section.
+"""The deployment files agree with each other and with the README's "Deploying" and
+"Configuration" sections.
 
 Docker cannot run here, so this reads them: the compose file (YAML), ``docker/nginx.conf``, the
 ``Dockerfile`` and ``.dockerignore``, and from the README the services table, the settings table
@@ -51,6 +52,11 @@ def _table(text: str, first_header: str) -> list[dict[str, str]]:
 @pytest.fixture(scope="module")
 def deploying() -> str:
     return _section(README.read_text(encoding="utf-8"), "Deploying")
+
+
+@pytest.fixture(scope="module")
+def configuration() -> str:
+    return _section(README.read_text(encoding="utf-8"), "Configuration")
 
 
 @pytest.fixture(scope="module")
@@ -120,9 +126,9 @@ def test_the_published_port_is_nginx_and_the_readme_says_so(
 
 
 def test_the_settings_table_matches_settings_and_the_compose_environment(
-    deploying: str, compose: dict[str, Any]
+    configuration: str, compose: dict[str, Any]
 ) -> None:
-    rows = {r["variable"]: r for r in _table(deploying, "variable")}
+    rows = {r["variable"]: r for r in _table(configuration, "variable")}
     fields = Settings.model_fields
     assert set(rows) == {f"PLANNER_{name.upper()}" for name in fields}
     defaults = Settings()

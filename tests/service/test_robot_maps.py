@@ -410,9 +410,11 @@ def test_the_readme_walkthrough_runs_as_written(live_url: str, ros: Path, tmp_pa
     if shutil.which("curl") is None:
         pytest.skip("curl is not installed")
     readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
-    section = readme.split("### A real robot map, step by step", 1)[1]
+    section = readme.split("## A real robot map, step by step", 1)[1]
     script = section.split("```sh\n", 1)[1].split("```", 1)[0]
-    script = script.replace("R=../shared/maps/ros", f"R={ros}")
+    assert "R=examples/maps" in script
+    root = Path(__file__).resolve().parents[2]
+    script = script.replace("R=examples/maps", f"R={root / 'examples' / 'maps'}")
     script = script.replace("localhost:8000", live_url.removeprefix("http://"))
     run = subprocess.run(
         ["bash", "-euo", "pipefail", "-c", script],
