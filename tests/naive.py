@@ -413,3 +413,30 @@ def detour_cost(
                 dist[y] = nd
                 heapq.heappush(heap, (nd, y))
     return math.inf
+
+
+def walk(
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    paper: bool,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
+) -> list[tuple[int, int]]:
+    """The cells the decision visits with no dynamic obstacles, start to goal (the paper's with
+    the cells already visited as its tabu list); [] when it stops short."""
+    path = [start]
+    while path[-1] != goal and len(path) <= 4 * passable.size + 8:
+        tabu = set(path) if paper else set()
+        i, outcome = decide(
+            passable, k, kw, clean, path[-1], [], 0, tabu, goal, paper, alpha, beta,
+            diagonal_cost, None,
+        )  # fmt: skip
+        if outcome != "move":
+            return []
+        path.append((path[-1][0] + MOVES[i][0], path[-1][1] + MOVES[i][1]))
+    return path if path[-1] == goal else []

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import planner
 from planner import _kernels as K
 from tests import naive
 
@@ -83,3 +84,25 @@ def test_move_obstacles(seed: int) -> None:
         assert cells == want
         assert occupied.sum() == len(cells)
         assert all(occupied[cell] == 1 for cell in cells)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_walk_follows_the_naive_decision_to_the_goal(seed: int) -> None:
+    """``Plan.path`` (the ``_walk`` kernel) is the naive decision applied step by step."""
+    grid = random_grid(seed, density=0.2)
+    free = [tuple(map(int, cell)) for cell in np.argwhere(grid == 0)]
+    if len(free) < 2:
+        return
+    rng = np.random.default_rng(seed)
+    start, goal = (free[i] for i in rng.choice(len(free), size=2, replace=False))
+    preset = ["wide", "wfs-mmas", "mmas", "shortest"][seed % 4]
+    try:
+        p = planner.plan(grid, start, goal, preset=preset)
+    except planner.NoValidPath:
+        return
+    w, a, params = p.wave, p.analysis, p.params
+    want = naive.walk(
+        np.asarray(w.passable), np.asarray(w.k), np.asarray(w.kw), np.asarray(a.clean),
+        start, goal, params.decision == "paper", params.alpha, params.beta, params.diagonal_cost,
+    )  # fmt: skip
+    assert [tuple(cell) for cell in p.path.tolist()] == want
