@@ -3,7 +3,6 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-# As in the Dockerfile: idle keep-alive connections closed after 5 s, at most 4096 at once.
 
 .PHONY: run serve demo test lint typecheck unit scen-all bench lock clean
 

@@ -26,6 +26,7 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 import planner
 from planner._errors import QUOTE_LIMIT
@@ -126,6 +127,11 @@ _PLANNER_STATUS: dict[type[planner.PlannerError], int] = {
 }
 
 _EXAMPLES: dict[int, dict[str, str | None]] = {
+    401: {
+        "detail": "an API key is needed: Authorization: Bearer <key> or X-API-Key: <key>",
+        "field": None,
+        "code": "UNAUTHORIZED",
+    },
     404: {
         "detail": "plan_id: no plan '9f1c2a7b' (unknown, deleted or expired)",
         "field": "plan_id",
@@ -169,14 +175,14 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """``responses=`` for a route, so that ``/docs`` and clients know its errors' shape.
 
     Every route reaches the store and runs under the request timeout, so every route may
-    answer 503 and 504.
+    answer 503 and 504; with ``PLANNER_API_KEYS`` set, 401 without a key.
     """
     return {
         status: {
             "model": ErrorPublic,
             "content": {"application/json": {"example": _EXAMPLES[status]}},
         }
-        for status in (*statuses, 503, 504)
+        for status in (*statuses, 401, 503, 504)
     }
 
 
@@ -267,8 +273,23 @@ def _cut(name: object) -> str:
     return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
 
 
+_HTTP_CODES = {404: "NOT_FOUND", 405: "METHOD_NOT_ALLOWED"}
+
+
+async def _http_error(request: Request, exc: Exception) -> JSONResponse:
+    """Starlette's own answers (no such route, a method the route does not take) in the one
+    shape of every error."""
+    assert isinstance(exc, StarletteHTTPException)
+    code = _HTTP_CODES.get(exc.status_code, "BAD_REQUEST")
+    response = problem(exc.status_code, str(exc.detail), field=None, code=code)
+    for name, value in (exc.headers or {}).items():
+        response.headers[name] = value  # e.g. Allow on a 405
+    return response
+
+
 def install(app: FastAPI) -> None:
     """Map every error the service and the planner raise on purpose to its HTTP answer."""
+    app.add_exception_handler(StarletteHTTPException, _http_error)
     app.add_exception_handler(planner.PlannerError, _planner_error)
     app.add_exception_handler(ServiceError, _service_error)
     app.add_exception_handler(RequestValidationError, _validation_error)

@@ -10,7 +10,10 @@ import orjson
 from fastapi import Depends, Query, Request, Response
 from fastapi.routing import APIRoute
 from starlette.datastructures import UploadFile
+from starlette.exceptions import HTTPException
+from starlette.formparsers import MultiPartException
 
+import planner
 from service.config import Settings
 from service.edge.guards import check_depth
 from service.errors import TooLarge
@@ -133,7 +136,14 @@ async def _form_as_json(request: Request) -> Request:
     or, when it is not JSON, kept as the text it is (``wide``, ``free``). The body model then
     validates them as it validates JSON (an unknown field is refused)."""
     fields: dict[str, Any] = {}
-    async with request.form(max_files=len(MULTIPART_PARTS), max_fields=32) as form:
+    try:
+        form = await request.form(max_files=len(MULTIPART_PARTS), max_fields=32)
+    except (MultiPartException, HTTPException) as exc:
+        # A malformed form, or more parts than a map has: the client's mistake, a 422.
+        detail = exc.message if isinstance(exc, MultiPartException) else exc.detail
+        msg = f"body: the multipart form cannot be read: {detail}"
+        raise planner.InvalidInput(msg, field="body") from None
+    try:
         for name, value in form.multi_items():
             data = await value.read() if isinstance(value, UploadFile) else value.encode()
             if name in MULTIPART_PARTS:
@@ -144,6 +154,8 @@ async def _form_as_json(request: Request) -> Request:
                     fields[name] = orjson.loads(text)
                 except orjson.JSONDecodeError:
                     fields[name] = text
+    finally:
+        await form.close()
     # FastAPI reads a JSON body for the body model: this request is one, its JSON the fields.
     headers = [(k, v) for k, v in request.scope["headers"] if k != b"content-type"]
     scope = {**request.scope, "headers": [*headers, (b"content-type", b"application/json")]}

@@ -42,7 +42,8 @@ __all__ = [
 ]
 
 MAX_IMAGE_SIDE = 8192
-"""Pixels on a picture's longer side at most: a 4096 x 4096 map at 2 pixels a cell."""
+"""Pixels on a picture's longer side at most (the picture must also hold at most
+``MAX_IMAGE_PIXELS``: a 4096 x 4096 map at 1 pixel a cell)."""
 MAX_IMAGE_PIXELS = 4096 * 4096
 """Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
 

@@ -285,3 +285,42 @@ async def test_a_map_at_the_cell_limit_is_served(client: httpx.AsyncClient) -> N
         "/maps", json={"grid": [[0] * 64] * 64, "start": [0, 0], "goal": [63, 63]}
     )
     assert r.status_code == 201, r.text
+
+
+@pytest.mark.parametrize(
+    ("method", "url", "status", "code"),
+    [
+        ("GET", "/no/such/route", 404, "NOT_FOUND"),
+        ("PUT", "/plan", 405, "METHOD_NOT_ALLOWED"),
+    ],
+)
+async def test_the_frameworks_own_errors_have_the_one_error_shape(
+    client: httpx.AsyncClient, method: str, url: str, status: int, code: str
+) -> None:
+    r = await client.request(method, url)
+    assert r.status_code == status
+    assert r.json()["code"] == code
+    assert set(r.json()) == {"detail", "field", "code"}
+
+
+@pytest.mark.parametrize(
+    ("content", "files"),
+    [
+        # A part whose header is cut by a stray line: the form cannot be parsed.
+        (b"--b\r\n-85312991875--b--\r\n", None),
+        (None, [("yaml", b"a: 1"), ("image", b"P5"), ("yaml", b"b: 2")]),  # a part too many
+    ],
+    ids=["malformed", "too many parts"],
+)
+async def test_a_bad_multipart_form_is_a_422(
+    client: httpx.AsyncClient, content: bytes | None, files: list[tuple[str, bytes]] | None
+) -> None:
+    if content is not None:
+        headers = {"content-type": "multipart/form-data; boundary=b"}
+        r = await client.post("/maps", content=content, headers=headers)
+    else:
+        assert files is not None
+        r = await client.post("/maps", files=[(n, (n, data)) for n, data in files])
+    assert r.status_code == 422, r.text
+    assert r.json()["field"] == "body"
+    assert "multipart" in r.json()["detail"]

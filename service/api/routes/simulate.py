@@ -23,5 +23,7 @@ router = APIRouter(tags=["simulation"], route_class=OrjsonRoute)
 async def simulate(map_id: str, body: SimulationCreate, engine: EngineDep) -> SimulationPublic:
     """Plan, then run a whole episode among `dynamic_count` obstacles that each step move to a
     random free neighbouring cell (seeded by `seed`: reproducible). Returns the robot's
-    `trajectory` and the paper's metrics, plus clearance, collisions (always 0) and timings."""
+    `trajectory` and the paper's metrics, plus clearance, collisions and timings. With
+    `obstacle_motion: simultaneous` the obstacles move while the robot does; `wide` and `shortest`
+    (dynamic margin 1) never collide, the paper's presets (margin 0) may."""
     return present.simulation_public(await simulation.simulate(engine, map_id, body))
