@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from functools import cached_property
-from typing import Any
+from typing import Any, NamedTuple
 
 import edt
 import numpy as np
@@ -20,7 +20,7 @@ from planner._errors import InvalidInput, quote
 from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, SQRT2
 
-__all__ = ["Analysis", "Wave", "analyse", "goal_wave"]
+__all__ = ["Analysis", "Wave", "WaveView", "analyse", "goal_wave"]
 
 
 class Analysis:
@@ -151,6 +151,20 @@ def analyse(
     )
 
 
+class WaveView(NamedTuple):
+    """The part of a wave a decision at a cell reads, as arrays that the decision kernels take:
+    the wave's grid, ``k``, ``kw`` and ``clean`` over a window whose top-left cell is
+    (``top``, ``left``) of the map (the whole map for a whole-map wave; the 3 x 3 cells around
+    the robot, settled, for a resumable one)."""
+
+    passable: npt.NDArray[np.uint8]
+    k: npt.NDArray[np.float64]
+    kw: npt.NDArray[np.float64]
+    clean: npt.NDArray[np.float32]
+    top: int
+    left: int
+
+
 class Wave:
     """The goal wave: cost-to-go fields over the whole map.
 
@@ -172,14 +186,46 @@ class Wave:
         elapsed_ms: float,
     ) -> None:
         self.goal = goal
-        self.k = k
-        self.kw = kw
-        self.passable = passable
+        self._k = k
+        self._kw = kw
+        self._passable = passable
         self.narrow = narrow
         self.diagonal_cost = diagonal_cost
         self.elapsed_ms = elapsed_ms
         for arr in (k, kw, passable):
             arr.flags.writeable = False
+
+    @property
+    def k(self) -> npt.NDArray[np.float64]:
+        """The plain cost-to-go of every cell."""
+        return self._k
+
+    @property
+    def kw(self) -> npt.NDArray[np.float64]:
+        """The wide cost-to-go of every cell."""
+        return self._kw
+
+    @property
+    def passable(self) -> npt.NDArray[np.uint8]:
+        """1 on the cells of the grid the wave ran over."""
+        return self._passable
+
+    def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
+        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields."""
+        return WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+
+    def k_at(self, r: int, c: int) -> float:
+        """``k`` at (r, c)."""
+        return float(self.k[r, c])
+
+    def k_along(self, path: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        """``k`` of each cell of ``path`` (``(n, 2)`` cells)."""
+        out: npt.NDArray[np.float64] = self.k[path[:, 0], path[:, 1]]
+        return out
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self._passable.shape[0]), int(self._passable.shape[1]))
 
     def tau(
         self, rho: float = 0.98, *, tau_min: float = 0.01, tau_max: float = 1.0
@@ -191,7 +237,7 @@ class Wave:
 
     @property
     def nbytes(self) -> int:
-        shared = self.kw is self.k
+        shared = self._kw is self._k
         return int(self.k.nbytes + (0 if shared else self.kw.nbytes) + self.passable.nbytes)
 
 

@@ -15,6 +15,7 @@ import numpy.typing as npt
 
 from planner import _kernels as K
 from planner._errors import InvalidInput, SequenceConflict, quote
+from planner.analysis import WaveView
 from planner.grids import as_cell
 from planner.planning import Plan
 
@@ -226,10 +227,18 @@ class Session:
         r, c = previous
         tabu = self._tabu(r, c) if self._visited is not None else 0
         target = st.detour[0] if st.detour else -1
+        # The hook of resumable waves: the view settles what the decision reads, around (r, c).
+        v = wave.view(r, c, plan.analysis.clean)
+        if v.top or v.left:
+            obstacles = obstacles - np.array([v.top, v.left], dtype=np.int64)
+            target = _local(target, self._width, v)
         i, outcome = K._decide(
-            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles, tabu,
-            plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta, p.diagonal_cost, target,
+            v.passable, v.k, v.kw, v.clean, r - v.top, c - v.left, obstacles, tabu,
+            plan.goal[0] - v.top, plan.goal[1] - v.left, self._mode, p.alpha, p.beta,
+            p.diagonal_cost, target,
         )  # fmt: skip
+        if v.top or v.left:
+            obstacles = obstacles + np.array([v.top, v.left], dtype=np.int64)
         if outcome == K.BLOCKED:
             st.status = "blocked"
             return self._answer(seq, previous, "WAIT")
@@ -282,7 +291,7 @@ class Session:
         if self._visited is not None:
             self._visited.add(nr * self._width + nc)
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
-        st.arc_cost += float(self.plan.wave.k[nr, nc])
+        st.arc_cost += self.plan.wave.k_at(nr, nc)
 
     def _answer(self, seq: int, previous: tuple[int, int], move: str) -> Step:
         st = self.state
@@ -302,9 +311,20 @@ class Session:
         """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach."""
         wave = self.plan.wave
         r, c = self.state.position
-        clean = self.plan.analysis.clean
-        value = K._cost_here(wave.passable, wave.k, clean, r, c, wave.diagonal_cost, False)
+        v = wave.view(r, c, self.plan.analysis.clean)
+        value = K._cost_here(
+            v.passable, v.k, v.clean, r - v.top, c - v.left, wave.diagonal_cost, False
+        )
         return value if np.isfinite(value) else None
+
+
+def _local(target: int, width: int, v: WaveView) -> int:
+    """A flat map index as the flat index into the view's window (one past it when outside)."""
+    if target < 0:
+        return target
+    h, w = v.passable.shape
+    r, c = target // width - v.top, target % width - v.left
+    return r * w + c if 0 <= r < h and 0 <= c < w else h * w
 
 
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:

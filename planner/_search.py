@@ -1,0 +1,351 @@
+"""Numba kernels of the resumable goal-rooted search (RRA*): private, pure functions.
+
+The search is A* from the goal towards the robot over the cells of an analysed map, with the
+octile distance to the robot as its heuristic (every move costs at least its octile length, and
+``clean >= 0``, so it is admissible and consistent for ``k`` and for ``kw`` alike: a settled cell's
+cost-to-go is exact). It stops as soon as the cells asked for are settled and resumes later, the
+open list re-keyed for a new robot cell. Its memory grows with the cells it touches: values live
+in 32 x 32 tiles allocated on first touch, found through one small index of tiles.
+
+Mutable scalars travel in ``meta`` (int64): ``[tiles used, heap size, cells settled]``. When the
+pools are nearly full a kernel returns ``NEED_SPACE`` before touching anything; the caller grows
+them and calls again, so every kernel is resumable at any return.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from planner._kernels import DC, DR, FREE, OBSTACLE
+
+SHIFT = 5
+TILE = 1 << SHIFT
+TILE_MASK = TILE - 1
+TILE_CELLS = TILE * TILE
+
+DONE = 0
+EXHAUSTED = 1  # the open list is empty: every cell not settled is unreachable
+NEED_SPACE = 2
+
+UNSEEN = 0
+OPEN = 1
+SETTLED = 2
+
+TILES_USED = 0
+HEAP_SIZE = 1
+SETTLED_COUNT = 2
+
+
+@njit(cache=True, nogil=True)
+def _passable_at(state: np.ndarray, sealed: bool, goal: int, r: int, c: int) -> bool:
+    """Whether (r, c) is on the wave's grid: free (or, unsealed, a tunnel cell), or the goal."""
+    H, W = state.shape
+    if r < 0 or r >= H or c < 0 or c >= W:
+        return False
+    if r * W + c == goal:
+        return True
+    s = state[r, c]
+    return s == FREE if sealed else s != OBSTACLE
+
+
+@njit(cache=True, nogil=True)
+def _octile(r: int, c: int, tr: int, tc: int, diagonal_cost: float, slack: float) -> float:
+    """``max(0, octile((r, c), (tr, tc)) - slack)``: a consistent lower bound of the cost from
+    (r, c) to any cell within octile distance ``slack`` of (tr, tc)."""
+    dr = abs(r - tr)
+    dc = abs(c - tc)
+    lo = min(dr, dc)
+    hi = max(dr, dc)
+    v = (hi - lo) + diagonal_cost * lo - slack
+    return v if v > 0.0 else 0.0
+
+
+@njit(cache=True, nogil=True)
+def _heap_push(keys: np.ndarray, cells: np.ndarray, size: int, key: float, cell: int) -> int:
+    j = size
+    while j > 0:
+        parent = (j - 1) >> 1
+        if keys[parent] <= key:
+            break
+        keys[j] = keys[parent]
+        cells[j] = cells[parent]
+        j = parent
+    keys[j] = key
+    cells[j] = cell
+    return size + 1
+
+
+@njit(cache=True, nogil=True)
+def _heap_sift_down(keys: np.ndarray, cells: np.ndarray, j: int, size: int) -> None:
+    key = keys[j]
+    cell = cells[j]
+    while True:
+        child = 2 * j + 1
+        if child >= size:
+            break
+        if child + 1 < size and keys[child + 1] < keys[child]:
+            child += 1
+        if keys[child] >= key:
+            break
+        keys[j] = keys[child]
+        cells[j] = cells[child]
+        j = child
+    keys[j] = key
+    cells[j] = cell
+
+
+@njit(cache=True, nogil=True)
+def _slot(tile_of: np.ndarray, tiles_w: int, r: int, c: int) -> int:
+    """The tile holding (r, c), or -1 when none is allocated."""
+    return tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)]
+
+
+@njit(cache=True, nogil=True)
+def _start(
+    state: np.ndarray,
+    goal: int,
+    tile_of: np.ndarray,
+    g: np.ndarray,
+    status: np.ndarray,
+    keys: np.ndarray,
+    cells: np.ndarray,
+    meta: np.ndarray,
+) -> None:
+    """Open the search: the goal's tile allocated, the goal queued at cost 0."""
+    W = state.shape[1]
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    r = goal // W
+    c = goal - r * W
+    tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)] = 0
+    g[0, :] = np.inf
+    status[0, :] = UNSEEN
+    o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+    g[0, o] = 0.0
+    status[0, o] = OPEN
+    meta[TILES_USED] = 1
+    meta[HEAP_SIZE] = _heap_push(keys, cells, 0, 0.0, goal)
+    meta[SETTLED_COUNT] = 0
+
+
+@njit(cache=True, nogil=True)
+def _resume(
+    state: np.ndarray,
+    clean: np.ndarray,
+    sealed: bool,
+    use_clean: bool,
+    diagonal_cost: float,
+    goal: int,
+    tile_of: np.ndarray,
+    g: np.ndarray,
+    status: np.ndarray,
+    keys: np.ndarray,
+    cells: np.ndarray,
+    meta: np.ndarray,
+    targets: np.ndarray,
+    tr: int,
+    tc: int,
+    slack: float,
+) -> int:
+    """Expand the best open cell until every cell of ``targets`` (flat indices, each on the
+    wave's grid) is settled (DONE), the open list is empty (EXHAUSTED), or the pools are nearly
+    full (NEED_SPACE). The open list must be keyed for the heuristic ``(tr, tc, slack)``.
+
+    A move X -> Y costs 1 straight or ``diagonal_cost`` diagonally, plus ``clean(Y)`` with
+    ``use_clean``; the search runs from the goal, so settling Y relaxes every X with a legal move
+    X -> Y at ``g(Y) (+ clean(Y)) + step``.
+    """
+    H, W = state.shape
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    heap_cap = keys.shape[0]
+    tile_cap = g.shape[0]
+    remaining = 0
+    for j in range(targets.shape[0]):
+        t = targets[j]
+        r = t // W
+        c = t - r * W
+        s = _slot(tile_of, tiles_w, r, c)
+        if s < 0 or status[s, ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)] != SETTLED:
+            remaining += 1
+    size = meta[HEAP_SIZE]
+    used = meta[TILES_USED]
+    settled = meta[SETTLED_COUNT]
+    outcome = DONE
+    ok = np.empty(8, dtype=np.bool_)
+    while remaining > 0:
+        if size == 0:
+            outcome = EXHAUSTED
+            break
+        if size + 8 > heap_cap or (used + 4 > tile_cap and tile_cap < tile_of.shape[0]):
+            outcome = NEED_SPACE
+            break
+        y = cells[0]
+        size -= 1
+        if size > 0:
+            keys[0] = keys[size]
+            cells[0] = cells[size]
+            _heap_sift_down(keys, cells, 0, size)
+        yr = y // W
+        yc = y - yr * W
+        ys = _slot(tile_of, tiles_w, yr, yc)
+        yo = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+        if status[ys, yo] == SETTLED:
+            continue  # a stale entry: the cell was queued again at a lower cost
+        status[ys, yo] = SETTLED
+        settled += 1
+        for j in range(targets.shape[0]):
+            if targets[j] == y:
+                remaining -= 1
+        base = g[ys, yo]
+        if use_clean:
+            base += clean[yr, yc]
+        for i in range(0, 8, 2):
+            ok[i] = _passable_at(state, sealed, goal, yr + DR[i], yc + DC[i])
+        for i in range(1, 8, 2):
+            ok[i] = (
+                ok[i - 1]
+                and ok[(i + 1) & 7]
+                and _passable_at(state, sealed, goal, yr + DR[i], yc + DC[i])
+            )
+        for i in range(8):
+            if not ok[i]:
+                continue
+            xr = yr + DR[i]
+            xc = yc + DC[i]
+            ti = (xr >> SHIFT) * tiles_w + (xc >> SHIFT)
+            xs = tile_of[ti]
+            if xs < 0:
+                xs = used
+                used += 1
+                tile_of[ti] = xs
+                g[xs, :] = np.inf
+                status[xs, :] = UNSEEN
+            xo = ((xr & TILE_MASK) << SHIFT) | (xc & TILE_MASK)
+            if status[xs, xo] == SETTLED:
+                continue
+            nd = base + (diagonal_cost if i & 1 else 1.0)
+            if nd < g[xs, xo]:
+                g[xs, xo] = nd
+                status[xs, xo] = OPEN
+                h = _octile(xr, xc, tr, tc, diagonal_cost, slack)
+                size = _heap_push(keys, cells, size, nd + h, xr * W + xc)
+    meta[HEAP_SIZE] = size
+    meta[TILES_USED] = used
+    meta[SETTLED_COUNT] = settled
+    return outcome
+
+
+@njit(cache=True, nogil=True)
+def _rekey(
+    W: int,
+    diagonal_cost: float,
+    tile_of: np.ndarray,
+    g: np.ndarray,
+    status: np.ndarray,
+    keys: np.ndarray,
+    cells: np.ndarray,
+    meta: np.ndarray,
+    tr: int,
+    tc: int,
+    slack: float,
+) -> None:
+    """Key the open list for a new heuristic target, dropping stale entries, and re-heap it."""
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    n = 0
+    for j in range(meta[HEAP_SIZE]):
+        x = cells[j]
+        r = x // W
+        c = x - r * W
+        s = _slot(tile_of, tiles_w, r, c)
+        o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+        if status[s, o] != OPEN:
+            continue
+        keys[n] = g[s, o] + _octile(r, c, tr, tc, diagonal_cost, slack)
+        cells[n] = x
+        n += 1
+    for j in range(n // 2 - 1, -1, -1):
+        _heap_sift_down(keys, cells, j, n)
+    meta[HEAP_SIZE] = n
+
+
+@njit(cache=True, nogil=True)
+def _settled_values(
+    W: int, tile_of: np.ndarray, g: np.ndarray, status: np.ndarray, targets: np.ndarray
+) -> np.ndarray:
+    """The cost-to-go of each cell of ``targets``: exact when settled, else +inf."""
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    out = np.full(targets.shape[0], np.inf)
+    for j in range(targets.shape[0]):
+        r = targets[j] // W
+        c = targets[j] - r * W
+        s = _slot(tile_of, tiles_w, r, c)
+        if s >= 0:
+            o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+            if status[s, o] == SETTLED:
+                out[j] = g[s, o]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _neighbourhood(state: np.ndarray, sealed: bool, goal: int, r: int, c: int) -> np.ndarray:
+    """The cells whose cost-to-go a decision at (r, c) reads: (r, c) itself when on the wave's
+    grid, and every neighbour a legal static move reaches (flat indices)."""
+    W = state.shape[1]
+    out = np.empty(9, dtype=np.int64)
+    n = 0
+    if _passable_at(state, sealed, goal, r, c):
+        out[n] = r * W + c
+        n += 1
+    ok = np.empty(8, dtype=np.bool_)
+    for i in range(8):
+        ok[i] = _passable_at(state, sealed, goal, r + DR[i], c + DC[i])
+    for i in range(8):
+        if ok[i] and (not i & 1 or (ok[i - 1] and ok[(i + 1) & 7])):
+            out[n] = (r + DR[i]) * W + c + DC[i]
+            n += 1
+    return out[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def _window(
+    state: np.ndarray,
+    clean: np.ndarray,
+    sealed: bool,
+    goal: int,
+    r: int,
+    c: int,
+    tile_of_k: np.ndarray,
+    g_k: np.ndarray,
+    status_k: np.ndarray,
+    tile_of_kw: np.ndarray,
+    g_kw: np.ndarray,
+    status_kw: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The 3 x 3 windows centred on (r, c) of the wave's grid, ``k``, ``kw`` and ``clean``
+    (outside the map: not passable, +inf, 0); unsettled cells read +inf."""
+    H, W = state.shape
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    passable = np.zeros((3, 3), dtype=np.uint8)
+    k = np.full((3, 3), np.inf)
+    kw = np.full((3, 3), np.inf)
+    cl = np.zeros((3, 3), dtype=np.float32)
+    for dr in range(3):
+        yr = r + dr - 1
+        if yr < 0 or yr >= H:
+            continue
+        for dc in range(3):
+            yc = c + dc - 1
+            if yc < 0 or yc >= W:
+                continue
+            cl[dr, dc] = clean[yr, yc]
+            if not _passable_at(state, sealed, goal, yr, yc):
+                continue
+            passable[dr, dc] = 1
+            o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+            s = _slot(tile_of_k, tiles_w, yr, yc)
+            if s >= 0 and status_k[s, o] == SETTLED:
+                k[dr, dc] = g_k[s, o]
+            s = _slot(tile_of_kw, tiles_w, yr, yc)
+            if s >= 0 and status_kw[s, o] == SETTLED:
+                kw[dr, dc] = g_kw[s, o]
+    return passable, k, kw, cl

@@ -1,0 +1,309 @@
+"""The resumable goal wave: ``k`` and ``kw`` settled only where the robot needs them.
+
+:class:`ResumableWave` is a :class:`~planner.analysis.Wave` whose two fields come from A* searches
+rooted at the goal and aimed at the robot (RRA*). A decision at a cell reads the cost-to-go of
+the cell and its neighbours; :meth:`ResumableWave.ensure` resumes both searches until exactly
+those are settled, so a plan's memory and time grow with the region explored, not the map. The
+whole-map arrays (``k``, ``kw``, ``passable``) are still there for pictures and simulations: the
+first read computes the whole wave once.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from planner import _kernels as K
+from planner import _search as S
+from planner._errors import InvalidInput, quote
+from planner.analysis import Analysis, Wave, WaveView, goal_wave
+from planner.grids import as_cell
+from planner.params import PARAMETER_RANGES, SQRT2
+
+__all__ = ["ResumableWave", "resumable_wave"]
+
+# The open list is re-keyed for a new robot cell only when the robot has moved this far (octile)
+# from the cell it was keyed for: settled values are exact under any consistent heuristic, so an
+# older aim costs only some extra expansions, and re-keying costs a pass over the open list.
+_REAIM = 8.0
+
+
+class _Search:
+    """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory."""
+
+    def __init__(
+        self,
+        analysis: Analysis,
+        goal: int,
+        *,
+        sealed: bool,
+        use_clean: bool,
+        diagonal_cost: float,
+    ) -> None:
+        H, W = analysis.shape
+        self.state = analysis.state
+        self.clean = analysis.clean
+        self.width = W
+        self.goal = goal
+        self.sealed = sealed
+        self.use_clean = use_clean
+        self.diagonal_cost = diagonal_cost
+        tiles = ((H + S.TILE_MASK) >> S.SHIFT) * ((W + S.TILE_MASK) >> S.SHIFT)
+        self.tile_of = np.full(tiles, -1, dtype=np.int32)
+        cap = min(16, tiles)
+        self.g = np.empty((cap, S.TILE_CELLS), dtype=np.float64)
+        self.status = np.empty((cap, S.TILE_CELLS), dtype=np.uint8)
+        self.keys = np.empty(1024, dtype=np.float64)
+        self.cells = np.empty(1024, dtype=np.int64)
+        self.meta = np.zeros(3, dtype=np.int64)
+        self.exhausted = False
+        self.aim = divmod(goal, W)
+        self.slack = 0.0
+        S._start(self.state, goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
+
+    @property
+    def nbytes(self) -> int:
+        arrays = (self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
+        return sum(int(a.nbytes) for a in arrays)
+
+    def values(self, targets: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        out: npt.NDArray[np.float64] = S._settled_values(
+            self.width, self.tile_of, self.g, self.status, targets
+        )
+        return out
+
+    def settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
+        """Resume until every cell of ``targets`` (on the grid, within ``slack`` of ``aim``) is
+        settled or the open list is empty."""
+        if self.exhausted or np.all(np.isfinite(self.values(targets))):
+            return
+        d = self.aim[0] - aim[0], self.aim[1] - aim[1]
+        if max(abs(d[0]), abs(d[1])) > _REAIM:
+            self.aim, self.slack = aim, slack
+            S._rekey(
+                self.width, self.diagonal_cost, self.tile_of, self.g, self.status, self.keys,
+                self.cells, self.meta, aim[0], aim[1], slack,
+            )  # fmt: skip
+        tr, tc = self.aim
+        while True:
+            outcome = S._resume(
+                self.state, self.clean, self.sealed, self.use_clean, self.diagonal_cost,
+                self.goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta,
+                targets, tr, tc, self.slack,
+            )  # fmt: skip
+            if outcome == S.NEED_SPACE:
+                self._grow()
+                continue
+            self.exhausted = outcome == S.EXHAUSTED
+            return
+
+    def _grow(self) -> None:
+        if self.meta[S.HEAP_SIZE] + 8 > self.keys.shape[0]:
+            n = 2 * self.keys.shape[0]
+            self.keys = np.concatenate([self.keys, np.empty_like(self.keys)])
+            self.cells = np.concatenate([self.cells, np.empty_like(self.cells)])
+            assert self.keys.shape[0] == n
+        used, cap = int(self.meta[S.TILES_USED]), self.g.shape[0]
+        if used + 4 > cap and cap < self.tile_of.shape[0]:
+            grown = min(2 * cap, self.tile_of.shape[0])
+            g = np.empty((grown, S.TILE_CELLS), dtype=np.float64)
+            status = np.empty((grown, S.TILE_CELLS), dtype=np.uint8)
+            g[:used] = self.g[:used]
+            status[:used] = self.status[:used]
+            self.g, self.status = g, status
+
+
+class ResumableWave(Wave):
+    """A goal wave settled on demand: see the module's docstring.
+
+    >>> from planner import analyse
+    >>> a = analyse([[0] * 40 for _ in range(40)], seal_tunnels=False, clean_weight=0)
+    >>> w = resumable_wave(a, [0, 0])
+    >>> w.ensure(5, 5)   # the robot's cell and its neighbours settled, few others
+    >>> round(w.k_at(5, 5), 3), w.settled_cells < 100
+    (7.071, True)
+    >>> bool(np.allclose(w.k, goal_wave(a, [0, 0]).k))   # the whole field, computed on demand
+    True
+    """
+
+    def __init__(
+        self, analysis: Analysis, goal: tuple[int, int], *, diagonal_cost: float, narrow: bool
+    ) -> None:
+        t0 = time.perf_counter()
+        self.goal = goal
+        self.narrow = narrow
+        self.diagonal_cost = diagonal_cost
+        self.analysis = analysis
+        W = analysis.shape[1]
+        self._flat_goal = goal[0] * W + goal[1]
+        self._sealed = analysis.seal_tunnels and not narrow
+        self._k_search = _Search(
+            analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
+            diagonal_cost=diagonal_cost,
+        )  # fmt: skip
+        self._kw_search = self._k_search
+        if analysis.clean_weight > 0:
+            self._kw_search = _Search(
+                analysis, self._flat_goal, sealed=self._sealed, use_clean=True,
+                diagonal_cost=diagonal_cost,
+            )  # fmt: skip
+        self._whole: Wave | None = None
+        self.elapsed_ms = (time.perf_counter() - t0) * 1e3
+
+    # -- the searches ------------------------------------------------------------------------
+
+    def settle(self, cells: Any) -> None:
+        """Resume both searches until every given cell (``[row, col]`` rows) on the wave's grid
+        is settled (its ``k`` and ``kw`` exact) or proven unreachable."""
+        arr = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+        H, W = self.analysis.shape
+        for i, (r, c) in enumerate(arr.tolist()):
+            if not (0 <= r < H and 0 <= c < W):
+                raise InvalidInput(f"cells[{i}] [{r}, {c}] is outside the {H} x {W} map")
+        on_grid = [
+            r * W + c
+            for r, c in arr.tolist()
+            if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c)
+        ]
+        if on_grid:
+            flat = np.array(on_grid, dtype=np.int64)
+            r0, c0 = int(arr[0, 0]), int(arr[0, 1])
+            slack = max(
+                S._octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist()
+            )
+            self._settle(flat, (r0, c0), slack)
+
+    def ensure(self, r: int, c: int) -> None:
+        """Settle what a decision at (r, c) reads: the cell and its statically legal
+        neighbours."""
+        targets = S._neighbourhood(self.analysis.state, self._sealed, self._flat_goal, r, c)
+        if targets.size:
+            self._settle(targets, (r, c), self.diagonal_cost)
+
+    def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
+        t0 = time.perf_counter()
+        self._k_search.settle(targets, aim, slack)
+        if self._kw_search is not self._k_search:
+            self._kw_search.settle(targets, aim, slack)
+        self.elapsed_ms += (time.perf_counter() - t0) * 1e3
+
+    @property
+    def settled_cells(self) -> int:
+        """Cells settled so far by the ``kw`` search (the wider one)."""
+        return int(self._kw_search.meta[S.SETTLED_COUNT])
+
+    # -- what decisions read -----------------------------------------------------------------
+
+    def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
+        """The 3 x 3 window around (r, c), settled first (``clean`` is the analysis's own)."""
+        self.ensure(r, c)
+        k, kw = self._k_search, self._kw_search
+        passable, kv, kwv, cl = S._window(
+            self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal, r, c,
+            k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status,
+        )  # fmt: skip
+        return WaveView(passable, kv, kwv, cl, r - 1, c - 1)
+
+    def k_at(self, r: int, c: int) -> float:
+        W = self.analysis.shape[1]
+        flat = np.array([r * W + c], dtype=np.int64)
+        if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
+            self._settle(flat, (r, c), 0.0)
+        return float(self._k_search.values(flat)[0])
+
+    def k_along(self, path: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        """``k`` of each cell of ``path`` (``(n, 2)`` cells), settled first."""
+        W = self.analysis.shape[1]
+        flat = np.ascontiguousarray(path[:, 0] * W + path[:, 1], dtype=np.int64)
+        values = self._k_search.values(flat)
+        for j in np.flatnonzero(~np.isfinite(values)).tolist():
+            values[j] = self.k_at(int(path[j, 0]), int(path[j, 1]))
+        return values
+
+    def walk(
+        self, start: tuple[int, int], mode: int, alpha: float, beta: float, max_steps: int
+    ) -> npt.NDArray[np.int64]:
+        """The path (flat indices) the decision follows with no dynamic obstacles, as
+        ``_kernels._walk`` does over whole fields; empty if the goal is not reached."""
+        W = self.analysis.shape[1]
+        gr, gc = self.goal
+        clean = self.analysis.clean
+        contact = np.zeros(8, dtype=np.int64)
+        r, c = start
+        path = [r * W + c]
+        visited = {path[0]}
+        while (r, c) != self.goal:
+            if len(path) > max_steps:
+                return np.empty(0, dtype=np.int64)
+            v = self.view(r, c, clean)
+            tabu = 0
+            if mode == K.MODE_PAPER:
+                for i in range(8):
+                    if (r + int(K.DR[i])) * W + c + int(K.DC[i]) in visited:
+                        tabu |= 1 << i
+            i, outcome = K._decide_core(
+                v.passable, v.k, v.kw, v.clean, 1, 1, 0, False, contact, tabu, gr - v.top,
+                gc - v.left, mode, alpha, beta, self.diagonal_cost, -1,
+            )  # fmt: skip
+            if outcome != K.MOVE:
+                return np.empty(0, dtype=np.int64)
+            r, c = r + int(K.DR[i]), c + int(K.DC[i])
+            path.append(r * W + c)
+            visited.add(r * W + c)
+        return np.array(path, dtype=np.int64)
+
+    # -- the whole-map fields, on demand -----------------------------------------------------
+
+    def whole(self) -> Wave:
+        """The whole-map wave of the same goal and grid (computed on first use, then kept)."""
+        if self._whole is None:
+            self._whole = goal_wave(
+                self.analysis, self.goal, diagonal_cost=self.diagonal_cost, narrow=self.narrow
+            )
+        return self._whole
+
+    @property
+    def k(self) -> npt.NDArray[np.float64]:
+        return self.whole().k
+
+    @property
+    def kw(self) -> npt.NDArray[np.float64]:
+        return self.whole().kw
+
+    @property
+    def passable(self) -> npt.NDArray[np.uint8]:
+        return self.whole().passable
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.analysis.shape
+
+    @property
+    def nbytes(self) -> int:
+        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search)}
+        whole = 0 if self._whole is None else self._whole.nbytes
+        return sum(searches.values()) + whole
+
+
+def resumable_wave(
+    analysis: Analysis, goal: Any, *, diagonal_cost: float = SQRT2, narrow: bool = False
+) -> ResumableWave:
+    """A goal wave over ``analysis``'s sealed grid (or, with ``narrow``, the unsealed one) that
+    settles cells on demand (:meth:`ResumableWave.ensure`, :meth:`ResumableWave.settle`).
+
+    >>> from planner import analyse
+    >>> w = resumable_wave(analyse([[0, 0], [0, 0]], clean_weight=0), [0, 0])
+    >>> w.settle([[1, 1]]); round(w.k_at(1, 1), 3)
+    1.414
+    """
+    r, c = as_cell(goal, analysis.shape, name="goal")
+    if analysis.state[r, c] == K.OBSTACLE:
+        raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
+    low, high = PARAMETER_RANGES["diagonal_cost"]
+    if not low <= diagonal_cost <= high:
+        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
+        raise InvalidInput(msg, field="params.diagonal_cost")
+    return ResumableWave(analysis, (r, c), diagonal_cost=float(diagonal_cost), narrow=narrow)
