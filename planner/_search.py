@@ -27,6 +27,7 @@ TILE_CELLS = TILE * TILE
 DONE = 0
 EXHAUSTED = 1  # the open list is empty: every cell not settled is unreachable
 NEED_SPACE = 2
+OVER_BUDGET = 3  # ``limit`` cells are settled: the caller may prefer the whole-map wave
 
 UNSEEN = 0
 OPEN = 1
@@ -46,7 +47,7 @@ def _passable_at(state: np.ndarray, sealed: bool, goal: int, r: int, c: int) -> 
     if r * W + c == goal:
         return True
     s = state[r, c]
-    return s == FREE if sealed else s != OBSTACLE
+    return bool(s == FREE) if sealed else bool(s != OBSTACLE)
 
 
 @njit(cache=True, nogil=True)
@@ -62,43 +63,58 @@ def _octile(r: int, c: int, tr: int, tc: int, diagonal_cost: float, slack: float
 
 
 @njit(cache=True, nogil=True)
-def _heap_push(keys: np.ndarray, cells: np.ndarray, size: int, key: float, cell: int) -> int:
+def _before(keys: np.ndarray, a: int, f: float, g: float) -> bool:
+    """Whether heap entry ``a`` comes before an entry (f, g): the lower f first, then, among
+    equal f, the higher g (deeper cells first: fewer expansions where many paths tie)."""
+    return bool(keys[a, 0] < f or (keys[a, 0] == f and keys[a, 1] >= g))
+
+
+@njit(cache=True, nogil=True)
+def _heap_push(
+    keys: np.ndarray, cells: np.ndarray, size: int, f: float, g: float, cell: int
+) -> int:
+    """Add ``cell`` with key ``f`` and cost ``g`` to the binary heap (``keys`` rows: f, g)."""
     j = size
     while j > 0:
         parent = (j - 1) >> 1
-        if keys[parent] <= key:
+        if _before(keys, parent, f, g):
             break
-        keys[j] = keys[parent]
+        keys[j, 0] = keys[parent, 0]
+        keys[j, 1] = keys[parent, 1]
         cells[j] = cells[parent]
         j = parent
-    keys[j] = key
+    keys[j, 0] = f
+    keys[j, 1] = g
     cells[j] = cell
     return size + 1
 
 
 @njit(cache=True, nogil=True)
 def _heap_sift_down(keys: np.ndarray, cells: np.ndarray, j: int, size: int) -> None:
-    key = keys[j]
+    f = keys[j, 0]
+    g = keys[j, 1]
     cell = cells[j]
     while True:
         child = 2 * j + 1
         if child >= size:
             break
-        if child + 1 < size and keys[child + 1] < keys[child]:
+        if child + 1 < size and not _before(keys, child, keys[child + 1, 0], keys[child + 1, 1]):
             child += 1
-        if keys[child] >= key:
+        if not (keys[child, 0] < f or (keys[child, 0] == f and keys[child, 1] > g)):
             break
-        keys[j] = keys[child]
+        keys[j, 0] = keys[child, 0]
+        keys[j, 1] = keys[child, 1]
         cells[j] = cells[child]
         j = child
-    keys[j] = key
+    keys[j, 0] = f
+    keys[j, 1] = g
     cells[j] = cell
 
 
 @njit(cache=True, nogil=True)
 def _slot(tile_of: np.ndarray, tiles_w: int, r: int, c: int) -> int:
     """The tile holding (r, c), or -1 when none is allocated."""
-    return tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)]
+    return int(tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)])
 
 
 @njit(cache=True, nogil=True)
@@ -124,7 +140,7 @@ def _start(
     g[0, o] = 0.0
     status[0, o] = OPEN
     meta[TILES_USED] = 1
-    meta[HEAP_SIZE] = _heap_push(keys, cells, 0, 0.0, goal)
+    meta[HEAP_SIZE] = _heap_push(keys, cells, 0, 0.0, 0.0, goal)
     meta[SETTLED_COUNT] = 0
 
 
@@ -146,16 +162,18 @@ def _resume(
     tr: int,
     tc: int,
     slack: float,
+    limit: int,
 ) -> int:
     """Expand the best open cell until every cell of ``targets`` (flat indices, each on the
-    wave's grid) is settled (DONE), the open list is empty (EXHAUSTED), or the pools are nearly
-    full (NEED_SPACE). The open list must be keyed for the heuristic ``(tr, tc, slack)``.
+    wave's grid) is settled (DONE), the open list is empty (EXHAUSTED), the pools are nearly
+    full (NEED_SPACE) or ``limit`` cells are settled (OVER_BUDGET). The open list is keyed for
+    the heuristic ``(tr, tc, slack)`` (any consistent heuristic keeps settled values exact).
 
     A move X -> Y costs 1 straight or ``diagonal_cost`` diagonally, plus ``clean(Y)`` with
     ``use_clean``; the search runs from the goal, so settling Y relaxes every X with a legal move
     X -> Y at ``g(Y) (+ clean(Y)) + step``.
     """
-    H, W = state.shape
+    W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
     heap_cap = keys.shape[0]
     tile_cap = g.shape[0]
@@ -176,13 +194,17 @@ def _resume(
         if size == 0:
             outcome = EXHAUSTED
             break
+        if settled >= limit:
+            outcome = OVER_BUDGET
+            break
         if size + 8 > heap_cap or (used + 4 > tile_cap and tile_cap < tile_of.shape[0]):
             outcome = NEED_SPACE
             break
         y = cells[0]
         size -= 1
         if size > 0:
-            keys[0] = keys[size]
+            keys[0, 0] = keys[size, 0]
+            keys[0, 1] = keys[size, 1]
             cells[0] = cells[size]
             _heap_sift_down(keys, cells, 0, size)
         yr = y // W
@@ -228,7 +250,7 @@ def _resume(
                 g[xs, xo] = nd
                 status[xs, xo] = OPEN
                 h = _octile(xr, xc, tr, tc, diagonal_cost, slack)
-                size = _heap_push(keys, cells, size, nd + h, xr * W + xc)
+                size = _heap_push(keys, cells, size, nd + h, nd, xr * W + xc)
     meta[HEAP_SIZE] = size
     meta[TILES_USED] = used
     meta[SETTLED_COUNT] = settled
@@ -260,7 +282,8 @@ def _rekey(
         o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
         if status[s, o] != OPEN:
             continue
-        keys[n] = g[s, o] + _octile(r, c, tr, tc, diagonal_cost, slack)
+        keys[n, 0] = g[s, o] + _octile(r, c, tr, tc, diagonal_cost, slack)
+        keys[n, 1] = g[s, o]
         cells[n] = x
         n += 1
     for j in range(n // 2 - 1, -1, -1):

@@ -30,6 +30,12 @@ __all__ = ["ResumableWave", "resumable_wave"]
 # older aim costs only some extra expansions, and re-keying costs a pass over the open list.
 _REAIM = 8.0
 
+# A search that has settled 1/64 of the map (at least 4096 cells) hands over to the whole-map
+# wave: per cell, A* with its binary heap costs about five times the whole wave's bucket queue
+# (benchmarks/RESULTS.md), so a far goal costs at most ~20 % more than the whole wave would.
+_BUDGET_SHARE = 64
+_BUDGET_LEAST = 4096
+
 
 class _Search:
     """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory."""
@@ -56,13 +62,15 @@ class _Search:
         cap = min(16, tiles)
         self.g = np.empty((cap, S.TILE_CELLS), dtype=np.float64)
         self.status = np.empty((cap, S.TILE_CELLS), dtype=np.uint8)
-        self.keys = np.empty(1024, dtype=np.float64)
+        self.keys = np.empty((1024, 2), dtype=np.float64)  # rows: f, g
         self.cells = np.empty(1024, dtype=np.int64)
         self.meta = np.zeros(3, dtype=np.int64)
         self.exhausted = False
         self.aim = divmod(goal, W)
         self.slack = 0.0
-        S._start(self.state, goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
+        S._start(
+            self.state, goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta
+        )
 
     @property
     def nbytes(self) -> int:
@@ -75,11 +83,14 @@ class _Search:
         )
         return out
 
-    def settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
+    def settle(
+        self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float, limit: int
+    ) -> bool:
         """Resume until every cell of ``targets`` (on the grid, within ``slack`` of ``aim``) is
-        settled or the open list is empty."""
+        settled or the open list is empty; False, the search left where it was, when that would
+        settle more than ``limit`` cells in all."""
         if self.exhausted or np.all(np.isfinite(self.values(targets))):
-            return
+            return True
         d = self.aim[0] - aim[0], self.aim[1] - aim[1]
         if max(abs(d[0]), abs(d[1])) > _REAIM:
             self.aim, self.slack = aim, slack
@@ -92,13 +103,21 @@ class _Search:
             outcome = S._resume(
                 self.state, self.clean, self.sealed, self.use_clean, self.diagonal_cost,
                 self.goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta,
-                targets, tr, tc, self.slack,
+                targets, tr, tc, self.slack, limit,
             )  # fmt: skip
             if outcome == S.NEED_SPACE:
                 self._grow()
                 continue
             self.exhausted = outcome == S.EXHAUSTED
-            return
+            return outcome != S.OVER_BUDGET
+
+    def release(self) -> None:
+        """Drop the memory: the whole-map wave answers from now on."""
+        self.tile_of = np.empty(0, dtype=np.int32)
+        self.g = np.empty((0, S.TILE_CELLS), dtype=np.float64)
+        self.status = np.empty((0, S.TILE_CELLS), dtype=np.uint8)
+        self.keys = np.empty((0, 2), dtype=np.float64)
+        self.cells = np.empty(0, dtype=np.int64)
 
     def _grow(self) -> None:
         if self.meta[S.HEAP_SIZE] + 8 > self.keys.shape[0]:
@@ -151,6 +170,9 @@ class ResumableWave(Wave):
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
+        H = analysis.shape[0]
+        self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
+        """Cells one search may settle before the wave turns into the whole-map one."""
         self.elapsed_ms = (time.perf_counter() - t0) * 1e3
 
     # -- the searches ------------------------------------------------------------------------
@@ -171,9 +193,7 @@ class ResumableWave(Wave):
         if on_grid:
             flat = np.array(on_grid, dtype=np.int64)
             r0, c0 = int(arr[0, 0]), int(arr[0, 1])
-            slack = max(
-                S._octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist()
-            )
+            slack = max(S._octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist())
             self._settle(flat, (r0, c0), slack)
 
     def ensure(self, r: int, c: int) -> None:
@@ -184,15 +204,27 @@ class ResumableWave(Wave):
             self._settle(targets, (r, c), self.diagonal_cost)
 
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
+        if self._whole is not None:
+            return
         t0 = time.perf_counter()
-        self._k_search.settle(targets, aim, slack)
-        if self._kw_search is not self._k_search:
-            self._kw_search.settle(targets, aim, slack)
+        within = self._k_search.settle(targets, aim, slack, self.budget)
+        if within and self._kw_search is not self._k_search:
+            within = self._kw_search.settle(targets, aim, slack, self.budget)
         self.elapsed_ms += (time.perf_counter() - t0) * 1e3
+        if not within:
+            self.whole()
+
+    @property
+    def resumable(self) -> bool:
+        """Whether the wave is still the searches (False once the whole-map wave took over)."""
+        return self._whole is None
 
     @property
     def settled_cells(self) -> int:
-        """Cells settled so far by the ``kw`` search (the wider one)."""
+        """Cells settled so far by the ``kw`` search (the wider one); the whole map's cells
+        once the whole-map wave took over."""
+        if self._whole is not None:
+            return self.analysis.shape[0] * self.analysis.shape[1]
         return int(self._kw_search.meta[S.SETTLED_COUNT])
 
     # -- what decisions read -----------------------------------------------------------------
@@ -200,6 +232,8 @@ class ResumableWave(Wave):
     def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
         """The 3 x 3 window around (r, c), settled first (``clean`` is the analysis's own)."""
         self.ensure(r, c)
+        if self._whole is not None:
+            return self._whole.view(r, c, clean)
         k, kw = self._k_search, self._kw_search
         passable, kv, kwv, cl = S._window(
             self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal, r, c,
@@ -212,10 +246,14 @@ class ResumableWave(Wave):
         flat = np.array([r * W + c], dtype=np.int64)
         if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
             self._settle(flat, (r, c), 0.0)
+        if self._whole is not None:
+            return self._whole.k_at(r, c)
         return float(self._k_search.values(flat)[0])
 
     def k_along(self, path: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         """``k`` of each cell of ``path`` (``(n, 2)`` cells), settled first."""
+        if self._whole is not None:
+            return self._whole.k_along(path)
         W = self.analysis.shape[1]
         flat = np.ascontiguousarray(path[:, 0] * W + path[:, 1], dtype=np.int64)
         values = self._k_search.values(flat)
@@ -239,6 +277,8 @@ class ResumableWave(Wave):
             if len(path) > max_steps:
                 return np.empty(0, dtype=np.int64)
             v = self.view(r, c, clean)
+            if self._whole is not None:
+                return self._walk_whole(path, visited, mode, alpha, beta, max_steps)
             tabu = 0
             if mode == K.MODE_PAPER:
                 for i in range(8):
@@ -255,14 +295,74 @@ class ResumableWave(Wave):
             visited.add(r * W + c)
         return np.array(path, dtype=np.int64)
 
+    def _walk_whole(
+        self,
+        path: list[int],
+        visited: set[int],
+        mode: int,
+        alpha: float,
+        beta: float,
+        max_steps: int,
+    ) -> npt.NDArray[np.int64]:
+        """The walk's rest over the whole-map wave; the paper decision's tabu list carries
+        over (its cells stay visited)."""
+        w = self.whole()
+        if mode == K.MODE_PAPER and len(visited) > 1:
+            # The kernel keeps its own tabu list from the start only: continue step by step.
+            return self._walk_slow(path, visited, mode, alpha, beta, max_steps)
+        rest = K._walk(
+            w.passable, w.k, w.kw, self.analysis.clean, path[-1], self._flat_goal, mode, alpha,
+            beta, self.diagonal_cost, max_steps - len(path) + 1,
+        )  # fmt: skip
+        if rest.size == 0:
+            return rest
+        return np.concatenate([np.array(path[:-1], dtype=np.int64), rest])
+
+    def _walk_slow(
+        self,
+        path: list[int],
+        visited: set[int],
+        mode: int,
+        alpha: float,
+        beta: float,
+        max_steps: int,
+    ) -> npt.NDArray[np.int64]:
+        w = self.whole()
+        W = self.analysis.shape[1]
+        gr, gc = self.goal
+        contact = np.zeros(8, dtype=np.int64)
+        r, c = divmod(path[-1], W)
+        while (r, c) != self.goal:
+            if len(path) > max_steps:
+                return np.empty(0, dtype=np.int64)
+            tabu = 0
+            for i in range(8):
+                if (r + int(K.DR[i])) * W + c + int(K.DC[i]) in visited:
+                    tabu |= 1 << i
+            i, outcome = K._decide_core(
+                w.passable, w.k, w.kw, self.analysis.clean, r, c, 0, False, contact, tabu, gr,
+                gc, mode, alpha, beta, self.diagonal_cost, -1,
+            )  # fmt: skip
+            if outcome != K.MOVE:
+                return np.empty(0, dtype=np.int64)
+            r, c = r + int(K.DR[i]), c + int(K.DC[i])
+            path.append(r * W + c)
+            visited.add(r * W + c)
+        return np.array(path, dtype=np.int64)
+
     # -- the whole-map fields, on demand -----------------------------------------------------
 
     def whole(self) -> Wave:
-        """The whole-map wave of the same goal and grid (computed on first use, then kept)."""
+        """The whole-map wave of the same goal and grid (computed on first use, then kept in
+        place of the searches, whose memory it frees)."""
         if self._whole is None:
+            t0 = time.perf_counter()
             self._whole = goal_wave(
                 self.analysis, self.goal, diagonal_cost=self.diagonal_cost, narrow=self.narrow
             )
+            self.elapsed_ms += (time.perf_counter() - t0) * 1e3
+            self._k_search.release()
+            self._kw_search.release()
         return self._whole
 
     @property

@@ -322,7 +322,7 @@ def _local(target: int, width: int, v: WaveView) -> int:
     """A flat map index as the flat index into the view's window (one past it when outside)."""
     if target < 0:
         return target
-    h, w = v.passable.shape
+    h, w = int(v.passable.shape[0]), int(v.passable.shape[1])
     r, c = target // width - v.top, target % width - v.left
     return r * w + c if 0 <= r < h and 0 <= c < w else h * w
 
