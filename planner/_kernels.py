@@ -270,9 +270,7 @@ def _wave(
     nxt = np.empty(n, dtype=np.int32)
     prv = np.empty(n, dtype=np.int32)
     dist = np.full(n, np.inf)
-    state = np.zeros(n, dtype=np.uint8)  # 0 unseen, 1 queued, 2 settled
     dist[goal] = 0.0
-    state[goal] = 1
     head[0] = goal
     nxt[goal] = -1
     prv[goal] = -1
@@ -287,18 +285,16 @@ def _wave(
             if q != -1:
                 prv[q] = -1
             queued -= 1
-            state[y] = 2
             base = dist[y] + pen[y] if use_clean else dist[y]
             m = moves[y]
             for i in range(8):
                 if not (m >> i) & 1:
                     continue
                 x = y + offset[i]
-                if state[x] == 2:
-                    continue
                 nd = base + step[i]
+                # A settled cell's cost is below every cost offered to it later: no state needed.
                 if nd < dist[x]:
-                    if state[x] == 1:  # unlink from its old bucket
+                    if dist[x] < np.inf:  # queued: unlink from its old bucket
                         p = prv[x]
                         q = nxt[x]
                         if p == -1:
@@ -308,7 +304,6 @@ def _wave(
                         if q != -1:
                             prv[q] = p
                     else:
-                        state[x] = 1
                         queued += 1
                     dist[x] = nd
                     t = int(nd) & wrap

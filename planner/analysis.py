@@ -7,6 +7,7 @@ and wave parameters) computes the cost-to-go fields ``k`` and ``kw``.
 
 from __future__ import annotations
 
+import threading
 import time
 from functools import cached_property
 from typing import Any, NamedTuple
@@ -21,6 +22,9 @@ from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, SQRT2
 
 __all__ = ["Analysis", "Wave", "WaveView", "analyse", "goal_wave"]
+
+# From this many cells on, a goal wave computes ``k`` and ``kw`` in two threads at once.
+_THREADED_CELLS = 1 << 16
 
 
 class Analysis:
@@ -262,11 +266,20 @@ def goal_wave(
     passable[r, c] = 1
     flat_goal = r * analysis.shape[1] + c
     masks = K._move_masks(passable)
-    k = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, False)
-    if analysis.clean_weight > 0:
-        kw = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, True)
+    args = (masks, flat_goal, float(diagonal_cost), analysis.clean)
+    if analysis.clean_weight == 0:
+        k = kw = K._wave(*args, False)
+    elif passable.size < _THREADED_CELLS:
+        k = K._wave(*args, False)
+        kw = K._wave(*args, True)
     else:
-        kw = k
+        # The kernels release the GIL: the two fields run side by side, sharing the masks.
+        fields: dict[bool, npt.NDArray[np.float64]] = {}
+        worker = threading.Thread(target=lambda: fields.update({False: K._wave(*args, False)}))
+        worker.start()
+        kw = K._wave(*args, True)
+        worker.join()
+        k = fields[False]
     elapsed = (time.perf_counter() - t0) * 1e3
     return Wave(
         (r, c),
