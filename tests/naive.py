@@ -114,3 +114,9 @@ def reachable(passable: np.ndarray, start: tuple[int, int], goal: tuple[int, int
                 seen.add((r + dr, c + dc))
                 queue.append((r + dr, c + dc))
     return False
+
+
+def neighbourhood(passable: np.ndarray, r: int, c: int) -> list[tuple[int, int]]:
+    """The cells a decision at (r, c) reads: (r, c) when passable, and its legal neighbours."""
+    cells = [(r, c)] if passable[r, c] else []
+    return cells + [(r + dr, c + dc) for dr, dc in MOVES if legal(passable, r, c, dr, dc)]
