@@ -137,9 +137,9 @@ def analyse(
         msg = f"clean_weight must be >= 0; got {quote(clean_weight)}"
         raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
-    state, gates, tunnels = K._classify(g)
+    state, gates, tunnels = K._classify_rows(g)
     if clean_weight > 0:
-        clean = K._clean(state, bool(seal_tunnels), float(clean_weight), int(clean_radius))
+        clean = K._clean_rows(state, bool(seal_tunnels), float(clean_weight), int(clean_radius))
     else:
         clean = np.zeros(g.shape, dtype=np.float32)
     elapsed = (time.perf_counter() - t0) * 1e3
@@ -265,7 +265,7 @@ def goal_wave(
     passable = analysis.passable(narrow=narrow)
     passable[r, c] = 1
     flat_goal = r * analysis.shape[1] + c
-    masks = K._move_masks(passable)
+    masks = K._move_masks_rows(passable)
     args = (masks, flat_goal, float(diagonal_cost), analysis.clean)
     if analysis.clean_weight == 0:
         k = kw = K._wave(*args, False)

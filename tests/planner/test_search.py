@@ -116,7 +116,8 @@ def test_plans_match_the_whole_map_wave(case: Case, preset: str) -> None:
         # Either way the path costs the optimum: kw at the start.
         clean = lazy.analysis.clean
         steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-        cost = np.where(steps == 2, lazy.params.diagonal_cost, 1.0) + clean[path[1:, 0], path[1:, 1]]
+        cost = np.where(steps == 2, lazy.params.diagonal_cost, 1.0)
+        cost += clean[path[1:, 0], path[1:, 1]]
         here = K._cost_here(
             whole.wave.passable, whole.wave.kw, clean, start[0], start[1],
             lazy.params.diagonal_cost, True,
@@ -164,7 +165,8 @@ def test_a_near_goal_settles_few_cells_on_a_large_map() -> None:
     a = planner.analyse(grid)
     p = planner.plan(None, start, goal, analysis=a)
     assert len(p.path) > 30
-    assert isinstance(p.wave, ResumableWave) and p.wave.resumable
+    assert isinstance(p.wave, ResumableWave)
+    assert p.wave.resumable
     assert p.wave.settled_cells < 20_000
     assert p.wave.nbytes < 0.5 * grid.size  # bytes: the whole-map wave holds 17 a cell
     session = planner.Session(p)
