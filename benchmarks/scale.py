@@ -48,7 +48,7 @@ def alternate(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, f
 def near_cells(
     analysis: planner.Analysis, count: int, distance: int = 50
 ) -> list[tuple[tuple[int, int], ...]]:
-    """(start, goal) pairs about ``distance`` apart (the larger of the row and column offsets),
+    """(start, goal) pairs ``distance`` apart (the larger of the row and column offsets),
     in the map's middle, each goal reachable from its start (tried once, untimed)."""
     rng = np.random.default_rng(3)
     H = analysis.shape[0]

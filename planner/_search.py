@@ -120,7 +120,7 @@ def _slot(tile_of: np.ndarray, tiles_w: int, r: int, c: int) -> int:
 @njit(cache=True, nogil=True)
 def _start(
     state: np.ndarray,
-    goal: int,
+    root: int,
     tile_of: np.ndarray,
     g: np.ndarray,
     status: np.ndarray,
@@ -128,11 +128,12 @@ def _start(
     cells: np.ndarray,
     meta: np.ndarray,
 ) -> None:
-    """Open the search: the goal's tile allocated, the goal queued at cost 0."""
+    """Open the search: the root's tile allocated, the root (the goal, or for a probe the
+    robot's cell) queued at cost 0."""
     W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
-    r = goal // W
-    c = goal - r * W
+    r = root // W
+    c = root - r * W
     tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)] = 0
     g[0, :] = np.inf
     status[0, :] = UNSEEN
@@ -140,7 +141,7 @@ def _start(
     g[0, o] = 0.0
     status[0, o] = OPEN
     meta[TILES_USED] = 1
-    meta[HEAP_SIZE] = _heap_push(keys, cells, 0, 0.0, 0.0, goal)
+    meta[HEAP_SIZE] = _heap_push(keys, cells, 0, 0.0, 0.0, root)
     meta[SETTLED_COUNT] = 0
 
 

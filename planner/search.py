@@ -36,6 +36,10 @@ _REAIM = 8.0
 _BUDGET_SHARE = 64
 _BUDGET_LEAST = 4096
 
+# A robot on a cell the goal's search has not reached yet may be cut off from the goal (a
+# pocket): a search from the robot of at most this many cells finds most pockets at once.
+_PROBE = 4096
+
 
 class _Search:
     """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory."""
@@ -48,7 +52,10 @@ class _Search:
         sealed: bool,
         use_clean: bool,
         diagonal_cost: float,
+        root: int | None = None,
     ) -> None:
+        """A search over the cells on the grid and ``goal`` (always passable), from ``root``
+        (default: the goal)."""
         H, W = analysis.shape
         self.state = analysis.state
         self.clean = analysis.clean
@@ -69,13 +76,22 @@ class _Search:
         self.aim = divmod(goal, W)
         self.slack = 0.0
         S._start(
-            self.state, goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta
-        )
+            self.state, goal if root is None else root, self.tile_of, self.g, self.status,
+            self.keys, self.cells, self.meta,
+        )  # fmt: skip
 
     @property
     def nbytes(self) -> int:
         arrays = (self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
         return sum(int(a.nbytes) for a in arrays)
+
+    def seen(self, cell: int) -> bool:
+        """Whether the search has reached ``cell`` (a flat index): queued or settled."""
+        r, c = divmod(cell, self.width)
+        tiles_w = (self.width + S.TILE_MASK) >> S.SHIFT
+        slot = int(self.tile_of[(r >> S.SHIFT) * tiles_w + (c >> S.SHIFT)])
+        offset = ((r & S.TILE_MASK) << S.SHIFT) | (c & S.TILE_MASK)
+        return slot >= 0 and int(self.status[slot, offset]) != S.UNSEEN
 
     def values(self, targets: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         out: npt.NDArray[np.float64] = S._settled_values(
@@ -198,10 +214,23 @@ class ResumableWave(Wave):
 
     def ensure(self, r: int, c: int) -> None:
         """Settle what a decision at (r, c) reads: the cell and its statically legal
-        neighbours."""
+        neighbours (or find them cut off from the goal: their values are then +inf)."""
         targets = S._neighbourhood(self.analysis.state, self._sealed, self._flat_goal, r, c)
-        if targets.size:
-            self._settle(targets, (r, c), self.diagonal_cost)
+        if targets.size == 0 or self._whole is not None:
+            return
+        if not self._kw_search.seen(int(targets[0])) and self._cut_off(r, c):
+            return
+        self._settle(targets, (r, c), self.diagonal_cost)
+
+    def _cut_off(self, r: int, c: int) -> bool:
+        """Whether a small search from (r, c) runs out of cells before reaching the goal: then
+        the goal's search need not run through its whole region to prove it."""
+        probe = _Search(
+            self.analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
+            diagonal_cost=self.diagonal_cost, root=r * self.analysis.shape[1] + c,
+        )  # fmt: skip
+        probe.settle(np.array([self._flat_goal], dtype=np.int64), self.goal, 0.0, _PROBE)
+        return probe.exhausted
 
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
         if self._whole is not None:
