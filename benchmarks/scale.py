@@ -84,27 +84,25 @@ def bench_plans(size: int = 4096, near_repeats: int = 20, far_repeats: int = 3) 
     run(near[0])
     near_t, far_t, near_mem, far_mem, settled = [], [], [], [], []
     reached = 0
-    for i in range(max(near_repeats, far_repeats)):
+    for i in range(max(near_repeats, far_repeats)):  # timed, near and far alternated
         if i < near_repeats:
-            gc.collect()
-            tracemalloc.start()
             t, p = run(near[i])
-            held = tracemalloc.get_traced_memory()[0]
-            tracemalloc.stop()
             near_t.append(t)
-            near_mem.append(held / grid.size)
             settled.append(p.wave.settled_cells if hasattr(p.wave, "settled_cells") else grid.size)
-            reached += len(p.path) > 1
+            reached += p.path[-1].tolist() == list(near[i][1])
             del p
         if i < far_repeats:
-            gc.collect()
-            tracemalloc.start()
             t, p = run(far)
-            held = tracemalloc.get_traced_memory()[0]
-            tracemalloc.stop()
             far_t.append(t)
-            far_mem.append(held / grid.size)
             del p
+    for pair in [*near[:5], far]:  # memory, untimed: tracing slows every allocation
+        gc.collect()
+        tracemalloc.start()
+        _, p = run(pair)
+        held = tracemalloc.get_traced_memory()[0] / grid.size
+        tracemalloc.stop()
+        (far_mem if pair is far else near_mem).append(held)
+        del p
     whole = planner.plan(None, far[0], far[1], analysis=analysis, whole=True)
     near_ms, far_ms = statistics.median(near_t) * 1e3, statistics.median(far_t) * 1e3
     return {
