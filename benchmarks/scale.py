@@ -82,7 +82,11 @@ def bench_plans(size: int = 4096, near_repeats: int = 20, far_repeats: int = 3) 
         return time.perf_counter() - t0, p
 
     run(near[0])
-    near_t, far_t, near_mem, far_mem, settled = [], [], [], [], []
+    near_t: list[float] = []
+    far_t: list[float] = []
+    near_mem: list[float] = []
+    far_mem: list[float] = []
+    settled: list[float] = []
     reached = 0
     for i in range(max(near_repeats, far_repeats)):  # timed, near and far alternated
         if i < near_repeats:
