@@ -15,7 +15,8 @@ them and calls again, so every kernel is resumable at any return.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.typed import Dict
 
 from planner._kernels import DC, DR, FREE, OBSTACLE
 
@@ -373,3 +374,110 @@ def _window(
             if s >= 0 and status_kw[s, o] == SETTLED:
                 kw[dr, dc] = g_kw[s, o]
     return passable, k, kw, cl
+
+
+@njit(cache=True, nogil=True)
+def _detour(
+    state: np.ndarray,
+    clean: np.ndarray,
+    sealed: bool,
+    goal: int,
+    tile_of: np.ndarray,
+    g_kw: np.ndarray,
+    status_kw: np.ndarray,
+    exhausted: bool,
+    start: int,
+    diagonal_cost: float,
+    obstacles: np.ndarray,
+    limit: int,
+) -> tuple[np.ndarray, bool]:
+    """The replan of ALGORITHM.md §4 over a resumable wave: A* from ``start`` to ``goal`` with
+    the dynamic ``obstacles`` blocked, at the wide costs (move + clean of the cell entered).
+
+    The heuristic is ``kw`` where the goal's search has settled it and the octile distance to
+    the goal elsewhere (cells the search proved unreachable are skipped): admissible but not
+    consistent across the two, so a cell is expanded again when it is reached more cheaply, and
+    the first time the goal is popped its cost is optimal. Memory: hash maps over the cells
+    reached. Returns the cells after ``start`` up to the goal (flat indices), empty when the
+    obstacles cut the robot off, and whether it gave up after ``limit`` expansions instead.
+    """
+    H, W = state.shape
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    gr = goal // W
+    gc = goal - gr * W
+    blocked = Dict.empty(key_type=types.int64, value_type=types.boolean)
+    for j in range(obstacles.shape[0]):
+        r = obstacles[j, 0]
+        c = obstacles[j, 1]
+        if 0 <= r < H and 0 <= c < W:
+            blocked[r * W + c] = True
+    g = Dict.empty(key_type=types.int64, value_type=types.float64)
+    parent = Dict.empty(key_type=types.int64, value_type=types.int64)
+    keys = np.empty((1024, 2), dtype=np.float64)
+    cells = np.empty(1024, dtype=np.int64)
+    g[start] = 0.0
+    size = _heap_push(keys, cells, 0, 0.0, 0.0, start)
+    ok = np.empty(8, dtype=np.bool_)
+    expansions = 0
+    found = False
+    while size > 0:
+        x = cells[0]
+        gx = keys[0, 1]
+        size -= 1
+        if size > 0:
+            keys[0, 0] = keys[size, 0]
+            keys[0, 1] = keys[size, 1]
+            cells[0] = cells[size]
+            _heap_sift_down(keys, cells, 0, size)
+        if gx > g[x]:
+            continue  # stale: reached more cheaply since
+        if x == goal:
+            found = True
+            break
+        expansions += 1
+        if expansions > limit:
+            break
+        xr = x // W
+        xc = x - xr * W
+        for i in range(8):
+            y = (xr + DR[i]) * W + xc + DC[i]
+            ok[i] = _passable_at(state, sealed, goal, xr + DR[i], xc + DC[i]) and y not in blocked
+        for i in range(8):
+            if not ok[i] or (i & 1 and not (ok[i - 1] and ok[(i + 1) & 7])):
+                continue
+            yr = xr + DR[i]
+            yc = xc + DC[i]
+            y = yr * W + yc
+            s = _slot(tile_of, tiles_w, yr, yc)
+            o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+            if s >= 0 and status_kw[s, o] == SETTLED:
+                h = g_kw[s, o]
+            elif exhausted:
+                continue  # the goal's search proved it unreachable
+            else:
+                h = _octile(yr, yc, gr, gc, diagonal_cost, 0.0)
+            ng = gx + (diagonal_cost if i & 1 else 1.0) + clean[yr, yc]
+            if ng < g.get(y, np.inf):
+                g[y] = ng
+                parent[y] = x
+                if size + 1 > cells.shape[0]:
+                    grown_keys = np.empty((2 * cells.shape[0], 2), dtype=np.float64)
+                    grown_keys[:size] = keys[:size]
+                    keys = grown_keys
+                    grown_cells = np.empty(2 * cells.shape[0], dtype=np.int64)
+                    grown_cells[:size] = cells[:size]
+                    cells = grown_cells
+                size = _heap_push(keys, cells, size, ng + h, ng, y)
+    if not found:
+        return np.empty(0, dtype=np.int64), expansions > limit
+    count = 0
+    x = goal
+    while x != start:
+        count += 1
+        x = parent[x]
+    out = np.empty(count, dtype=np.int64)
+    x = goal
+    for j in range(count - 1, -1, -1):
+        out[j] = x
+        x = parent[x]
+    return out, False

@@ -218,6 +218,18 @@ class Wave:
         """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields."""
         return WaveView(self.passable, self.k, self.kw, clean, 0, 0)
 
+    def detour(
+        self, start: int, obstacles: npt.NDArray[np.int64], clean: npt.NDArray[np.float32]
+    ) -> npt.NDArray[np.int64]:
+        """The replan of ALGORITHM.md §4 from ``start`` (a flat index) with the dynamic
+        ``obstacles`` blocked: the cells after ``start`` up to the goal, empty when cut off."""
+        W = self.shape[1]
+        out: npt.NDArray[np.int64] = K._detour(
+            self.passable, self.kw, clean, start, self.goal[0] * W + self.goal[1],
+            self.diagonal_cost, obstacles,
+        )  # fmt: skip
+        return out
+
     def k_at(self, r: int, c: int) -> float:
         """``k`` at (r, c)."""
         return float(self.k[r, c])

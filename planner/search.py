@@ -270,6 +270,23 @@ class ResumableWave(Wave):
         )  # fmt: skip
         return WaveView(passable, kv, kwv, cl, r - 1, c - 1)
 
+    def detour(
+        self, start: int, obstacles: npt.NDArray[np.int64], clean: npt.NDArray[np.float32]
+    ) -> npt.NDArray[np.int64]:
+        """The replan over what the searches have settled (see ``_search._detour``); past the
+        budget of expansions, over the whole-map wave."""
+        if self._whole is None:
+            kw = self._kw_search
+            out: npt.NDArray[np.int64]
+            out, gave_up = S._detour(
+                self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal,
+                kw.tile_of, kw.g, kw.status, kw.exhausted, start, self.diagonal_cost,
+                obstacles, self.budget,
+            )  # fmt: skip
+            if not gave_up:
+                return out
+        return self.whole().detour(start, obstacles, clean)
+
     def k_at(self, r: int, c: int) -> float:
         W = self.analysis.shape[1]
         flat = np.array([r * W + c], dtype=np.int64)

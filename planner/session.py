@@ -244,10 +244,7 @@ class Session:
             return self._answer(seq, previous, "WAIT")
         status: Status = "moving"
         if outcome == K.WAIT and self.may_replan:
-            detour = K._detour(
-                wave.passable, wave.kw, plan.analysis.clean, r * self._width + c,
-                plan.goal[0] * self._width + plan.goal[1], p.diagonal_cost, obstacles,
-            )  # fmt: skip
+            detour = wave.detour(r * self._width + c, obstacles, plan.analysis.clean)
             if detour.size:
                 nxt = int(detour[0])
                 i = MOVES.index(_move_name(previous, divmod(nxt, self._width)))

@@ -4,6 +4,8 @@ obstacles included), the same paths wherever no tie allowed another."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -125,6 +127,16 @@ def test_plans_match_the_whole_map_wave(case: Case, preset: str) -> None:
         assert cost.sum() == pytest.approx(here, rel=1e-9, abs=1e-9)
 
 
+def _cost(plan: planner.Plan, cells: list[Any]) -> float:
+    """The wide cost of a chain of cells: each move's length plus the clean of the cell entered
+    (cells as ``[row, col]`` or flat indices)."""
+    W = plan.analysis.shape[1]
+    rc = np.array([divmod(x, W) if isinstance(x, int) else x for x in cells])
+    steps = np.abs(np.diff(rc, axis=0)).sum(axis=1)
+    moves = np.where(steps == 2, plan.params.diagonal_cost, 1.0)
+    return float((moves + plan.analysis.clean[rc[1:, 0], rc[1:, 1]]).sum())
+
+
 @given(maps(most=40), st.sampled_from(sorted(planner.PRESETS)), st.integers(0, 2**16))
 def test_sessions_match_the_whole_map_wave(case: Case, preset: str, seed: int) -> None:
     grid, start, goal = case
@@ -148,6 +160,13 @@ def test_sessions_match_the_whole_map_wave(case: Case, preset: str, seed: int) -
             assert a.remaining == pytest.approx(b.remaining, rel=1e-9, abs=1e-12)
         if a.position != b.position:
             prev = np.array(a.previous)
+            if a.status == b.status == "replanned":  # two detours: of the same cost
+                costs = [
+                    _cost(whole, [step.previous, step.position, *session.state.detour])
+                    for step, session in ((a, one), (b, two))
+                ]
+                assert costs[0] == pytest.approx(costs[1], rel=1e-9)
+                return
             assert a.status == b.status == "moving"
             assert _tie(whole, prev, np.array(a.position), np.array(b.position))
             return
@@ -174,6 +193,16 @@ def test_a_near_goal_settles_few_cells_on_a_large_map() -> None:
         session.step([], position=(480, 470))  # a stray: the search resumes from there
     assert p.wave.resumable
     assert session.state.position != (480, 470)
+    # Held up by obstacles on every cell closer to the goal: a detour, still without the
+    # whole-map wave.
+    replanned = planner.Session(planner.plan(None, start, goal, analysis=a, patience=0))
+    r, c = start
+    wall = [[r + dr, c + dc] for dr in (1, 2) for dc in (-2, -1, 0, 1, 2)]
+    wall += [[r, c + 1], [r, c + 2]]
+    step = replanned.step(wall)
+    assert step.status == "replanned"
+    assert replanned.plan.wave.resumable
+    assert all(divmod(x, 1024) not in map(tuple, wall) for x in replanned.state.detour)
 
 
 def test_a_far_goal_hands_over_to_the_whole_map_wave() -> None:
