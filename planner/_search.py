@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit, types
 from numba.typed import Dict
 
-from planner._kernels import DC, DR, FREE, OBSTACLE
+from planner._kernels import DC, DR, FREE, MODE_WIDE, MOVE, OBSTACLE, _decide_core
 
 SHIFT = 5
 TILE = 1 << SHIFT
@@ -29,6 +29,11 @@ DONE = 0
 EXHAUSTED = 1  # the open list is empty: every cell not settled is unreachable
 NEED_SPACE = 2
 OVER_BUDGET = 3  # ``limit`` cells are settled: the caller may prefer the whole-map wave
+
+WALK_ARRIVED = 0
+WALK_UNSETTLED = 1
+WALK_STUCK = 2
+WALK_TOO_LONG = 3
 
 UNSEEN = 0
 OPEN = 1
@@ -481,3 +486,69 @@ def _detour(
         out[j] = x
         x = parent[x]
     return out, False
+
+
+@njit(cache=True, nogil=True)
+def _walk_settled(
+    state: np.ndarray,
+    clean: np.ndarray,
+    sealed: bool,
+    goal: int,
+    tile_of_k: np.ndarray,
+    g_k: np.ndarray,
+    status_k: np.ndarray,
+    tile_of_kw: np.ndarray,
+    g_kw: np.ndarray,
+    status_kw: np.ndarray,
+    start: int,
+    diagonal_cost: float,
+    max_steps: int,
+) -> tuple[np.ndarray, int]:
+    """The wide decision's walk from ``start`` (as ``_kernels._walk``) for as long as every
+    cell a decision reads is settled in both searches. Returns the cells visited (``start``
+    first, flat indices) and why it stopped: WALK_ARRIVED, WALK_UNSETTLED (the last cell's
+    neighbourhood needs settling), WALK_STUCK (no move: cannot happen over exact fields) or
+    WALK_TOO_LONG."""
+    W = state.shape[1]
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    gr = goal // W
+    gc = goal - gr * W
+    contact = np.zeros(8, dtype=np.int64)
+    path = np.empty(256, dtype=np.int64)
+    path[0] = start
+    n = 1
+    x = start
+    while x != goal:
+        if n > max_steps:
+            return path[:n].copy(), WALK_TOO_LONG
+        r = x // W
+        c = x - r * W
+        targets = _neighbourhood(state, sealed, goal, r, c)
+        for j in range(targets.shape[0]):
+            yr = targets[j] // W
+            yc = targets[j] - yr * W
+            o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+            s = _slot(tile_of_k, tiles_w, yr, yc)
+            if s < 0 or status_k[s, o] != SETTLED:
+                return path[:n].copy(), WALK_UNSETTLED
+            s = _slot(tile_of_kw, tiles_w, yr, yc)
+            if s < 0 or status_kw[s, o] != SETTLED:
+                return path[:n].copy(), WALK_UNSETTLED
+        passable, k, kw, cl = _window(
+            state, clean, sealed, goal, r, c, tile_of_k, g_k, status_k, tile_of_kw, g_kw,
+            status_kw,
+        )  # fmt: skip
+        i, outcome = _decide_core(
+            passable, k, kw, cl, 1, 1, 0, False, contact, 0, gr - r + 1, gc - c + 1,
+            MODE_WIDE, 0.0, 0.0, diagonal_cost, -1,
+        )  # fmt: skip
+        if outcome != MOVE:
+            return path[:n].copy(), WALK_STUCK
+        x = (r + DR[i]) * W + c + DC[i]
+        if n == path.shape[0]:
+            grown = np.empty(2 * n, dtype=np.int64)
+            grown[:n] = path
+            path = grown
+        path[n] = x
+        n += 1
+    return path[:n].copy(), WALK_ARRIVED

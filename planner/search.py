@@ -313,6 +313,8 @@ class ResumableWave(Wave):
         """The path (flat indices) the decision follows with no dynamic obstacles, as
         ``_kernels._walk`` does over whole fields; empty if the goal is not reached."""
         W = self.analysis.shape[1]
+        if mode == K.MODE_WIDE:
+            return self._walk_wide(start[0] * W + start[1], max_steps)
         gr, gc = self.goal
         clean = self.analysis.clean
         contact = np.zeros(8, dtype=np.int64)
@@ -340,6 +342,50 @@ class ResumableWave(Wave):
             path.append(r * W + c)
             visited.add(r * W + c)
         return np.array(path, dtype=np.int64)
+
+    def _walk_wide(self, start: int, max_steps: int) -> npt.NDArray[np.int64]:
+        """The wide walk in a kernel over the settled cells, the searches resumed wherever it
+        finds a neighbourhood unsettled."""
+        W = self.analysis.shape[1]
+        pieces = []
+        x = start
+        steps = 0
+        while True:
+            if self._whole is not None:
+                rest = self._walk_whole([x], {x}, K.MODE_WIDE, 0.0, 0.0, max_steps - steps)
+                if rest.size == 0:
+                    return rest
+                pieces.append(rest)
+                break
+            k, kw = self._k_search, self._kw_search
+            piece, why = S._walk_settled(
+                self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal,
+                k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status, x,
+                self.diagonal_cost, max_steps - steps,
+            )  # fmt: skip
+            pieces.append(piece[:-1])
+            steps += piece.size - 1
+            x = int(piece[-1])
+            if why == S.WALK_ARRIVED:
+                pieces.append(piece[-1:])
+                break
+            if why != S.WALK_UNSETTLED:
+                return np.empty(0, dtype=np.int64)
+            # One step as a session takes it (settling, then deciding over the window): the
+            # kernel resumes from the next cell.
+            r, c = divmod(x, W)
+            v = self.view(r, c, self.analysis.clean)
+            i, outcome = K._decide_core(
+                v.passable, v.k, v.kw, v.clean, r - v.top, c - v.left, 0, False,
+                np.zeros(8, dtype=np.int64), 0, self.goal[0] - v.top, self.goal[1] - v.left,
+                K.MODE_WIDE, 0.0, 0.0, self.diagonal_cost, -1,
+            )  # fmt: skip
+            if outcome != K.MOVE or steps >= max_steps:
+                return np.empty(0, dtype=np.int64)
+            pieces.append(np.array([x], dtype=np.int64))
+            steps += 1
+            x = (r + int(K.DR[i])) * W + c + int(K.DC[i])
+        return np.concatenate(pieces)
 
     def _walk_whole(
         self,
