@@ -510,7 +510,6 @@ def _walk_settled(
     neighbourhood needs settling), WALK_STUCK (no move: cannot happen over exact fields) or
     WALK_TOO_LONG."""
     W = state.shape[1]
-    tiles_w = (W + TILE_MASK) >> SHIFT
     gr = goal // W
     gc = goal - gr * W
     contact = np.zeros(8, dtype=np.int64)
@@ -523,17 +522,10 @@ def _walk_settled(
             return path[:n].copy(), WALK_TOO_LONG
         r = x // W
         c = x - r * W
-        targets = _neighbourhood(state, sealed, goal, r, c)
-        for j in range(targets.shape[0]):
-            yr = targets[j] // W
-            yc = targets[j] - yr * W
-            o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
-            s = _slot(tile_of_k, tiles_w, yr, yc)
-            if s < 0 or status_k[s, o] != SETTLED:
-                return path[:n].copy(), WALK_UNSETTLED
-            s = _slot(tile_of_kw, tiles_w, yr, yc)
-            if s < 0 or status_kw[s, o] != SETTLED:
-                return path[:n].copy(), WALK_UNSETTLED
+        if not _settled_around(
+            state, sealed, goal, r, c, tile_of_k, status_k, tile_of_kw, status_kw
+        ):
+            return path[:n].copy(), WALK_UNSETTLED
         passable, k, kw, cl = _window(
             state, clean, sealed, goal, r, c, tile_of_k, g_k, status_k, tile_of_kw, g_kw,
             status_kw,
@@ -552,3 +544,32 @@ def _walk_settled(
         path[n] = x
         n += 1
     return path[:n].copy(), WALK_ARRIVED
+
+
+@njit(cache=True, nogil=True)
+def _settled_around(
+    state: np.ndarray,
+    sealed: bool,
+    goal: int,
+    r: int,
+    c: int,
+    tile_of_k: np.ndarray,
+    status_k: np.ndarray,
+    tile_of_kw: np.ndarray,
+    status_kw: np.ndarray,
+) -> bool:
+    """Whether every cell a decision at (r, c) reads is settled in both searches."""
+    W = state.shape[1]
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    targets = _neighbourhood(state, sealed, goal, r, c)
+    for j in range(targets.shape[0]):
+        yr = targets[j] // W
+        yc = targets[j] - yr * W
+        o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+        s = _slot(tile_of_k, tiles_w, yr, yc)
+        if s < 0 or status_k[s, o] != SETTLED:
+            return False
+        s = _slot(tile_of_kw, tiles_w, yr, yc)
+        if s < 0 or status_kw[s, o] != SETTLED:
+            return False
+    return True

@@ -10,8 +10,11 @@ first read computes the whole wave once.
 
 from __future__ import annotations
 
+import functools
+import threading
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, Concatenate, ParamSpec, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +27,24 @@ from planner.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 
 __all__ = ["ResumableWave", "resumable_wave"]
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def _locked(
+    method: Callable[Concatenate[ResumableWave, P], R],
+) -> Callable[Concatenate[ResumableWave, P], R]:
+    """One thread at a time in the wave: a search resumed in one thread may grow (reallocate)
+    the arrays another is reading."""
+
+    def wrapper(self: ResumableWave, /, *args: P.args, **kwargs: P.kwargs) -> R:
+        with self._lock:
+            return method(self, *args, **kwargs)
+
+    functools.update_wrapper(wrapper, method)
+    return wrapper
+
 
 # The open list is re-keyed for a new robot cell only when the robot has moved this far (octile)
 # from the cell it was keyed for: settled values are exact under any consistent heuristic, so an
@@ -186,6 +207,7 @@ class ResumableWave(Wave):
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
+        self._lock = threading.RLock()
         H = analysis.shape[0]
         self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
         """Cells one search may settle before the wave turns into the whole-map one."""
@@ -193,6 +215,7 @@ class ResumableWave(Wave):
 
     # -- the searches ------------------------------------------------------------------------
 
+    @_locked
     def settle(self, cells: Any) -> None:
         """Resume both searches until every given cell (``[row, col]`` rows) on the wave's grid
         is settled (its ``k`` and ``kw`` exact) or proven unreachable."""
@@ -212,6 +235,7 @@ class ResumableWave(Wave):
             slack = max(S._octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist())
             self._settle(flat, (r0, c0), slack)
 
+    @_locked
     def ensure(self, r: int, c: int) -> None:
         """Settle what a decision at (r, c) reads: the cell and its statically legal
         neighbours (or find them cut off from the goal: their values are then +inf)."""
@@ -258,18 +282,24 @@ class ResumableWave(Wave):
 
     # -- what decisions read -----------------------------------------------------------------
 
+    @_locked
     def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
         """The 3 x 3 window around (r, c), settled first (``clean`` is the analysis's own)."""
-        self.ensure(r, c)
+        k, kw = self._k_search, self._kw_search
+        if self._whole is None and not S._settled_around(
+            self.analysis.state, self._sealed, self._flat_goal, r, c, k.tile_of, k.status,
+            kw.tile_of, kw.status,
+        ):  # fmt: skip
+            self.ensure(r, c)
         if self._whole is not None:
             return self._whole.view(r, c, clean)
-        k, kw = self._k_search, self._kw_search
         passable, kv, kwv, cl = S._window(
             self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal, r, c,
             k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status,
         )  # fmt: skip
         return WaveView(passable, kv, kwv, cl, r - 1, c - 1)
 
+    @_locked
     def detour(
         self, start: int, obstacles: npt.NDArray[np.int64], clean: npt.NDArray[np.float32]
     ) -> npt.NDArray[np.int64]:
@@ -287,6 +317,7 @@ class ResumableWave(Wave):
                 return out
         return self.whole().detour(start, obstacles, clean)
 
+    @_locked
     def k_at(self, r: int, c: int) -> float:
         W = self.analysis.shape[1]
         flat = np.array([r * W + c], dtype=np.int64)
@@ -296,6 +327,7 @@ class ResumableWave(Wave):
             return self._whole.k_at(r, c)
         return float(self._k_search.values(flat)[0])
 
+    @_locked
     def k_along(self, path: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         """``k`` of each cell of ``path`` (``(n, 2)`` cells), settled first."""
         if self._whole is not None:
@@ -307,6 +339,7 @@ class ResumableWave(Wave):
             values[j] = self.k_at(int(path[j, 0]), int(path[j, 1]))
         return values
 
+    @_locked
     def walk(
         self, start: tuple[int, int], mode: int, alpha: float, beta: float, max_steps: int
     ) -> npt.NDArray[np.int64]:
@@ -444,6 +477,7 @@ class ResumableWave(Wave):
 
     # -- the whole-map fields, on demand -----------------------------------------------------
 
+    @_locked
     def whole(self) -> Wave:
         """The whole-map wave of the same goal and grid (computed on first use, then kept in
         place of the searches, whose memory it frees)."""
