@@ -2,9 +2,9 @@
 
 The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read precisely as
 ``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
-(cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
-decision, stepping among dynamic obstacles, the paper's simulated experiment on its six
-environments, and pictures like its figures.
+(cost-to-go fields ``k`` and ``kw``, over the whole map or settled on demand), the paper's move
+decision (Eq. 3) and the loop-free ``wide`` decision, stepping among dynamic obstacles, the
+paper's simulated experiment on its six environments, and pictures like its figures.
 
 >>> import planner
 >>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
@@ -13,13 +13,14 @@ environments, and pictures like its figures.
 """
 
 from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
-from planner.analysis import Analysis, Wave, analyse, goal_wave
+from planner.analysis import Analysis, Wave, WaveView, analyse, goal_wave
 from planner.environments import TABLE1, environment
 from planner.experiment import compare, run_experiment
 from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
 from planner.params import PRESETS, Params, resolve_params
 from planner.planning import Plan, plan, reaches
 from planner.render import render_episode, render_map, render_plan
+from planner.search import ResumableWave, resumable_wave
 from planner.session import MOVES, Session, SessionState, Step
 from planner.simulation import Episode, run_episode, simulate, warm_up
 
@@ -34,12 +35,14 @@ __all__ = [
     "Params",
     "Plan",
     "PlannerError",
+    "ResumableWave",
     "Scenario",
     "SequenceConflict",
     "Session",
     "SessionState",
     "Step",
     "Wave",
+    "WaveView",
     "analyse",
     "as_grid",
     "compare",
@@ -56,6 +59,7 @@ __all__ = [
     "render_map",
     "render_plan",
     "resolve_params",
+    "resumable_wave",
     "run_episode",
     "run_experiment",
     "simulate",
