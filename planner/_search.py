@@ -317,6 +317,19 @@ def _settled_values(
 
 
 @njit(cache=True, nogil=True)
+def _all_settled(W: int, tile_of: np.ndarray, status: np.ndarray, targets: np.ndarray) -> bool:
+    """Whether every cell of ``targets`` (flat indices) is settled."""
+    tiles_w = (W + TILE_MASK) >> SHIFT
+    for j in range(targets.shape[0]):
+        r = targets[j] // W
+        c = targets[j] - r * W
+        s = _slot(tile_of, tiles_w, r, c)
+        if s < 0 or status[s, ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)] != SETTLED:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
 def _neighbourhood(state: np.ndarray, sealed: bool, goal: int, r: int, c: int) -> np.ndarray:
     """The cells whose cost-to-go a decision at (r, c) reads: (r, c) itself when on the wave's
     grid, and every neighbour a legal static move reaches (flat indices)."""

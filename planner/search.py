@@ -126,7 +126,7 @@ class _Search:
         """Resume until every cell of ``targets`` (on the grid, within ``slack`` of ``aim``) is
         settled or the open list is empty; False, the search left where it was, when that would
         settle more than ``limit`` cells in all."""
-        if self.exhausted or np.all(np.isfinite(self.values(targets))):
+        if self.exhausted or S._all_settled(self.width, self.tile_of, self.status, targets):
             return True
         d = self.aim[0] - aim[0], self.aim[1] - aim[1]
         if max(abs(d[0]), abs(d[1])) > _REAIM:
@@ -208,6 +208,7 @@ class ResumableWave(Wave):
             )  # fmt: skip
         self._whole: Wave | None = None
         self._lock = threading.RLock()
+        self._last_view: tuple[tuple[int, int], WaveView] | None = None
         H = analysis.shape[0]
         self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
         """Cells one search may settle before the wave turns into the whole-map one."""
@@ -285,6 +286,8 @@ class ResumableWave(Wave):
     @_locked
     def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
         """The 3 x 3 window around (r, c), settled first (``clean`` is the analysis's own)."""
+        if self._last_view is not None and self._last_view[0] == (r, c):
+            return self._last_view[1]  # settled values never change
         k, kw = self._k_search, self._kw_search
         if self._whole is None and not S._settled_around(
             self.analysis.state, self._sealed, self._flat_goal, r, c, k.tile_of, k.status,
@@ -297,7 +300,9 @@ class ResumableWave(Wave):
             self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal, r, c,
             k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status,
         )  # fmt: skip
-        return WaveView(passable, kv, kwv, cl, r - 1, c - 1)
+        view = WaveView(passable, kv, kwv, cl, r - 1, c - 1)
+        self._last_view = ((r, c), view)
+        return view
 
     @_locked
     def detour(
@@ -321,6 +326,10 @@ class ResumableWave(Wave):
     def k_at(self, r: int, c: int) -> float:
         W = self.analysis.shape[1]
         flat = np.array([r * W + c], dtype=np.int64)
+        if self._whole is None:
+            value = float(self._k_search.values(flat)[0])
+            if value < np.inf:
+                return value  # settled: exact
         if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
             self._settle(flat, (r, c), 0.0)
         if self._whole is not None:
