@@ -30,7 +30,11 @@ import scale
 import planner
 
 ROOT = Path(__file__).resolve().parents[1]
-MOVINGAI = ROOT.parent / "shared" / "maps" / "movingai"
+# Beside the repository; from a git worktree (``wt/<name>``), one level further up.
+MOVINGAI = next(
+    (p for p in (ROOT.parent / "shared", ROOT.parents[1] / "shared") if p.is_dir()),
+    ROOT.parent / "shared",
+) / "maps" / "movingai"  # fmt: skip
 RESULTS = ROOT / "benchmarks" / "RESULTS.md"
 SQRT2 = 2**0.5
 

@@ -32,6 +32,28 @@ _OUTSIDE = -1
 
 
 # --------------------------------------------------------------------------------------------
+# Map decoding.
+
+
+@njit(cache=True, nogil=True)
+def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int]:
+    """``lookup[data]`` (bytes to cells) and the index of the first byte it maps to 255 (not a
+    map character), or -1: one pass where numpy takes two (the lookup, then the search)."""
+    n = data.shape[0]
+    out = np.empty(n, dtype=np.uint8)
+    bad = 0
+    for i in range(n):
+        v = lookup[data[i]]
+        out[i] = v
+        bad |= v == 255
+    if bad:
+        for i in range(n):
+            if out[i] == 255:
+                return out, i
+    return out, -1
+
+
+# --------------------------------------------------------------------------------------------
 # Map analysis (ALGORITHM.md §1): gates, tight tunnels, the clean field.
 
 

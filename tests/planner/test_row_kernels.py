@@ -1,5 +1,6 @@
-"""The row-wise analysis kernels (``_classify_rows``, ``_clean_rows``, ``_move_masks_rows``)
-against the naive references and, bit for bit, against the cell-wise kernels they replace."""
+"""The one-pass kernels (``_classify_rows``, ``_clean_rows``, ``_move_masks_rows``,
+``_decode_cells``) against the naive references and, bit for bit, against the kernels or numpy
+operations they replace."""
 
 from __future__ import annotations
 
@@ -49,3 +50,14 @@ def test_move_masks_rows(grid: np.ndarray) -> None:
                     want |= naive.legal(passable, r, c, dr, dc) << i
             assert masks[r, c] == want, (r, c)
     np.testing.assert_array_equal(masks, K._move_masks(passable))
+
+
+@given(st.binary(max_size=300))
+def test_decode_cells(data: bytes) -> None:
+    lookup = np.full(256, 255, dtype=np.uint8)
+    lookup[ord(".")] = 0
+    lookup[ord("@")] = 1
+    cells, bad = K._decode_cells(np.frombuffer(data, dtype=np.uint8), lookup)
+    want = [int(lookup[b]) for b in data]
+    assert cells.tolist() == want
+    assert bad == next((i for i, v in enumerate(want) if v == 255), -1)
