@@ -222,7 +222,7 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     """
     r, c = as_cell(cell, analysis.shape, name="cell")
     if wave.shape != analysis.shape:
-        msg = f"the wave's map is {wave.passable.shape}, the analysis's {analysis.shape}"
+        msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
         raise InvalidInput(msg, field="wave")
     v = wave.view(r, c, analysis.clean)
     here = K._cost_here(v.passable, v.kw, v.clean, r - v.top, c - v.left, wave.diagonal_cost, True)
