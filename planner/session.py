@@ -229,7 +229,9 @@ class Session:
         target = st.detour[0] if st.detour else -1
         # The hook of resumable waves: the view settles what the decision reads, around (r, c).
         v = wave.view(r, c, plan.analysis.clean)
-        if v.top or v.left:
+        # A window of the map (not the map itself): cells and flat indices are relative to it.
+        windowed = bool(v.top or v.left) or v.passable.shape != plan.analysis.shape
+        if windowed:
             obstacles = obstacles - np.array([v.top, v.left], dtype=np.int64)
             target = _local(target, self._width, v)
         i, outcome = K._decide(
@@ -237,7 +239,7 @@ class Session:
             plan.goal[0] - v.top, plan.goal[1] - v.left, self._mode, p.alpha, p.beta,
             p.diagonal_cost, target,
         )  # fmt: skip
-        if v.top or v.left:
+        if windowed:
             obstacles = obstacles + np.array([v.top, v.left], dtype=np.int64)
         if outcome == K.BLOCKED:
             st.status = "blocked"
