@@ -413,3 +413,9 @@ def detour_cost(
                 dist[y] = nd
                 heapq.heappush(heap, (nd, y))
     return math.inf
+
+
+def neighbourhood(passable: np.ndarray, r: int, c: int) -> list[tuple[int, int]]:
+    """The cells a decision at (r, c) reads: (r, c) when passable, and its legal neighbours."""
+    cells = [(r, c)] if passable[r, c] else []
+    return cells + [(r + dr, c + dc) for dr, dc in MOVES if legal(passable, r, c, dr, dc)]
