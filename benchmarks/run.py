@@ -25,11 +25,16 @@ from typing import Any
 
 import httpx
 import numpy as np
+import scale
 
 import planner
 
 ROOT = Path(__file__).resolve().parents[1]
-MOVINGAI = ROOT.parent / "shared" / "maps" / "movingai"
+# Beside the repository; from a git worktree (``wt/<name>``), one level further up.
+MOVINGAI = next(
+    (p for p in (ROOT.parent / "shared", ROOT.parents[1] / "shared") if p.is_dir()),
+    ROOT.parent / "shared",
+) / "maps" / "movingai"  # fmt: skip
 RESULTS = ROOT / "benchmarks" / "RESULTS.md"
 KEPT = "<!-- nav2-baseline -->"
 SQRT2 = 2**0.5
@@ -70,7 +75,8 @@ def bench_field(size: int, repeats: int) -> dict[str, float]:
     mcp_cost = np.where(grid == 0, 1.0, np.inf)
 
     def ours() -> object:
-        return planner.plan(grid, start, goal, preset="wide").path  # made on first use
+        # The whole-map wave (both fields), not the resumable search: the field against field.
+        return planner.plan(grid, start, goal, preset="wide", whole=True).path
 
     def tcod_field() -> None:
         dist = np.full(grid.shape, np.iinfo(np.int32).max, dtype=np.int32)
@@ -166,7 +172,7 @@ def bench_step(steps: int) -> dict[str, float]:
 
 def bench_memory() -> dict[str, float]:
     grid, start, goal = random_map(1024)
-    p = planner.plan(grid, start, goal, preset="wide")
+    p = planner.plan(grid, start, goal, preset="wide", whole=True)
     _ = p.min_clearance  # the distance transform, kept by the analysis once computed
     cells = grid.size
     return {
@@ -300,6 +306,72 @@ def _fresh(
     return fresh
 
 
+WRK_SCRIPT = ROOT / "benchmarks" / "wrk_step.lua"
+
+
+def wrk(url: str, connections: int, seconds: int, *args: str) -> dict[str, float]:
+    """One ``wrk`` run of ``wrk_step.lua``: requests/s, p50 and p99 (ms), errors (non-2xx
+    responses and socket errors)."""
+    out = subprocess.run(
+        ["wrk", "-t", str(connections), "-c", str(connections), "-d", f"{seconds}s",
+         "--latency", "-s", str(WRK_SCRIPT), url, "--", *args],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+    scale_of = {"us": 1e-3, "ms": 1.0, "s": 1e3}
+    result = {"errors": 0.0}
+    for line in out.splitlines():
+        words = line.split()
+        if line.startswith("Requests/sec:"):
+            result["rps"] = float(words[1])
+        elif words[:1] in (["50%"], ["99%"]):
+            value = words[1]
+            unit = value.lstrip("0123456789.")
+            result[f"p{words[0][:-1]}_ms"] = float(value[: -len(unit)]) * scale_of[unit]
+        elif line.strip().startswith("Non-2xx or 3xx responses:"):
+            result["errors"] += float(words[-1])
+        elif line.strip().startswith("Socket errors:"):
+            result["errors"] += sum(float(w.rstrip(",")) for w in words[3::2])
+    return result
+
+
+def bench_wrk(seconds: int = 5) -> list[dict[str, float]]:
+    """Steps over HTTP driven by ``wrk`` (C, not the Python client): the memory store, one plan
+    per connection, against a bare FastAPI echo of the same bodies; alternated, best of two."""
+    grid, start, goal = random_map(1024)
+    rows = ["".join(".@"[v] for v in row) for row in grid.tolist()]
+    out = []
+    with (
+        Server("service.main:app") as ours,
+        Server("benchmarks.bare_app:app") as bare,
+        tempfile.TemporaryDirectory() as tmp,
+    ):
+        ours.wait("/healthz")
+        bare.wait()
+        map_id = httpx.post(ours.url + "/maps", json={"rows": rows}, timeout=120).json()["map_id"]
+        ids = Path(tmp) / "plans"
+        body = {"map_id": map_id, "start": list(start), "goal": list(goal)}
+        for clients in (1, 16):
+            best: dict[str, dict[str, float]] = {}
+            for _ in range(2):
+                plans = [
+                    httpx.post(ours.url + "/plan", json=body, timeout=120).json()["plan_id"]
+                    for _ in range(clients)
+                ]  # fresh plans each run: seq starts at 0
+                ids.write_text("\n".join(plans) + "\n")
+                runs = {
+                    "ours": wrk(ours.url, clients, seconds, str(ids)),
+                    "bare": wrk(bare.url, clients, seconds, str(ids), "echo"),
+                }
+                for name, run in runs.items():
+                    if name not in best or run["rps"] > best[name]["rps"]:
+                        best[name] = run
+            row = {"clients": float(clients), "ratio": best["ours"]["rps"] / best["bare"]["rps"]}
+            for name, run in best.items():
+                row.update({f"{name}_{k}": v for k, v in run.items()})
+            out.append(row)
+    return out
+
+
 def bench_upload(repeats: int) -> dict[str, float]:
     """Time for the service to accept a 1024 x 1024 map as rows (loopback, client-observed)."""
     grid, _, _ = random_map(1024)
@@ -335,6 +407,66 @@ def bench_cold_start() -> dict[str, float]:
                         time.sleep(0.01)
                 out[name] = time.perf_counter() - server.started
     return out
+
+
+def scale_section(out: Callable[..., None], repeats: int) -> None:
+    """Section 6: issue 14's figures, each a ratio measured side by side in this run."""
+    plans = scale.bench_plans()
+    analysis = scale.bench_analysis()
+    field = bench_field(1024, repeats)
+    with Server("service.main:app") as ours, Server("benchmarks.bare_app:app") as bare:
+        ours.wait("/healthz")
+        bare.wait()
+        upload = scale.bench_upload(ours.url, bare.url)
+    n = plans["size"]
+    out("## 6. Scale: a 4096 x 4096 map")
+    out()
+    out(f"A {n} x {n} map with 20% random obstacles, its analysis cached. A near plan: start and")
+    out(
+        f"goal 50 cells apart (octile), {plans['near_plans']} pairs in the map's middle; a far plan:"
+    )
+    out("corner to corner. A plan: `planner.plan(None, start, goal, analysis=...)` and its path.")
+    out("Memory: numpy allocations held by the plan (tracemalloc), per cell of the map. The whole-")
+    out("map plan and its tcod field are section 1's 1024 x 1024 figures, measured again here.")
+    out("Analysis: `planner.analyse` against the same states, gate count and clean field written")
+    out("with numpy and `scipy.ndimage.uniform_filter`. Upload: `POST /maps` with the map as")
+    out("`rows` against a bare FastAPI endpoint echoing the same body (loopback, one worker).")
+    out()
+    out("| measure | ours | against | ratio (target) |")
+    out("|---|---|---|---|")
+    out(
+        f"| near plan, cached analysis | {plans['near_ms']:.2f} ms (p90 {plans['near_p90_ms']:.2f}) "
+        f"| far plan: {plans['far_ms']:.0f} ms | **{plans['ratio']:.4f}** (<= 0.01; <= 5 ms) |"
+    )
+    out(
+        f"| memory held by a near plan | {plans['near_bytes_per_cell']:.3f} B/cell "
+        f"(worst {plans['near_bytes_per_cell_max']:.3f}) "
+        f"| a whole-map wave: {plans['whole_wave_bytes_per_cell']:.1f} B/cell "
+        f"| **{plans['near_bytes_per_cell'] / 17:.4f}** of 17 (<= 0.01) |"
+    )
+    out(f"| memory held by a far plan | {plans['far_bytes_per_cell']:.1f} B/cell | | |")
+    out(
+        f"| whole-map `wide` plan, 1024 x 1024 | {field['ours_ms']:.1f} ms "
+        f"| tcod `dijkstra2d`: {field['tcod_ms']:.1f} ms | **{field['ratio_tcod']:.2f}** (<= 0.5) |"
+    )
+    out(
+        f"| analysis | {analysis['ours_ms']:.0f} ms | numpy + scipy: {analysis['numpy_ms']:.0f} ms "
+        f"| **{analysis['ratio']:.2f}** (<= 1) |"
+    )
+    out(
+        f"| `POST /maps`, {upload['mb']:.0f} MB of rows | {upload['ours_s']:.2f} s "
+        f"| bare echo: {upload['bare_s']:.2f} s | **{upload['ratio']:.2f}** |"
+    )
+    out(
+        f"| parsing the rows (`parse_rows`) | {upload['parse_ms']:.0f} ms "
+        f"| numpy lookup: {upload['numpy_parse_ms']:.0f} ms | **{upload['parse_ratio']:.2f}** (<= 1) |"
+    )
+    out()
+    out(
+        f"A near plan settles a median {plans['near_settled']:.0f} cells of the {n * n}; "
+        f"{plans['near_reached']} of {plans['near_plans']} reached their goal."
+    )
+    out()
 
 
 def versions() -> dict[str, str]:
@@ -386,9 +518,10 @@ def main() -> None:
     out("## 1. Field: a whole `wide` plan against one cost-to-go field")
     out()
     out(
-        "20% random obstacles. Ours: `planner.plan(preset='wide')`, cold: analysis (gates, tunnels,"
+        "20% random obstacles. Ours: `planner.plan(preset='wide', whole=True)`, cold: analysis (gates,"
     )
-    out("clean), both waves `k` and `kw`, and the path. tcod: `dijkstra2d` (costs 100/141);")
+    out("tunnels, clean), both whole-map waves `k` and `kw` (two threads), and the path. tcod:")
+    out("`dijkstra2d` (costs 100/141), one thread;")
     out("scikit-image: `MCP_Geometric.find_costs`. Medians of alternated runs.")
     out()
     out("| map | ours (ms) | tcod (ms) | skimage (ms) | ours / tcod | ours / skimage |")
@@ -402,7 +535,8 @@ def main() -> None:
     out()
     out("## 2. Query: `shortest` against A* on the 512 x 512 Moving AI maps")
     out()
-    out("Ours plans with the map's cached analysis (a whole wave per query); tcod `path2d` and")
+    out("Ours plans with the map's cached analysis (a resumable search per query, handing over to")
+    out("the whole-map wave past 1/64 of the map); tcod `path2d` and")
     out("pyastar2d run A*. 'agree': share of queries whose path length is the benchmark's")
     out("optimum within 1e-3 (tcod and pyastar2d cut corners, which Moving AI forbids).")
     out()
@@ -446,6 +580,23 @@ def main() -> None:
         "saturates first, so both columns there are mostly the client's; 1 client is the sharper test."
     )
     out()
+    out("The same measured with `wrk` (`benchmarks/wrk_step.lua`, one connection per thread, each")
+    out("stepping its own plan; 5 s runs, best of two, alternated with the echo). A run with")
+    out("errors is not a result: the errors column must read 0.")
+    out()
+    out(
+        "| connections | ours (req/s) | bare (req/s) | ours / bare | ours p50 / p99 (ms) "
+        "| bare p50 / p99 (ms) | errors ours / bare |"
+    )
+    out("|---|---|---|---|---|---|---|")
+    for h in bench_wrk():
+        out(
+            f"| {h['clients']:.0f} | {h['ours_rps']:.0f} | {h['bare_rps']:.0f} | **{h['ratio']:.2f}** "
+            f"| {h['ours_p50_ms']:.2f} / {h['ours_p99_ms']:.2f} "
+            f"| {h['bare_p50_ms']:.2f} / {h['bare_p99_ms']:.2f} "
+            f"| {h['ours_errors']:.0f} / {h['bare_errors']:.0f} |"
+        )
+    out()
     out("## 4. Memory")
     out()
     m = bench_memory()
@@ -463,6 +614,7 @@ def main() -> None:
     out(f"From starting the service process to the first plan served: **{c['warm']:.2f} s** with")
     out(f"numba's cache warm, {c['cold']:.2f} s cold (every kernel compiled at start-up).")
     out()
+    scale_section(out, args.repeats)
     if not args.no_write:
         # Sections other scripts write (benchmarks/nav2_baseline.py) are kept as they are.
         old = RESULTS.read_text() if RESULTS.exists() else ""

@@ -2,10 +2,11 @@
 
 The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read precisely as
 ``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
-(cost-to-go fields ``k`` and ``kw``), the paper's move decision (Eq. 3) and the loop-free ``wide``
-decision, stepping among dynamic obstacles, the paper's simulated experiment on its six
-environments, and pictures like its figures. Robot maps in meters (ROS ``map_server`` YAML +
-image, ``nav_msgs/OccupancyGrid``) are planned for a round robot over its configuration space.
+(cost-to-go fields ``k`` and ``kw``, over the whole map or settled on demand), the paper's move
+decision (Eq. 3) and the loop-free ``wide`` decision, stepping among dynamic obstacles, the
+paper's simulated experiment on its six environments, and pictures like its figures. Robot maps
+in meters (ROS ``map_server`` YAML + image, ``nav_msgs/OccupancyGrid``) are planned for a round
+robot over its configuration space.
 
 >>> import planner
 >>> p = planner.plan([[0, 0, 0], [1, 1, 0], [0, 0, 0]], [0, 0], [2, 0], preset="shortest")
@@ -17,6 +18,7 @@ from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceCon
 from planner.analysis import (
     Analysis,
     Wave,
+    WaveView,
     analyse,
     analyse_map,
     analysis_key,
@@ -43,6 +45,7 @@ from planner.robot_maps import (
     parse_ros_map,
     read_ros_map,
 )
+from planner.search import ResumableWave, resumable_wave
 from planner.session import MOVES, Session, SessionState, Step, detour
 from planner.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
@@ -61,6 +64,7 @@ __all__ = [
     "Params",
     "Plan",
     "PlannerError",
+    "ResumableWave",
     "RobotMap",
     "Scenario",
     "SequenceConflict",
@@ -68,6 +72,7 @@ __all__ = [
     "SessionState",
     "Step",
     "Wave",
+    "WaveView",
     "analyse",
     "analyse_map",
     "analysis_key",
@@ -98,6 +103,7 @@ __all__ = [
     "render_plan",
     "resolve_params",
     "resolve_wall_cost",
+    "resumable_wave",
     "run_episode",
     "run_experiment",
     "simulate",

@@ -32,6 +32,28 @@ _OUTSIDE = -1
 
 
 # --------------------------------------------------------------------------------------------
+# Map decoding.
+
+
+@njit(cache=True, nogil=True)
+def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int]:
+    """``lookup[data]`` (bytes to cells) and the index of the first byte it maps to 255 (not a
+    map character), or -1: one pass where numpy takes two (the lookup, then the search)."""
+    n = data.shape[0]
+    out = np.empty(n, dtype=np.uint8)
+    bad = 0
+    for i in range(n):
+        v = lookup[data[i]]
+        out[i] = v
+        bad |= v == 255
+    if bad:
+        for i in range(n):
+            if out[i] == 255:
+                return out, i
+    return out, -1
+
+
+# --------------------------------------------------------------------------------------------
 # Map analysis (ALGORITHM.md §1): gates, tight tunnels, the clean field.
 
 
@@ -64,6 +86,47 @@ def _classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
             e = grid[r + 1, c + 1] == 0
             if (a and e and not b and not d) or (b and d and not a and not e):
                 gates += 1
+    return state, gates, tunnels
+
+
+@njit(cache=True, nogil=True)
+def _classify_rows(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """What :func:`_classify` computes, row by row over padded copies of three rows (the
+    outside blocked), every inner loop branch-free along a row."""
+    H, W = grid.shape
+    state = np.empty((H, W), dtype=np.uint8)
+    pad = np.ones((3, W + 2), dtype=np.uint8)  # blocked: rows r - 1, r, r + 1
+    for c in range(W):
+        pad[2, c + 1] = 1 if grid[0, c] != 0 else 0
+    tunnels = 0
+    gates = 0
+    for r in range(H):
+        for c in range(W + 2):
+            pad[0, c] = pad[1, c]
+            pad[1, c] = pad[2, c]
+        if r + 1 < H:
+            for c in range(W):
+                pad[2, c + 1] = 1 if grid[r + 1, c] != 0 else 0
+        else:
+            for c in range(W + 2):
+                pad[2, c] = 1
+        up = pad[0]
+        mid = pad[1]
+        down = pad[2]
+        for c in range(W):
+            blocked = mid[c + 1]
+            tunnel = (up[c + 1] & down[c + 1]) | (mid[c] & mid[c + 2])
+            tunnel &= 1 - blocked
+            state[r, c] = blocked * OBSTACLE + tunnel * TUNNEL
+            tunnels += tunnel
+        if r + 1 < H:
+            # A gate: two free cells diagonal to each other, the other two of the square blocked.
+            for c in range(W - 1):
+                a = mid[c + 1]
+                b = mid[c + 2]
+                d = down[c + 1]
+                e = down[c + 2]
+                gates += ((1 - a) & (1 - e) & b & d) | ((1 - b) & (1 - d) & a & e)
     return state, gates, tunnels
 
 
@@ -129,6 +192,61 @@ def _clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndar
                 total += (box - prev) / d
                 prev = box
             out[r, c] = weight * total
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _clean_rows(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndarray:
+    """What :func:`_clean` computes, bit for bit, with separable box sums over a ring of
+    2 * radius + 1 rows: per ring distance d, each row's sums over 2d + 1 columns, then their sums
+    over 2d + 1 rows; every inner loop runs along a row (the compiler vectorises it) and the
+    working set is a few rows, not an integral image of the whole map."""
+    H, W = state.shape
+    p = radius
+    ring = 2 * p + 1
+    Wp = W + 2 * p
+    blocked = np.ones((ring, Wp), dtype=np.int16)  # padded rows; the outside counts as blocked
+    rows = np.empty((radius + 1, ring, W), dtype=np.int16)  # rows[d]: sums over 2d + 1 columns
+    box = np.empty(W, dtype=np.int16)
+    inner = np.empty(W, dtype=np.int16)
+    total = np.empty(W, dtype=np.float64)
+    out = np.zeros((H, W), dtype=np.float32)
+    for i in range(H + 2 * p):  # padded row i is map row i - p
+        slot = i % ring
+        r = i - p
+        if 0 <= r < H:
+            for c in range(W):
+                s = state[r, c]
+                blocked[slot, c + p] = 1 if (s == OBSTACLE or (seal and s == TUNNEL)) else 0
+        else:
+            for c in range(Wp):
+                blocked[slot, c] = 1
+        for c in range(W):
+            rows[0, slot, c] = blocked[slot, c + p]
+        for d in range(1, radius + 1):
+            for c in range(W):
+                rows[d, slot, c] = rows[d - 1, slot, c] + blocked[slot, c + p - d]
+                rows[d, slot, c] += blocked[slot, c + p + d]
+        r = i - 2 * p  # the map row whose window (rows r - p .. r + p) is now complete
+        if r < 0:
+            continue
+        centre = (r + p) % ring
+        for c in range(W):
+            inner[c] = rows[0, centre, c]
+            total[c] = 0.0
+        for d in range(1, radius + 1):
+            for c in range(W):
+                box[c] = rows[d, (r + p - d) % ring, c]
+            for k in range(r + p - d + 1, r + p + d + 1):
+                slot_k = k % ring
+                for c in range(W):
+                    box[c] += rows[d, slot_k, c]
+            for c in range(W):
+                total[c] += (box[c] - inner[c]) / d
+                inner[c] = box[c]
+        for c in range(W):
+            if state[r, c] != OBSTACLE:
+                out[r, c] = weight * total[c]
     return out
 
 
@@ -232,6 +350,42 @@ def _move_masks(passable: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
+def _move_masks_rows(passable: np.ndarray) -> np.ndarray:
+    """What :func:`_move_masks` computes, row by row over zero-padded copies of three rows, so
+    that every inner loop is branch-free along a row (the compiler vectorises it)."""
+    H, W = passable.shape
+    out = np.zeros((H, W), dtype=np.uint8)
+    pad = np.zeros((3, W + 2), dtype=np.uint8)  # rows r - 1, r, r + 1; columns shifted by one
+    for c in range(W):
+        pad[2, c + 1] = 1 if passable[0, c] != 0 else 0
+    for r in range(H):
+        for c in range(W + 2):
+            pad[0, c] = pad[1, c]
+            pad[1, c] = pad[2, c]
+        if r + 1 < H:
+            for c in range(W):
+                pad[2, c + 1] = 1 if passable[r + 1, c] != 0 else 0
+        else:
+            for c in range(W + 2):
+                pad[2, c] = 0
+        up = pad[0]
+        mid = pad[1]
+        down = pad[2]
+        for c in range(W):
+            n = up[c + 1]
+            s = down[c + 1]
+            w = mid[c]
+            e = mid[c + 2]
+            ne = n & e & up[c + 2]
+            se = s & e & down[c + 2]
+            sw = s & w & down[c]
+            nw = n & w & up[c]
+            bits = n | ne << 1 | e << 2 | se << 3 | s << 4 | sw << 5 | w << 6 | nw << 7
+            out[r, c] = bits * mid[c + 1]
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _wave(
     masks: np.ndarray, goal: int, diagonal_cost: float, clean: np.ndarray, use_clean: bool
 ) -> np.ndarray:
@@ -270,9 +424,7 @@ def _wave(
     nxt = np.empty(n, dtype=np.int32)
     prv = np.empty(n, dtype=np.int32)
     dist = np.full(n, np.inf)
-    state = np.zeros(n, dtype=np.uint8)  # 0 unseen, 1 queued, 2 settled
     dist[goal] = 0.0
-    state[goal] = 1
     head[0] = goal
     nxt[goal] = -1
     prv[goal] = -1
@@ -287,18 +439,16 @@ def _wave(
             if q != -1:
                 prv[q] = -1
             queued -= 1
-            state[y] = 2
             base = dist[y] + pen[y] if use_clean else dist[y]
             m = moves[y]
             for i in range(8):
                 if not (m >> i) & 1:
                     continue
                 x = y + offset[i]
-                if state[x] == 2:
-                    continue
                 nd = base + step[i]
+                # A settled cell's cost is below every cost offered to it later: no state needed.
                 if nd < dist[x]:
-                    if state[x] == 1:  # unlink from its old bucket
+                    if dist[x] < np.inf:  # queued: unlink from its old bucket
                         p = prv[x]
                         q = nxt[x]
                         if p == -1:
@@ -308,7 +458,6 @@ def _wave(
                         if q != -1:
                             prv[q] = p
                     else:
-                        state[x] = 1
                         queued += 1
                     dist[x] = nd
                     t = int(nd) & wrap

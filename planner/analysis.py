@@ -9,10 +9,11 @@ is what a cache must key its analyses by.
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Hashable, Mapping
 from functools import cached_property
-from typing import Any
+from typing import Any, NamedTuple
 
 import edt
 import numpy as np
@@ -28,6 +29,7 @@ from planner.robot_maps import MapFrame, RobotMap
 __all__ = [
     "Analysis",
     "Wave",
+    "WaveView",
     "analyse",
     "analyse_map",
     "analysis_key",
@@ -36,6 +38,9 @@ __all__ = [
     "params_key",
     "resolve_wall_cost",
 ]
+
+# From this many cells on, a goal wave computes ``k`` and ``kw`` in two threads at once.
+_THREADED_CELLS = 1 << 16
 
 
 class Analysis:
@@ -182,9 +187,9 @@ def analyse(
         msg = f"clean_weight must be >= 0; got {quote(clean_weight)}"
         raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
-    state, gates, tunnels = K._classify(g)
+    state, gates, tunnels = K._classify_rows(g)
     if clean_weight > 0:
-        clean = K._clean(state, bool(seal_tunnels), float(clean_weight), int(clean_radius))
+        clean = K._clean_rows(state, bool(seal_tunnels), float(clean_weight), int(clean_radius))
     else:
         clean = np.zeros(g.shape, dtype=np.float32)
     elapsed = (time.perf_counter() - t0) * 1e3
@@ -198,6 +203,20 @@ def analyse(
         clean_radius=int(clean_radius),
         elapsed_ms=elapsed,
     )
+
+
+class WaveView(NamedTuple):
+    """The part of a wave a decision at a cell reads, as arrays that the decision kernels take:
+    the wave's grid, ``k``, ``kw`` and ``clean`` over a window whose top-left cell is
+    (``top``, ``left``) of the map (the whole map for a whole-map wave; the 3 x 3 cells around
+    the robot, settled, for a resumable one)."""
+
+    passable: npt.NDArray[np.uint8]
+    k: npt.NDArray[np.float64]
+    kw: npt.NDArray[np.float64]
+    clean: npt.NDArray[np.float32]
+    top: int
+    left: int
 
 
 class Wave:
@@ -221,14 +240,63 @@ class Wave:
         elapsed_ms: float,
     ) -> None:
         self.goal = goal
-        self.k = k
-        self.kw = kw
-        self.passable = passable
+        self._k = k
+        self._kw = kw
+        self._passable = passable
         self.narrow = narrow
         self.diagonal_cost = diagonal_cost
         self.elapsed_ms = elapsed_ms
         for arr in (k, kw, passable):
             arr.flags.writeable = False
+
+    @property
+    def k(self) -> npt.NDArray[np.float64]:
+        """The plain cost-to-go of every cell."""
+        return self._k
+
+    @property
+    def kw(self) -> npt.NDArray[np.float64]:
+        """The wide cost-to-go of every cell."""
+        return self._kw
+
+    @property
+    def passable(self) -> npt.NDArray[np.uint8]:
+        """1 on the cells of the grid the wave ran over."""
+        return self._passable
+
+    def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
+        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields."""
+        return WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+
+    def detour(
+        self,
+        start: int,
+        obstacles: npt.NDArray[np.int64],
+        clean: npt.NDArray[np.float32],
+        margin: int = 0,
+    ) -> npt.NDArray[np.int64]:
+        """The replan of ALGORITHM.md §4 from ``start`` (a flat index) over the wave's grid with
+        every cell within Chebyshev ``margin`` of a dynamic obstacle blocked: the cells after
+        ``start`` up to the goal, empty when cut off."""
+        W = self.shape[1]
+        out: npt.NDArray[np.int64] = K._detour(
+            self.passable, self.kw, clean, start, self.goal[0] * W + self.goal[1],
+            self.diagonal_cost, obstacles, margin, True,
+        )  # fmt: skip
+        return out
+
+    def k_at(self, r: int, c: int) -> float:
+        """``k`` at (r, c)."""
+        return float(self.k[r, c])
+
+    def k_along(self, path: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        """``k`` of each cell of ``path`` (``(n, 2)`` cells)."""
+        out: npt.NDArray[np.float64] = self.k[path[:, 0], path[:, 1]]
+        return out
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (int(self._passable.shape[0]), int(self._passable.shape[1]))
 
     def tau(
         self, rho: float = 0.98, *, tau_min: float = 0.01, tau_max: float = 1.0
@@ -240,7 +308,7 @@ class Wave:
 
     @property
     def nbytes(self) -> int:
-        shared = self.kw is self.k
+        shared = self._kw is self._k
         return int(self.k.nbytes + (0 if shared else self.kw.nbytes) + self.passable.nbytes)
 
 
@@ -268,12 +336,21 @@ def goal_wave(
     passable = analysis.passable(narrow=narrow)
     passable[r, c] = 1
     flat_goal = r * analysis.shape[1] + c
-    masks = K._move_masks(passable)
-    k = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, False)
-    if analysis.penalised:
-        kw = K._wave(masks, flat_goal, float(diagonal_cost), analysis.clean, True)
+    masks = K._move_masks_rows(passable)
+    args = (masks, flat_goal, float(diagonal_cost), analysis.clean)
+    if not analysis.penalised:
+        k = kw = K._wave(*args, False)
+    elif passable.size < _THREADED_CELLS:
+        k = K._wave(*args, False)
+        kw = K._wave(*args, True)
     else:
-        kw = k
+        # The kernels release the GIL: the two fields run side by side, sharing the masks.
+        fields: dict[bool, npt.NDArray[np.float64]] = {}
+        worker = threading.Thread(target=lambda: fields.update({False: K._wave(*args, False)}))
+        worker.start()
+        kw = K._wave(*args, True)
+        worker.join()
+        k = fields[False]
     elapsed = (time.perf_counter() - t0) * 1e3
     return Wave(
         (r, c),

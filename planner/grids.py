@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner import _kernels as K
 from planner._errors import InvalidInput, quote
 
 __all__ = [
@@ -132,10 +133,9 @@ def parse_rows(rows: Sequence[str], *, name: str = "rows") -> Grid:
             f"{flat % width}; map characters are {MAP_FREE!r} (free) and {MAP_BLOCKED!r} (blocked)"
         )
         raise InvalidInput(msg, field=name) from None
-    cells = _LOOKUP[np.frombuffer(data, dtype=np.uint8)]
-    bad = np.flatnonzero(cells == 255)
-    if bad.size:
-        flat = int(bad[0])
+    cells, bad = K._decode_cells(np.frombuffer(data, dtype=np.uint8), _LOOKUP)
+    if bad >= 0:
+        flat = int(bad)
         msg = (
             f"{name}[{flat // width}] has the character {chr(data[flat])!r} at column "
             f"{flat % width}; map characters are {MAP_FREE!r} (free) and {MAP_BLOCKED!r} (blocked)"

@@ -19,6 +19,7 @@ from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, pa
 from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.robot_maps import RobotMap, grid_map, quote
+from planner.search import ResumableWave, resumable_wave
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
 
@@ -50,11 +51,14 @@ class Plan:
         """The cells the decision visits with no dynamic obstacles, start to goal."""
         a, w, p, s, g = self.analysis, self.wave, self.params, self.start, self.goal
         W = a.shape[1]
-        flat = K._walk(
-            w.passable, w.k, w.kw, a.clean, s[0] * W + s[1], g[0] * W + g[1],
-            K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE, p.alpha, p.beta,
-            p.diagonal_cost, 4 * a.shape[0] * W + 8,
-        )  # fmt: skip
+        mode = K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE
+        if isinstance(w, ResumableWave):
+            flat = w.walk(s, mode, p.alpha, p.beta, 4 * a.shape[0] * W + 8)
+        else:
+            flat = K._walk(
+                w.passable, w.k, w.kw, a.clean, s[0] * W + s[1], g[0] * W + g[1], mode,
+                p.alpha, p.beta, p.diagonal_cost, 4 * a.shape[0] * W + 8,
+            )  # fmt: skip
         if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
             raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
         path: npt.NDArray[np.int64] = np.stack(np.divmod(flat, W), axis=1)
@@ -158,6 +162,7 @@ def plan(
     preset: str = "wide",
     analysis: Analysis | None = None,
     waves: WaveSource | None = None,
+    whole: bool = False,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -167,7 +172,10 @@ def plan(
     ``shortest``; keyword ``params`` override it one by one (see :class:`planner.Params`), among
     them ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
     ``analysis`` (then ``grid`` may be None; build its cache key with :func:`analysis_key`) and a
-    ``waves`` source.
+    ``waves`` source. Without one, the plan's wave is a :class:`~planner.search.ResumableWave`,
+    settled only as far as the robot needs (its time and memory grow with the region explored),
+    or, with ``whole`` or on a robot map (an analysis over a configuration space), a whole-map
+    :func:`~planner.analysis.goal_wave`.
 
     >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
     >>> p.path.tolist(), round(p.length, 3)
@@ -210,7 +218,11 @@ def plan(
     def wave_for(narrow: bool) -> Wave:
         if waves is not None:
             return waves(narrow)
-        return goal_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
+        if whole or analysis.cspace is not None:
+            # A robot map's plan is the whole-map wave, as the service's plans are: settled in
+            # another order, the resumable one may break a float tie between moves otherwise.
+            return goal_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
+        return resumable_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
 
     wave = wave_for(False)
     narrow = False
@@ -288,10 +300,11 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     planner._errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
     """
     r, c = as_cell(cell, analysis.shape, name="cell")
-    if wave.passable.shape != analysis.shape:
-        msg = f"the wave's map is {wave.passable.shape}, the analysis's {analysis.shape}"
+    if wave.shape != analysis.shape:
+        msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
         raise InvalidInput(msg, field="wave")
-    here = K._cost_here(wave.passable, wave.kw, analysis.clean, r, c, wave.diagonal_cost, True)
+    v = wave.view(r, c, analysis.clean)
+    here = K._cost_here(v.passable, v.kw, v.clean, r - v.top, c - v.left, wave.diagonal_cost, True)
     return bool(np.isfinite(here))
 
 
@@ -300,7 +313,7 @@ def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
     of ``k`` over the cells entered after the start."""
     steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
     length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost)
-    return length, float(wave.k[path[1:, 0], path[1:, 1]].sum())
+    return length, float(wave.k_along(path[1:]).sum())
 
 
 def clearance_metrics(

@@ -15,9 +15,11 @@ import numpy.typing as npt
 
 from planner import _kernels as K
 from planner._errors import InvalidInput, SequenceConflict, quote
+from planner.analysis import WaveView
 from planner.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.planning import Plan
+from planner.search import ResumableWave
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
 
@@ -292,9 +294,15 @@ class Session:
         wave = plan.wave
         r, c = cell
         tabu = self._tabu(r, c) if self._visited is not None else 0
+        # The hook of resumable waves: the view settles what the decision reads, around (r, c).
+        v = wave.view(r, c, plan.analysis.clean)
+        # A window of the map (not the map itself): cells and flat indices are relative to it.
+        if v.top or v.left or v.passable.shape != plan.analysis.shape:
+            obstacles = obstacles - np.array([v.top, v.left], dtype=np.int64)
+            target = _local(target, self._width, v)
         i, outcome = K._decide(
-            wave.passable, wave.k, wave.kw, plan.analysis.clean, r, c, obstacles,
-            p.dynamic_margin, tabu, plan.goal[0], plan.goal[1], self._mode, p.alpha, p.beta,
+            v.passable, v.k, v.kw, v.clean, r - v.top, c - v.left, obstacles, p.dynamic_margin,
+            tabu, plan.goal[0] - v.top, plan.goal[1] - v.left, self._mode, p.alpha, p.beta,
             p.diagonal_cost, target,
         )  # fmt: skip
         return int(i), int(outcome)
@@ -302,12 +310,11 @@ class Session:
     def _on_plan(self, cell: tuple[int, int]) -> bool:
         """Whether the plan's grid leads from ``cell`` to the goal (not a pocket sealing shut)."""
         wave = self.plan.wave
-        if wave.passable[cell] and wave.kw[cell] < np.inf:  # the usual case, without a kernel call
+        v = wave.view(cell[0], cell[1], self.plan.analysis.clean)
+        r, c = cell[0] - v.top, cell[1] - v.left
+        if v.passable[r, c] and v.kw[r, c] < np.inf:  # the usual case, without a kernel call
             return True
-        value = K._cost_here(
-            wave.passable, wave.kw, self.plan.analysis.clean, cell[0], cell[1],
-            wave.diagonal_cost, True,
-        )  # fmt: skip
+        value = K._cost_here(v.passable, v.kw, v.clean, r, c, wave.diagonal_cost, True)
         return bool(np.isfinite(value))
 
     def _route_clear(self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64]) -> bool:
@@ -318,11 +325,14 @@ class Session:
         plan = self.plan
         wave, p, W = plan.wave, plan.params, self._width
         H = plan.analysis.shape[0]
-        route = K._walk(
-            wave.passable, wave.k, wave.kw, plan.analysis.clean, cell[0] * W + cell[1],
-            plan.goal[0] * W + plan.goal[1], K.MODE_WIDE, p.alpha, p.beta, p.diagonal_cost,
-            4 * H * W + 8,
-        )  # fmt: skip
+        if isinstance(wave, ResumableWave):  # the walk over what it has settled
+            route = wave.walk(cell, K.MODE_WIDE, p.alpha, p.beta, 4 * H * W + 8)
+        else:
+            route = K._walk(
+                wave.passable, wave.k, wave.kw, plan.analysis.clean, cell[0] * W + cell[1],
+                plan.goal[0] * W + plan.goal[1], K.MODE_WIDE, p.alpha, p.beta, p.diagonal_cost,
+                4 * H * W + 8,
+            )  # fmt: skip
         if route.size == 0:
             return False
         rows, cols = np.divmod(route, W)
@@ -341,10 +351,8 @@ class Session:
         start = cell[0] * W + cell[1]
         goal = plan.goal[0] * W + plan.goal[1]
         if on_plan:
-            cells = K._detour(
-                wave.passable, wave.kw, a.clean, start, goal, p.diagonal_cost, obstacles,
-                p.dynamic_margin, True,
-            )  # fmt: skip
+            # Over the plan's own wave: a resumable one searches what it has settled.
+            cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
             if cells.size:
                 return cells, False
         if not (a.sealed and not wave.narrow):
@@ -388,7 +396,7 @@ class Session:
         st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
         # A cell the plan's grid seals (or cuts off from the goal) has no k: it counts its
         # cost-to-go along the narrow way the robot follows (what k is: the cost to go from there).
-        k = float(self.plan.wave.k[nr, nc])
+        k = self.plan.wave.k_at(nr, nc)
         st.arc_cost += k if k < np.inf else self.remaining() or 0.0
 
     def _answer(
@@ -416,8 +424,11 @@ class Session:
         wave = self.plan.wave
         st = self.state
         r, c = st.position
-        clean = self.plan.analysis.clean
-        value = K._cost_here(wave.passable, wave.k, clean, r, c, wave.diagonal_cost, False)
+        # The hook of resumable waves: the view settles what is read, around (r, c).
+        v = wave.view(r, c, self.plan.analysis.clean)
+        value = K._cost_here(
+            v.passable, v.k, v.clean, r - v.top, c - v.left, wave.diagonal_cost, False
+        )
         if np.isfinite(value):
             return value
         if st.detour:
@@ -506,6 +517,15 @@ def _blocked_cells(
     inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
     out: npt.NDArray[np.int64] = rows[inside] * W + cols[inside]
     return out
+
+
+def _local(target: int, width: int, v: WaveView) -> int:
+    """A flat map index as the flat index into the view's window (one past it when outside)."""
+    if target < 0:
+        return target
+    h, w = int(v.passable.shape[0]), int(v.passable.shape[1])
+    r, c = target // width - v.top, target % width - v.left
+    return r * w + c if 0 <= r < h and 0 <= c < w else h * w
 
 
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:

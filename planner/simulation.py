@@ -201,6 +201,7 @@ def warm_up() -> None:
         grid.flags.writeable = writeable
         for preset in ("wide", "wfs-mmas", "mmas"):
             p = plan(grid, (0, 0), (5, 5), preset=preset, patience=0)
+            _ = plan(grid, (0, 0), (5, 5), preset=preset, whole=True).path  # a service's plans
             p.analysis.gate_cells()
             _ = p.min_clearance
             run_episode(p, dynamic_count=2, seed=0, max_steps=4)

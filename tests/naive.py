@@ -440,3 +440,9 @@ def walk(
             return []
         path.append((path[-1][0] + MOVES[i][0], path[-1][1] + MOVES[i][1]))
     return path if path[-1] == goal else []
+
+
+def neighbourhood(passable: np.ndarray, r: int, c: int) -> list[tuple[int, int]]:
+    """The cells a decision at (r, c) reads: (r, c) when passable, and its legal neighbours."""
+    cells = [(r, c)] if passable[r, c] else []
+    return cells + [(r + dr, c + dc) for dr, dc in MOVES if legal(passable, r, c, dr, dc)]
