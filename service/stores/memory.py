@@ -113,7 +113,8 @@ class MemoryStore(Store):
     @asynccontextmanager
     async def plan_lock(self, plan_id: str) -> AsyncIterator[PlanRecord | None]:
         key = scoped(plan_id)
-        if await self.get_plan(plan_id) is None:
+        self._expire()
+        if key not in self._plans:  # the record is read (decoded) once, under the lock
             yield None  # no lock is made for a plan that does not exist
             return
         lock, users = self._locks.get(key, (asyncio.Lock(), 0))
