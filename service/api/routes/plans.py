@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import orjson
 from fastapi import APIRouter, Query, Request, Response, status
@@ -12,7 +12,7 @@ from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
 from service.errors import responses
 from service.resources import plans
-from service.viewer.events import EventBus
+from service.viewer.events import EventBus, RedisBus, channel
 from service.work.engine import Engine
 
 __all__ = ["router"]
@@ -71,13 +71,23 @@ async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
     state = request.app.state
     engine: Engine = state.engine
     bus: EventBus = state.bus
-    view = await plans.step(engine, plan_id, body)
+    if isinstance(bus, RedisBus) and engine.store.publishes:
+        # Redis: the step's write publishes its event in the same round trip.
+        view = await plans.step(
+            engine, plan_id, body, event=lambda v: (channel(plan_id), orjson.dumps(_event(v)))
+        )
+    else:
+        view = await plans.step(engine, plan_id, body)
+        await bus.publish(plan_id, _event(view))
     # Built and encoded directly (the hot path): `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
-    answer = present.step_answer(view)
-    # The live viewer draws cells: circles go out as the cells they blocked.
-    await bus.publish(plan_id, {**answer, "dynamic_obstacles": view.obstacles})
-    return Response(orjson.dumps(answer), media_type="application/json")
+    return Response(orjson.dumps(present.step_answer(view)), media_type="application/json")
+
+
+def _event(view: plans.StepView) -> dict[str, Any]:
+    """What the live viewer gets of a step: the answer, and the cells the obstacles blocked
+    (it draws cells: circles go out as the cells they blocked)."""
+    return {**present.step_answer(view), "dynamic_obstacles": view.obstacles}
 
 
 @router.get(
