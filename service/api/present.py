@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -13,11 +14,13 @@ from service.resources.maps import MapView
 from service.resources.plans import PlanView, StepView
 
 __all__ = [
+    "center",
     "map_public",
     "meters",
     "plan_detail",
     "plan_public",
     "simulation_public",
+    "step_answer",
     "step_public",
 ]
 
@@ -100,8 +103,38 @@ def plan_detail(view: PlanView) -> PlanDetail:
 
 
 def step_public(view: StepView) -> StepPublic:
-    xy = view.frame.centers([view.step.position]).round(6)[0].tolist()
-    return StepPublic.model_validate({**view.step.as_dict(), "position_xy": xy})
+    return StepPublic.model_validate(step_answer(view))
+
+
+def step_answer(view: StepView) -> dict[str, Any]:
+    """The step's answer as :class:`StepPublic` writes it, built directly: a step is the hot
+    path, and validating values the planner made costs more than the step's own bookkeeping."""
+    step = view.step
+    r, c = step.position
+    return {
+        "seq": int(step.seq),
+        "previous": [int(step.previous[0]), int(step.previous[1])],
+        "position": [int(r), int(c)],
+        "position_xy": center(view.frame, r, c),
+        "move": step.move,
+        "status": step.status,
+        "iteration": int(step.iteration),
+        "path_length": float(step.path_length),
+        "arc_cost": float(step.arc_cost),
+        "remaining": None if step.remaining is None else float(step.remaining),
+        "narrow_fallback": bool(step.narrow_fallback),
+    }
+
+
+def center(frame: planner.MapFrame, row: int, col: int) -> list[float]:
+    """``frame.centers([[row, col]]).round(6)[0].tolist()`` without the arrays: the same
+    arithmetic on Python floats, rounded by numpy as before."""
+    ox, oy, yaw = frame.origin
+    u = (float(col) + 0.5) * frame.resolution
+    v = (frame.shape[0] - 1 - float(row) + 0.5) * frame.resolution
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    xy: list[float] = np.round([ox + cos * u - sin * v, oy + sin * u + cos * v], 6).tolist()
+    return xy
 
 
 def simulation_public(episode: planner.Episode) -> SimulationPublic:

@@ -8,6 +8,7 @@ and calls the planner's session step, with nothing resolved or rebuilt on the wa
 from __future__ import annotations
 
 import secrets
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,6 +19,7 @@ from planner._errors import quote
 from schemas import Circle, PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
+from service.stores.base import Event
 from service.work.engine import Engine, cell_size, frame_map, overrides, where
 
 __all__ = [
@@ -89,11 +91,17 @@ async def delete_plan(engine: Engine, plan_id: str) -> None:
         raise _unknown_plan(plan_id)
 
 
-async def step(engine: Engine, plan_id: str, body: StepCreate) -> StepView:
+async def step(
+    engine: Engine,
+    plan_id: str,
+    body: StepCreate,
+    event: Callable[[StepView], Event] | None = None,
+) -> StepView:
     """Load the robot's state, decide its move, save the state: under the plan's lock, so
     concurrent steps never lose a move. A ``position`` point means the cell containing it; a
     circle obstacle, the cells it covers (:func:`planner.circle_cells`, with the robot's
-    radius)."""
+    radius). ``event``, when given, makes the step's event for the live viewer, which the
+    store publishes with its write (a store that :attr:`~service.stores.Store.publishes`)."""
     limit = engine.settings.max_dynamic_obstacles
     if len(body.dynamic_obstacles) > limit:
         msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
@@ -127,10 +135,15 @@ async def step(engine: Engine, plan_id: str, body: StepCreate) -> StepView:
             result = session.step(*args, position=position, seq=body.seq)
         record["state"] = stored = session.state.as_dict()
         moved = stored.pop("trajectory")[len(trajectory) :]
+        view = StepView(result, frame, obstacles)
+        message = None if event is None else event(view)
         # Written only if the plan still exists: a DELETE that won the race stays a delete.
-        if not await engine.store.put_plan(plan_id, record, append=moved, existing=True):
+        written = await engine.store.put_plan(
+            plan_id, record, append=moved, existing=True, event=message
+        )
+        if not written:
             raise _unknown_plan(plan_id)
-    return StepView(result, frame, obstacles)
+    return view
 
 
 def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:

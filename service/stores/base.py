@@ -27,11 +27,23 @@ import numpy.typing as npt
 
 from planner.robot_maps import MapFrame, RobotMap
 
-__all__ = ["Cells", "Grid", "PlanRecord", "Store", "decode_map", "encode_map", "pack", "unpack"]
+__all__ = [
+    "Cells",
+    "Event",
+    "Grid",
+    "PlanRecord",
+    "Store",
+    "decode_map",
+    "encode_map",
+    "pack",
+    "unpack",
+]
 
 Grid = npt.NDArray[np.uint8]
 PlanRecord = dict[str, Any]
 Cells = Sequence[Sequence[int]]
+Event = tuple[str, bytes]
+"""A message for the live viewer: its pub/sub channel and its bytes."""
 
 
 def pack(cells: Cells) -> bytes:
@@ -79,6 +91,8 @@ class Store(ABC):
     """
 
     kind: str
+    publishes = False
+    """Whether :meth:`put_plan` publishes its ``event`` (else the caller publishes it)."""
 
     @abstractmethod
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
@@ -90,11 +104,20 @@ class Store(ABC):
 
     @abstractmethod
     async def put_plan(
-        self, plan_id: str, record: PlanRecord, *, append: Cells = (), existing: bool = False
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        *,
+        append: Cells = (),
+        existing: bool = False,
+        event: Event | None = None,
     ) -> bool:
         """Keep (or replace) a plan's record and add ``append`` to its trajectory, both at once;
         restarts the plan's TTL (and its map's). With ``existing``, only a plan that still
-        exists is written: False when it was deleted or expired (nothing written then)."""
+        exists is written: False when it was deleted or expired (nothing written then).
+        ``event``, a ``(channel, message)`` for the live viewer, is published with the write by a
+        store that can (Redis: in the same round trip) when the write happens; others ignore it
+        (see :attr:`publishes`)."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:

@@ -13,7 +13,7 @@ import orjson
 from planner.robot_maps import RobotMap
 from service.edge.tenants import TENANT, scoped
 from service.errors import InsufficientStorage
-from service.stores.base import Cells, PlanRecord, Store, pack, unpack
+from service.stores.base import Cells, Event, PlanRecord, Store, pack, unpack
 
 __all__ = ["MemoryStore"]
 
@@ -74,7 +74,13 @@ class MemoryStore(Store):
         return len(self._maps), len(self._plans)
 
     async def put_plan(
-        self, plan_id: str, record: PlanRecord, *, append: Cells = (), existing: bool = False
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        *,
+        append: Cells = (),
+        existing: bool = False,
+        event: Event | None = None,
     ) -> bool:
         self._expire()
         key = scoped(plan_id)
@@ -113,7 +119,8 @@ class MemoryStore(Store):
     @asynccontextmanager
     async def plan_lock(self, plan_id: str) -> AsyncIterator[PlanRecord | None]:
         key = scoped(plan_id)
-        if await self.get_plan(plan_id) is None:
+        self._expire()
+        if key not in self._plans:  # the record is read (decoded) once, under the lock
             yield None  # no lock is made for a plan that does not exist
             return
         lock, users = self._locks.get(key, (asyncio.Lock(), 0))

@@ -41,7 +41,16 @@ from planner._errors import quote
 from planner.robot_maps import RobotMap
 from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
-from service.stores.base import Cells, PlanRecord, Store, decode_map, encode_map, pack, unpack
+from service.stores.base import (
+    Cells,
+    Event,
+    PlanRecord,
+    Store,
+    decode_map,
+    encode_map,
+    pack,
+    unpack,
+)
 
 __all__ = ["LOCK_TIMEOUT", "LOCK_WAIT", "SOCKET_TIMEOUT", "RedisStore"]
 
@@ -71,7 +80,8 @@ return {2, redis.call('PTTL', KEYS[2])}
 
 # One round trip to end it: write the plan and append to its trajectory only while the lock
 # holds this holder's token and (for a step) the plan still exists, refresh the map's TTL, and
-# release the lock. A new plan runs the same script with no token.
+# release the lock, and publish the step's event for the live viewer (when given: ARGV[7] the
+# channel, ARGV[8] the message). A new plan runs the same script with no token.
 # Returns 1 (written), 0 (the lock was lost: nothing written), -1 (the plan is gone).
 _WRITE_AND_RELEASE = """
 local mine = ARGV[2] == '' or redis.call('GET', KEYS[2]) == ARGV[2]
@@ -85,6 +95,7 @@ if ARGV[4] ~= '' then redis.call('APPEND', KEYS[3], ARGV[4]) end
 redis.call('PEXPIRE', KEYS[3], ARGV[3])
 if KEYS[4] ~= '' then redis.call('PEXPIRE', KEYS[4], ARGV[5]) end
 if ARGV[2] ~= '' then redis.call('DEL', KEYS[2]) end
+if ARGV[7] ~= '' then redis.call('PUBLISH', ARGV[7], ARGV[8]) end
 return 1
 """
 
@@ -108,7 +119,8 @@ class RedisStore(Store):
     and the loser would redo it all; WATCH would also pin a connection for the whole
     computation. With the lock, the second waits, then reads the first's state: for the same
     ``seq`` it replays the stored answer, for none it steps on from there. No move is lost or
-    doubled. A step costs two round trips: lock-and-read, then write-and-release.
+    doubled. A step costs two round trips: lock-and-read, then write-and-release (which also
+    publishes the step's event for the live viewer: no third).
 
     The lock lives ``LOCK_TIMEOUT`` (2 s) and its holder renews it while it steps, so a replica
     killed mid-step frees it within 2 s. A holder that stalls past that loses it: the write back
@@ -122,6 +134,7 @@ class RedisStore(Store):
     """
 
     kind = "redis"
+    publishes = True
 
     def __init__(self, url: str, *, ttl_seconds: float, map_ttl_seconds: float = 0) -> None:
         self._redis = Redis.from_url(
@@ -166,7 +179,13 @@ class RedisStore(Store):
         return decode_map(value)
 
     async def put_plan(
-        self, plan_id: str, record: PlanRecord, *, append: Cells = (), existing: bool = False
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        *,
+        append: Cells = (),
+        existing: bool = False,
+        event: Event | None = None,
     ) -> bool:
         held = _held.get()
         token = held[1] if held is not None and held[0] == plan_id else ""
@@ -179,7 +198,7 @@ class RedisStore(Store):
         keys = [f"planner:plan:{key}", f"planner:lock:{key}", f"planner:path:{key}", map_key]
         args: list[bytes | str | int] = [
             orjson.dumps(record), token, self._ttl_ms, pack(append), self._map_ttl_ms,
-            "1" if existing else "0",
+            "1" if existing else "0", *(event if event is not None else ("", b"")),
         ]  # fmt: skip
         async with self._reaching():
             written = await self._write_and_release(keys=keys, args=args)

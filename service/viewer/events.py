@@ -31,6 +31,7 @@ __all__ = [
     "MemoryBus",
     "RedisBus",
     "Subscription",
+    "channel",
     "get_bus",
     "open_bus",
 ]
@@ -39,6 +40,13 @@ HEARTBEAT = 15.0
 """Seconds between the keep-alive comments of an idle stream (proxies close silent ones)."""
 
 Event = dict[str, Any]
+
+
+def channel(plan_id: str) -> str:
+    """The plan's Redis pub/sub channel (which a Redis store's step write also publishes on)."""
+    return f"planner:events:{plan_id}"
+
+
 Queue = asyncio.Queue[Event]
 _LOG = logging.getLogger("service.viewer.events")
 
@@ -118,14 +126,14 @@ class RedisBus(EventBus):
 
     async def publish(self, plan_id: str, event: Event) -> None:
         try:
-            await self._redis.publish(f"planner:events:{plan_id}", orjson.dumps(event))
+            await self._redis.publish(channel(plan_id), orjson.dumps(event))
         except rx.RedisError as exc:
             _LOG.warning("step event not published", extra={"fields": {"reason": str(exc)}})
 
     async def subscribe(self, plan_id: str) -> Subscription:
         pubsub = self._redis.pubsub(ignore_subscribe_messages=True)
         try:
-            await pubsub.subscribe(f"planner:events:{plan_id}")
+            await pubsub.subscribe(channel(plan_id))
         except rx.RedisError as exc:
             await pubsub.aclose()  # type: ignore[no-untyped-call]
             raise StoreUnavailable(f"store unavailable: {exc}; retry later") from exc

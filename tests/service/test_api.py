@@ -268,3 +268,31 @@ async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
     assert answer == shown
     r = await client.post(f"/maps/{plan['map_id']}/simulate", json=example("SimulationCreate"))
     assert r.status_code == 200, r.text
+
+
+async def test_step_answers_validate_as_their_documented_model(client: httpx.AsyncClient) -> None:
+    """The step's answer is built without the response model (the hot path): it is still
+    exactly what StepPublic writes, and its schema is still documented."""
+    r = await client.post("/maps", json={"rows": ROWS, "start": [4, 0], "goal": [0, 5]})
+    url = f"/plan/{r.json()['plan']['plan_id']}/step"
+    for seq in range(12):
+        step = await client.post(url, json={"seq": seq, "dynamic_obstacles": [[2, 2]]})
+        assert step.status_code == 200
+        assert step.headers["content-type"] == "application/json"
+        answer = step.json()
+        assert schemas.StepPublic.model_validate(answer).model_dump(mode="json") == answer
+    spec = (await client.get("/openapi.json")).json()
+    ok = spec["paths"]["/plan/{plan_id}/step"]["post"]["responses"]["200"]
+    assert ok["content"]["application/json"]["schema"] == {
+        "$ref": "#/components/schemas/StepPublic"
+    }
+
+
+def test_step_centers_are_the_frames() -> None:
+    from service.api.present import center
+
+    rng = np.random.default_rng(0)
+    for yaw in (0.0, 0.3, -2.1, np.pi / 2):
+        frame = planner.MapFrame((97, 131), 0.05, (-3.25, 7.125, float(yaw)))
+        for r, c in rng.integers(0, 97, size=(50, 2)).tolist():
+            assert center(frame, r, c) == frame.centers([[r, c]]).round(6)[0].tolist()

@@ -15,6 +15,7 @@ from service.config import Settings
 from service.errors import StoreUnavailable
 from service.stores import MemoryStore, RedisStore, open_store
 from service.stores import redis as redis_store
+from service.viewer.events import RedisBus, Subscription
 from tests.service.conftest import RedisServer, free_port
 
 
@@ -246,3 +247,37 @@ async def test_maps_expire_unless_used(redis_server: RedisServer) -> None:
         assert await store.get_map("m") is None
     finally:
         await store.close()
+
+
+@pytest.mark.anyio
+async def test_a_steps_write_publishes_its_event_only_when_written(
+    store: RedisStore, redis_server: RedisServer
+) -> None:
+    """One round trip writes the step and publishes its event for the live viewer; a write
+    that does not happen (the plan deleted meanwhile) publishes nothing."""
+    bus = RedisBus(redis_server.url)
+    subscription = await bus.subscribe("p")
+    try:
+        await store.put_plan("p", {"v": 0})
+        async with store.plan_lock("p"):
+            event = ("planner:events:p", b'{"seq":0}')
+            assert await store.put_plan("p", {"v": 1}, existing=True, event=event) is True
+        assert await _next_event(subscription) == {"seq": 0}
+        async with store.plan_lock("p"):
+            assert await store.delete_plan("p") is True
+            event = ("planner:events:p", b'{"seq":1}')
+            assert await store.put_plan("p", {"v": 2}, existing=True, event=event) is False
+        await store._redis.publish("planner:events:p", b'{"after":true}')
+        assert await _next_event(subscription) == {"after": True}  # nothing came before it
+    finally:
+        await subscription.close()
+        await bus.close()
+
+
+async def _next_event(subscription: Subscription) -> dict[str, object] | None:
+    """The next event, past the subscription's confirmation (which reads as None)."""
+    for _ in range(3):
+        event = await subscription.next()
+        if event is not None:
+            return event
+    return None
