@@ -268,3 +268,27 @@ async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
     assert answer == shown
     r = await client.post(f"/maps/{plan['map_id']}/simulate", json=example("SimulationCreate"))
     assert r.status_code == 200, r.text
+
+
+async def test_every_documented_request_example_is_accepted(client: httpx.AsyncClient) -> None:
+    """Every request example of /openapi.json, posted: each is answered 2xx."""
+    components = (await client.get("/openapi.json")).json()["components"]["schemas"]
+
+    def examples(name: str) -> list[dict[str, object]]:
+        shown = components[name]["examples"]
+        assert shown, f"{name} has no example"
+        return [dict(e) for e in shown]
+
+    for body in examples("MapCreate"):
+        r = await client.post("/maps", json=body)
+        assert r.status_code in (200, 201), (body, r.text)
+    for body in examples("PlanCreate"):
+        r = await client.post("/plan", json=body)
+        assert r.status_code == 201, (body, r.text)
+    plan = r.json()
+    for body in examples("StepCreate"):
+        r = await client.post(f"/plan/{plan['plan_id']}/step", json=body)
+        assert r.status_code == 200, (body, r.text)
+    for body in examples("SimulationCreate"):
+        r = await client.post(f"/maps/{plan['map_id']}/simulate", json=body)
+        assert r.status_code == 200, (body, r.text)
