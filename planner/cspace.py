@@ -22,9 +22,9 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.params import Unknown
-from planner.robot_maps import RobotMap, point_xy, quote
+from planner.robot_maps import RobotMap, point_xy
 
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
 

@@ -14,11 +14,11 @@ import numpy as np
 import numpy.typing as npt
 
 from planner import _kernels as K
-from planner._errors import InvalidInput, NoValidPath
+from planner._errors import InvalidInput, NoValidPath, quote
 from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
 from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, Params, resolve_params
-from planner.robot_maps import RobotMap, grid_map, quote
+from planner.robot_maps import RobotMap, grid_map
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
 

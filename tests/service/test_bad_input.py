@@ -37,7 +37,8 @@ INFO = {"resolution": 0.05, "width": 3, "height": 2, "origin": {"position": {"x"
 
 # (name, method, url, json body or raw bytes, status, substrings of detail)
 CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
-    ("ragged grid", "POST", "/maps", {"grid": [[0, 0], [0]]}, 422, ["grid", "rectangular"]),
+    ("ragged grid", "POST", "/maps", {"grid": [[0, 0], [0]]}, 422,
+     ["grid", "rectangular", "grid[1] has 1 cells; grid[0] has 2"]),
     ("empty grid", "POST", "/maps", {"grid": []}, 422, ["grid", "(0,)"]),
     ("empty rows of grid", "POST", "/maps", {"grid": [[], []]}, 422, ["grid", "(2, 0)"]),
     ("cell 2", "POST", "/maps", {"grid": [[0, 2]]}, 422, ["grid", "found 2 at [0, 1]"]),
