@@ -244,3 +244,15 @@ def test_dynamic_margin_in_meters_becomes_cells_of_the_map() -> None:
     assert planner.Session(p).step([[0, 8]]).move != "WAIT"
     with pytest.raises(planner.InvalidInput, match="dynamic_margin_m 1 is 20 cells"):
         planner.plan(robot_map, [0, 0], [19, 19], dynamic_margin_m=1.0)
+
+def test_dynamic_margin_in_cells_and_in_meters_do_not_go_together() -> None:
+    with pytest.raises(InvalidInput) as info:
+        planner.resolve_params("wide", dynamic_margin=2, dynamic_margin_m=0.3)
+    assert "dynamic_margin (cells) or dynamic_margin_m (meters), not both" in str(info.value)
+    assert info.value.field == "params.dynamic_margin_m"
+    # A preset's own dynamic_margin does not count, nor an unset dynamic_margin_m.
+    assert planner.resolve_params("wide", dynamic_margin_m=0.3).dynamic_margin_m == 0.3
+    assert (
+        planner.resolve_params("wide", dynamic_margin=2, dynamic_margin_m=None).dynamic_margin == 2
+    )
+
