@@ -287,3 +287,23 @@ def test_a_circle_outside_the_map_is_refused() -> None:
     with pytest.raises(InvalidInput, match="entirely outside"):
         planner.circle_cells(robot_map, point, robot_radius=0.4)
 
+
+def test_a_position_in_the_margin_is_named_as_start_and_goal_are() -> None:
+    grid = np.zeros((10, 10), dtype=np.int8)
+    grid[4, 4] = 1
+    robot_map = planner.grid_map(grid, resolution=0.1)
+    p = planner.plan(robot_map, [8, 1], [2, 7], robot_radius=0.15)
+    margin = {"x": 0.52, "y": 0.58}  # cell [4, 5], 0.1 m from the obstacle
+    with pytest.raises(InvalidInput) as info:
+        planner.Session(p).step([], position=margin)
+    assert info.value.field == "position"
+    assert str(info.value) == (
+        "POSITION_OCCUPIED: position {'x': 0.52, 'y': 0.58} (cell [4, 5]) is not traversable: "
+        "its clearance 0.100 m is not more than robot_radius 0.15 m"
+    )
+    with pytest.raises(InvalidInput, match=r"POSITION_OCCUPIED: position \[4, 5\] is not"):
+        planner.Session(p).step([], position=[4, 5])
+    with pytest.raises(InvalidInput, match=r"position \[4, 4\] is on an obstacle"):
+        planner.Session(p).step([], position=[4, 4])
+    # A free point is the cell containing it.
+    assert tuple(planner.Session(p).step([], position={"x": 0.25, "y": 0.25}).previous) == (7, 2)
