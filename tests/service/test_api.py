@@ -112,11 +112,12 @@ async def test_step_reports_position_and_moves_away(client: httpx.AsyncClient) -
     r = await client.post("/maps", json={"rows": ROWS, "start": [0, 0], "goal": [4, 5]})
     plan_id = r.json()["plan"]["plan_id"]
     step = await client.post(
-        f"/plan/{plan_id}/step", json={"position": [2, 2], "dynamic_obstacles": [[3, 3]]}
+        f"/plan/{plan_id}/step", json={"position": [2, 2], "dynamic_obstacles": [[2, 2]]}
     )
     assert step.status_code == 200
     assert step.json()["previous"] == [2, 2]
-    assert step.json()["position"] != [3, 3]
+    assert step.json()["move"] != "WAIT"  # an obstacle on the robot's cell: it evades
+    assert step.json()["position"] != [2, 2]
     detail = (await client.get(f"/plan/{plan_id}")).json()
     assert detail["trajectory"][:2] == [[0, 0], [2, 2]]
     assert detail["position"] == step.json()["position"]
