@@ -23,5 +23,6 @@ router = APIRouter(tags=["simulation"], route_class=OrjsonRoute)
 async def simulate(map_id: str, body: SimulationCreate, engine: EngineDep) -> SimulationPublic:
     """Plan, then run a whole episode among `dynamic_count` obstacles that each step move to a
     random free neighbouring cell (seeded by `seed`: reproducible). Returns the robot's
-    `trajectory` and the paper's metrics, plus clearance, collisions (always 0) and timings."""
+    `trajectory` and the paper's metrics, plus clearance, collisions (0 for `wide` and
+    `shortest`) and timings."""
     return present.simulation_public(await simulation.simulate(engine, map_id, body))
