@@ -22,9 +22,9 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
 from planner.params import Unknown
-from planner.robot_maps import RobotMap, point_xy, quote
+from planner.robot_maps import MapFrame, RobotMap, point_xy
 
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
 
@@ -165,6 +165,12 @@ def circle_cells(
                 field=f"{name}.radius",
             )
         reach = float(radius) + robot_radius
+        if _distance_to_map(frame, x, y) > reach:
+            raise InvalidInput(
+                f"{name} {quote(circle)} is entirely outside the map, even widened by "
+                f"robot_radius {robot_radius:g} m: {frame.describe()}",
+                field=name,
+            )
         # The bounding box in cells (a rotated frame's box of the circle is the same square).
         (r0, c0), *_ = frame.cells([[x, y]]).tolist()
         span = math.ceil(reach / res) + 1
@@ -178,3 +184,13 @@ def circle_cells(
         out[rr.ravel()[inside], cc.ravel()[inside]] = True
     cells: npt.NDArray[np.int64] = np.argwhere(out).astype(np.int64)
     return cells
+
+
+def _distance_to_map(frame: MapFrame, x: float, y: float) -> float:
+    """Meters from ``(x, y)`` to the nearest point of the map's rectangle (0 inside it)."""
+    ox, oy, yaw = frame.origin
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    u = cos * (x - ox) + sin * (y - oy)
+    v = -sin * (x - ox) + cos * (y - oy)
+    width, height = frame.shape[1] * frame.resolution, frame.shape[0] * frame.resolution
+    return math.hypot(max(-u, 0.0, u - width), max(-v, 0.0, v - height))

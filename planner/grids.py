@@ -46,6 +46,51 @@ for _ch in MAP_BLOCKED:
     _LOOKUP[ord(_ch)] = 1
 
 
+def grid_array(grid: Any, *, name: str = "grid") -> npt.NDArray[Any]:
+    """``grid`` as a non-empty rectangular 2-D array of numbers (booleans become ``int8``):
+    the checks every grid of cells goes through before its values are checked.
+
+    >>> grid_array([[0, 1], [0]])
+    Traceback (most recent call last):
+    ...
+    planner._errors.InvalidInput: grid must be a rectangular 2-D array: grid[1] has 1 cells; grid[0] has 2
+    """  # noqa: E501
+    try:
+        arr = np.asarray(grid)
+    except ValueError:  # ragged nested lists: name the first row that differs
+        raise InvalidInput(_ragged(grid, name), field=name) from None
+    if arr.dtype == object or arr.ndim != 2:
+        msg = f"{name} must be a rectangular 2-D array of numbers; got shape {arr.shape!r}"
+        raise InvalidInput(msg, field=name)
+    if arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise InvalidInput(f"{name} must not be empty; got shape {arr.shape!r}", field=name)
+    if arr.dtype == np.bool_:
+        return arr.astype(np.int8)
+    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise InvalidInput(f"{name} must hold numbers; got dtype {arr.dtype}", field=name)
+    return arr
+
+
+def _ragged(grid: Any, name: str) -> str:
+    """Why nested lists that numpy refused are not a rectangle: the first row that differs."""
+    msg = f"{name} must be a rectangular 2-D array"
+    if not isinstance(grid, Sequence) or isinstance(grid, (str, bytes)) or not grid:
+        return msg
+
+    def width(row: Any) -> int | None:
+        is_row = isinstance(row, Sequence) and not isinstance(row, (str, bytes))
+        return len(row) if is_row else None
+
+    def has(i: int, cells: int | None) -> str:
+        return f"{name}[{i}] is not a row" if cells is None else f"{name}[{i}] has {cells} cells"
+
+    first = width(grid[0])
+    for i in range(1, len(grid)):
+        if (cells := width(grid[i])) != first:
+            return f"{msg}: {has(i, cells)}; {has(0, first).removesuffix(' cells')}"
+    return msg
+
+
 def as_grid(grid: Any, *, name: str = "grid") -> Grid:
     """Validate an occupancy grid and return it as a C-contiguous ``uint8`` array of 0 and 1.
 
@@ -56,20 +101,7 @@ def as_grid(grid: Any, *, name: str = "grid") -> Grid:
     ...
     planner._errors.InvalidInput: grid must hold only 0 (free) and 1 (blocked); found 2 at [0, 1]
     """
-    try:
-        arr = np.asarray(grid)
-    except ValueError as exc:  # ragged nested lists
-        raise InvalidInput(f"{name} must be a rectangular 2-D array: {exc}", field=name) from None
-    if arr.dtype == object or arr.ndim != 2:
-        msg = f"{name} must be a rectangular 2-D array of 0 and 1; got shape {arr.shape!r}"
-        raise InvalidInput(msg, field=name)
-    if arr.shape[0] == 0 or arr.shape[1] == 0:
-        raise InvalidInput(f"{name} must not be empty; got shape {arr.shape!r}", field=name)
-    if arr.dtype == np.bool_:
-        return np.ascontiguousarray(arr, dtype=np.uint8)
-    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
-        msg = f"{name} must hold numbers 0 and 1; got dtype {arr.dtype}"
-        raise InvalidInput(msg, field=name)
+    arr = grid_array(grid, name=name)
     bad = (arr != 0) & (arr != 1)
     if bad.any():
         r, c = (int(v) for v in np.argwhere(bad)[0])

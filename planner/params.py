@@ -131,6 +131,13 @@ def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:
     values = PRESETS[preset].as_dict()
     for name, value in overrides.items():
         values[name] = _check(name, value)
+    if "dynamic_margin" in overrides and overrides.get("dynamic_margin_m") is not None:
+        msg = (
+            "give dynamic_margin (cells) or dynamic_margin_m (meters), not both; got "
+            f"dynamic_margin {quote(overrides['dynamic_margin'])} and dynamic_margin_m "
+            f"{quote(overrides['dynamic_margin_m'])}"
+        )
+        raise InvalidInput(msg, field="params.dynamic_margin_m")
     return Params(**values)
 
 

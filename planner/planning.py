@@ -14,11 +14,11 @@ import numpy as np
 import numpy.typing as npt
 
 from planner import _kernels as K
-from planner._errors import InvalidInput, NoValidPath
+from planner._errors import InvalidInput, NoValidPath, quote
 from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
 from planner.grids import as_cell, as_grid
 from planner.params import PARAMETER_RANGES, Params, resolve_params
-from planner.robot_maps import RobotMap, grid_map, quote
+from planner.robot_maps import RobotMap, grid_map
 from planner.search import ResumableWave, resumable_wave
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
@@ -212,8 +212,8 @@ def plan(
                 f"for {wanted!r}"
             )
             raise InvalidInput(msg, field="params")
-    s = _free_cell(analysis, start, "start")
-    g = _free_cell(analysis, goal, "goal")
+    s = free_cell(analysis, start, "start")
+    g = free_cell(analysis, goal, "goal")
 
     def wave_for(narrow: bool) -> Wave:
         if waves is not None:
@@ -267,12 +267,18 @@ def _margin_cells(meters: float, analysis: Analysis) -> int:
     return cells
 
 
-def _free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
+def cell_of(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
+    """A ``[row, col]`` cell, or the cell containing a point ``{"x", "y"}`` in meters."""
+    if isinstance(cell, Mapping):
+        return analysis.frame.cell_of(cell, name=name)
+    return as_cell(cell, analysis.shape, name=name)
+
+
+def free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
+    """:func:`cell_of`, refused when the robot cannot stand there: on an obstacle, or (named
+    ``{NAME}_OCCUPIED``) within its clearance margin; the message quotes a point as sent."""
     point = isinstance(cell, Mapping)
-    if point:
-        r, c = analysis.frame.cell_of(cell, name=name)
-    else:
-        r, c = as_cell(cell, analysis.shape, name=name)
+    r, c = cell_of(analysis, cell, name)
     if analysis.state[r, c] != K.OBSTACLE:
         return r, c
     where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"

@@ -31,7 +31,8 @@ import numpy.typing as npt
 import yaml
 from PIL import Image, UnidentifiedImageError
 
-from planner._errors import InvalidInput
+from planner._errors import InvalidInput, quote
+from planner.grids import grid_array
 
 __all__ = [
     "DEFAULT_FREE_THRESH",
@@ -58,15 +59,6 @@ DEFAULT_FREE_THRESH = 0.196
 Occupancy = npt.NDArray[np.int8]
 Cells = npt.NDArray[np.int64]
 Points = npt.NDArray[np.float64]
-
-QUOTE_LIMIT = 100
-
-
-def quote(value: Any) -> str:
-    """``repr(value)``, cut to about 100 characters: error messages quote what they received."""
-    text = repr(value)
-    return text if len(text) <= QUOTE_LIMIT else text[: QUOTE_LIMIT - 3] + "..."
-
 
 # --------------------------------------------------------------------------------------------
 # The frame
@@ -265,17 +257,7 @@ def grid_map(
     grid: Any, *, resolution: Any = 1.0, origin: Any = (0.0, 0.0, 0.0), name: str = "grid"
 ) -> RobotMap:
     """A map from a grid of ``0`` (free), ``1`` (blocked) and ``-1`` (unknown), with a frame."""
-    try:
-        arr = np.asarray(grid)
-    except ValueError as exc:
-        raise InvalidInput(f"{name} must be a rectangular 2-D array: {exc}", field=name) from None
-    if arr.dtype == object or arr.ndim != 2 or 0 in arr.shape:
-        msg = f"{name} must be a non-empty rectangular 2-D array; got shape {arr.shape!r}"
-        raise InvalidInput(msg, field=name)
-    if arr.dtype == np.bool_:
-        arr = arr.astype(np.int8)
-    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
-        raise InvalidInput(f"{name} must hold numbers; got dtype {arr.dtype}", field=name)
+    arr = grid_array(grid, name=name)
     bad = (arr != 0) & (arr != 1) & (arr != -1)
     if bad.any():
         r, c = (int(v) for v in np.argwhere(bad)[0])

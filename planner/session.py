@@ -18,7 +18,7 @@ from planner._errors import InvalidInput, SequenceConflict, quote
 from planner.analysis import WaveView
 from planner.grids import as_cell
 from planner.params import PARAMETER_RANGES
-from planner.planning import Plan
+from planner.planning import Plan, cell_of, free_cell
 from planner.search import ResumableWave
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -162,7 +162,7 @@ class Session:
         held, replan_at, on_detour = st.held_up, st.replan_at, bool(st.detour)
         if position is not None:
             try:
-                cell = as_cell(position, self.plan.analysis.shape, name="position")
+                cell = cell_of(self.plan.analysis, position, "position")
             except InvalidInput:
                 return False  # the step will refuse it
             if cell != st.position:
@@ -188,7 +188,8 @@ class Session:
     ) -> Step:
         """Decide and record the next move, given the cells dynamic obstacles occupy now.
 
-        ``position`` is where the robot really is, if the client knows better. ``seq``, when
+        ``position`` is where the robot really is, if the client knows better: a cell, or a
+        point ``{"x", "y"}`` in meters. ``seq``, when
         given, must be the last step's ``seq`` + 1 (a new step) or the last ``seq`` again (a
         retry: the same answer, the robot not moved twice); the first step may take any ``seq``.
         """
@@ -215,9 +216,7 @@ class Session:
 
     def _relocate(self, position: Any) -> None:
         st = self.state
-        r, c = as_cell(position, self.plan.analysis.shape, name="position")
-        if self.plan.analysis.state[r, c] == K.OBSTACLE:
-            raise InvalidInput(f"position [{r}, {c}] is on an obstacle", field="position")
+        r, c = free_cell(self.plan.analysis, position, "position")
         if (r, c) != st.position:
             st.position = (r, c)
             st.trajectory.append((r, c))

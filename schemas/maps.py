@@ -72,7 +72,7 @@ class MapCreate(BaseModel):
                 {
                     "occupancy_grid": EXAMPLE_OCCUPANCY_GRID,
                     "start": {"x": -0.75, "y": 0.75},
-                    "goal": {"x": 0.25, "y": 0.75},
+                    "goal": {"x": 0.25, "y": 0.25},
                     "robot_radius": 0.2,
                 },
             ]

@@ -74,7 +74,12 @@ class SimulationCreate(BaseModel):
         "robot ending a tick on an obstacle's cell or swapping cells with one, in both.",
     )
     max_steps: int | None = Field(
-        default=None, ge=1, le=1_000_000, description="Default: 4 (H + W) + 4 len(path)."
+        default=None,
+        ge=1,
+        le=1_000_000,
+        description="Default: 4 (H + W) + 4 len(path). The server refuses more than its "
+        "`PLANNER_MAX_SIMULATION_STEPS` (default 200000) with a 422; the bound 1000000 here "
+        "caps that setting.",
     )
 
 
@@ -100,7 +105,12 @@ class SimulationMetrics(BaseModel):
     length_m: float = Field(ge=0, description="The trajectory's length in meters.")
     min_clearance_m: float = Field(ge=0)
     mean_clearance_m: float = Field(ge=0)
-    collisions: int = Field(ge=0, description="Steps ending on an obstacle's cell: always 0.")
+    collisions: int = Field(
+        ge=0,
+        description="Ticks ending on an obstacle's cell or swapping cells with one: 0 for "
+        "`wide` and `shortest` (their dynamic margin); the paper's presets can collide when "
+        "`obstacle_motion` is `simultaneous`.",
+    )
     analysis_ms: float = Field(ge=0)
     step_us: float = Field(ge=0, description="Mean compute time of one step.")
     episode_ms: float = Field(ge=0, description="Compute time of the whole episode.")

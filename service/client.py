@@ -383,28 +383,42 @@ _IMAGE_LINE = re.compile(r"""^image\s*:\s*(?P<q>["']?)(?P<name>.+?)(?P=q)\s*(?:#
 _MEDIA = {".png": "image/png", ".bmp": "image/bmp", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 
 
+def _given(**fields: Any) -> dict[str, Any]:
+    """The fields that are not ``None``: ``None`` is "not sent", the server's default."""
+    return {name: value for name, value in fields.items() if value is not None}
+
+
 def _upload_map(
     grid: Sequence[Sequence[int]] | None,
     rows: Sequence[str] | None,
+    occupancy_grid: Mapping[str, Any] | None,
     yaml: str | Path | None,
     start: CellIn | None,
     goal: CellIn | None,
     preset: str | None,
     params: Mapping[str, Any] | None,
+    frame: Mapping[str, Any],
 ) -> _Request:
-    given = [name for name, v in (("grid", grid), ("rows", rows), ("yaml", yaml)) if v is not None]
+    kinds = (("grid", grid), ("rows", rows), ("occupancy_grid", occupancy_grid), ("yaml", yaml))
+    given = [name for name, v in kinds if v is not None]
     if len(given) != 1:
-        msg = f"upload_map takes exactly one of grid, rows and yaml; got {given or 'none'}"
+        msg = (
+            "upload_map takes exactly one of grid, rows, occupancy_grid and yaml; "
+            f"got {given or 'none'}"
+        )
         raise TypeError(msg)
     extra: dict[str, Any] = _options(preset, params)
     if start is not None:
         extra["start"] = _cell(start)
     if goal is not None:
         extra["goal"] = _cell(goal)
+    extra.update(_given(**frame))
     if grid is not None:
         return _Request("POST", "/maps", json={"grid": [list(row) for row in grid], **extra})
     if rows is not None:
         return _Request("POST", "/maps", json={"rows": list(rows), **extra})
+    if occupancy_grid is not None:
+        return _Request("POST", "/maps", json={"occupancy_grid": dict(occupancy_grid), **extra})
     assert yaml is not None
     path = Path(yaml)
     text = path.read_bytes()
@@ -456,7 +470,7 @@ def _simulate(
     seed: int,
     preset: str | None,
     params: Mapping[str, Any] | None,
-    max_steps: int | None,
+    options: Mapping[str, Any],
 ) -> _Request:
     body: dict[str, Any] = {
         "start": _cell(start),
@@ -464,9 +478,8 @@ def _simulate(
         "dynamic_count": dynamic_count,
         "seed": seed,
         **_options(preset, params),
+        **_given(**options),
     }
-    if max_steps is not None:
-        body["max_steps"] = max_steps
     return _Request("POST", f"/maps/{map_id}/simulate", json=body)
 
 
@@ -526,15 +539,23 @@ class PlannerClient(_Base):
         *,
         grid: Sequence[Sequence[int]] | None = None,
         rows: Sequence[str] | None = None,
+        occupancy_grid: Mapping[str, Any] | None = None,
         yaml: str | Path | None = None,
+        resolution: float | None = None,
+        origin: Sequence[float] | None = None,
         start: CellIn | None = None,
         goal: CellIn | None = None,
         preset: str | None = None,
         params: Mapping[str, Any] | None = None,
     ) -> MapInfo:
-        """Upload a map as a 0/1 ``grid``, Moving AI ``rows``, or a ROS map ``yaml`` file (its
-        image, which the YAML names, is read beside it); with ``start`` and ``goal``, also plan."""
-        r = self._send(_upload_map(grid, rows, yaml, start, goal, preset, params))
+        """Upload a map as a ``grid`` of 0/1/-1 or Moving AI ``rows`` (either with an optional
+        ``resolution`` and ``origin`` ``[x, y, yaw]``), a ``nav_msgs/OccupancyGrid`` as rosbridge
+        writes it (``occupancy_grid``), or a ROS map ``yaml`` file (its image, which the YAML
+        names, is read beside it); with ``start`` and ``goal``, also plan. ``None`` is not sent.
+        """
+        frame = {"resolution": resolution, "origin": None if origin is None else list(origin)}
+        request = _upload_map(grid, rows, occupancy_grid, yaml, start, goal, preset, params, frame)
+        r = self._send(request)
         return MapInfo.from_json(r.json(), created=r.status_code == 201)
 
     def get_map(self, map_id: str) -> MapInfo:
@@ -580,8 +601,21 @@ class PlannerClient(_Base):
         preset: str | None = None,
         params: Mapping[str, Any] | None = None,
         max_steps: int | None = None,
+        obstacle_motion: str | None = None,
+        robot_radius: float | None = None,
+        unknown: str | None = None,
+        allow_narrow: bool | None = None,
     ) -> Simulation:
-        request = _simulate(map_id, start, goal, dynamic_count, seed, preset, params, max_steps)
+        """One seeded episode among ``dynamic_count`` moving obstacles (the paper's
+        experiment); the other arguments are ``SimulationCreate``'s fields, ``None`` not sent."""
+        options = {
+            "max_steps": max_steps,
+            "obstacle_motion": obstacle_motion,
+            "robot_radius": robot_radius,
+            "unknown": unknown,
+            "allow_narrow": allow_narrow,
+        }
+        request = _simulate(map_id, start, goal, dynamic_count, seed, preset, params, options)
         return Simulation.from_json(self._send(request).json())
 
     def render_map(self, map_id: str, **query: Any) -> bytes:
@@ -636,13 +670,18 @@ class AsyncPlannerClient(_Base):
         *,
         grid: Sequence[Sequence[int]] | None = None,
         rows: Sequence[str] | None = None,
+        occupancy_grid: Mapping[str, Any] | None = None,
         yaml: str | Path | None = None,
+        resolution: float | None = None,
+        origin: Sequence[float] | None = None,
         start: CellIn | None = None,
         goal: CellIn | None = None,
         preset: str | None = None,
         params: Mapping[str, Any] | None = None,
     ) -> MapInfo:
-        r = await self._send(_upload_map(grid, rows, yaml, start, goal, preset, params))
+        frame = {"resolution": resolution, "origin": None if origin is None else list(origin)}
+        request = _upload_map(grid, rows, occupancy_grid, yaml, start, goal, preset, params, frame)
+        r = await self._send(request)
         return MapInfo.from_json(r.json(), created=r.status_code == 201)
 
     async def get_map(self, map_id: str) -> MapInfo:
@@ -689,8 +728,19 @@ class AsyncPlannerClient(_Base):
         preset: str | None = None,
         params: Mapping[str, Any] | None = None,
         max_steps: int | None = None,
+        obstacle_motion: str | None = None,
+        robot_radius: float | None = None,
+        unknown: str | None = None,
+        allow_narrow: bool | None = None,
     ) -> Simulation:
-        request = _simulate(map_id, start, goal, dynamic_count, seed, preset, params, max_steps)
+        options = {
+            "max_steps": max_steps,
+            "obstacle_motion": obstacle_motion,
+            "robot_radius": robot_radius,
+            "unknown": unknown,
+            "allow_narrow": allow_narrow,
+        }
+        request = _simulate(map_id, start, goal, dynamic_count, seed, preset, params, options)
         return Simulation.from_json((await self._send(request)).json())
 
     async def render_map(self, map_id: str, **query: Any) -> bytes:

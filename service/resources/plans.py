@@ -119,9 +119,10 @@ async def step(
         state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
         session = planner.Session(plan, state)
         frame = plan.analysis.frame
-        position = body.position
+        # A point goes as sent: a refusal quotes it.
+        position: Any = body.position
         if isinstance(position, Point):
-            position = list(frame.cell_of(position.model_dump(), name="position"))
+            position = position.model_dump()
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         args = (obstacles,)
         if session.may_replan_at(position):

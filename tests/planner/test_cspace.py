@@ -73,7 +73,16 @@ def test_circle_cells_against_brute_force(
     x: float, y: float, radius: float, robot_radius: float, yaw: float
 ) -> None:
     robot_map = planner.grid_map(np.zeros((12, 15)), resolution=0.1, origin=(-0.7, -0.5, yaw))
-    circles = [{"x": x, "y": y, "radius": radius}, {"x": 0.3, "y": 0.1, "radius": 0.05}]
+    middle = robot_map.frame.centers([[6, 7]])[0].tolist()  # in the map whatever the yaw
+    circles = [{"x": x, "y": y, "radius": radius}, {"x": middle[0], "y": middle[1], "radius": 0.05}]
+    # The circle's center in the map's own axes: a circle clear of the map is refused.
+    u = math.cos(yaw) * (x + 0.7) + math.sin(yaw) * (y + 0.5)
+    v = -math.sin(yaw) * (x + 0.7) + math.cos(yaw) * (y + 0.5)
+    gap = math.hypot(max(-u, 0.0, u - 1.5), max(-v, 0.0, v - 1.2))
+    if gap > radius + robot_radius:
+        with pytest.raises(InvalidInput, match=r"dynamic_obstacles\[0\] .* entirely outside"):
+            planner.circle_cells(robot_map, circles, robot_radius=robot_radius)
+        return
     got = planner.circle_cells(robot_map, circles, robot_radius=robot_radius)
     want = naive.circle_cells((12, 15), 0.1, (-0.7, -0.5, yaw), circles, robot_radius)
     assert {tuple(rc) for rc in got.tolist()} == want
@@ -244,3 +253,57 @@ def test_dynamic_margin_in_meters_becomes_cells_of_the_map() -> None:
     assert planner.Session(p).step([[0, 8]]).move != "WAIT"
     with pytest.raises(planner.InvalidInput, match="dynamic_margin_m 1 is 20 cells"):
         planner.plan(robot_map, [0, 0], [19, 19], dynamic_margin_m=1.0)
+
+
+def test_dynamic_margin_in_cells_and_in_meters_do_not_go_together() -> None:
+    with pytest.raises(InvalidInput) as info:
+        planner.resolve_params("wide", dynamic_margin=2, dynamic_margin_m=0.3)
+    assert "dynamic_margin (cells) or dynamic_margin_m (meters), not both" in str(info.value)
+    assert info.value.field == "params.dynamic_margin_m"
+    # A preset's own dynamic_margin does not count, nor an unset dynamic_margin_m.
+    assert planner.resolve_params("wide", dynamic_margin_m=0.3).dynamic_margin_m == 0.3
+    assert (
+        planner.resolve_params("wide", dynamic_margin=2, dynamic_margin_m=None).dynamic_margin == 2
+    )
+
+
+def test_a_circle_outside_the_map_is_refused() -> None:
+    robot_map = planner.grid_map([[0, 0, 0], [0, 0, 0]], resolution=0.5, origin=[-1.0, 0.0, 0.0])
+    with pytest.raises(InvalidInput) as info:
+        planner.circle_cells(
+            robot_map, [{"x": 0, "y": 0.5, "radius": 0.1}, {"x": 5.0, "y": 0.5, "radius": 0.2}]
+        )
+    assert info.value.field == "dynamic_obstacles[1]"
+    message = str(info.value)
+    assert "{'x': 5.0, 'y': 0.5, 'radius': 0.2} is entirely outside the map" in message
+    assert "x [-1, 0.5], y [0, 1]" in message
+    # Outside, but touching the map: kept, whether it blocks a cell or not.
+    assert planner.circle_cells(robot_map, [{"x": 0.75, "y": 0.25, "radius": 0.3}]).size == 0
+    near = planner.circle_cells(robot_map, [{"x": 0.75, "y": 0.25, "radius": 0.6}])
+    assert near.tolist() == [[1, 2]]
+    # The robot's radius widens a circle.
+    point = [{"x": 1.0, "y": 0.25, "radius": 0.0}]
+    assert planner.circle_cells(robot_map, point, robot_radius=0.8).tolist() == [[1, 2]]
+    with pytest.raises(InvalidInput, match="entirely outside"):
+        planner.circle_cells(robot_map, point, robot_radius=0.4)
+
+
+def test_a_position_in_the_margin_is_named_as_start_and_goal_are() -> None:
+    grid = np.zeros((10, 10), dtype=np.int8)
+    grid[4, 4] = 1
+    robot_map = planner.grid_map(grid, resolution=0.1)
+    p = planner.plan(robot_map, [8, 1], [2, 7], robot_radius=0.15)
+    margin = {"x": 0.52, "y": 0.58}  # cell [4, 5], 0.1 m from the obstacle
+    with pytest.raises(InvalidInput) as info:
+        planner.Session(p).step([], position=margin)
+    assert info.value.field == "position"
+    assert str(info.value) == (
+        "POSITION_OCCUPIED: position {'x': 0.52, 'y': 0.58} (cell [4, 5]) is not traversable: "
+        "its clearance 0.100 m is not more than robot_radius 0.15 m"
+    )
+    with pytest.raises(InvalidInput, match=r"POSITION_OCCUPIED: position \[4, 5\] is not"):
+        planner.Session(p).step([], position=[4, 5])
+    with pytest.raises(InvalidInput, match=r"position \[4, 4\] is on an obstacle"):
+        planner.Session(p).step([], position=[4, 4])
+    # A free point is the cell containing it.
+    assert tuple(planner.Session(p).step([], position={"x": 0.25, "y": 0.25}).previous) == (7, 2)

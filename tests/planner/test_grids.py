@@ -4,6 +4,7 @@ and .scen files (x is the column)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -83,6 +84,22 @@ def test_missing_map_file_is_named(tmp_path: Path) -> None:
 def test_bad_grids_name_the_problem(grid: object, message: str) -> None:
     with pytest.raises(planner.InvalidInput, match=message):
         planner.as_grid(grid)
+
+
+@pytest.mark.parametrize("read", [planner.as_grid, planner.grid_map])
+@pytest.mark.parametrize(
+    ("grid", "message"),
+    [
+        ([[0, 0], [0]], "grid[1] has 1 cells; grid[0] has 2"),
+        ([[0], [0], [0, 0, 0]], "grid[2] has 3 cells; grid[0] has 1"),
+        ([[0, 0], 0], "grid[1] is not a row; grid[0] has 2"),
+    ],
+)
+def test_a_ragged_grid_names_its_first_odd_row(read: Any, grid: object, message: str) -> None:
+    with pytest.raises(planner.InvalidInput) as caught:
+        read(grid)
+    assert str(caught.value) == f"grid must be a rectangular 2-D array: {message}"
+    assert caught.value.field == "grid"
 
 
 def test_grid_accepts_bool_and_int_arrays() -> None:

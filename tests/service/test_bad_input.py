@@ -37,7 +37,8 @@ INFO = {"resolution": 0.05, "width": 3, "height": 2, "origin": {"position": {"x"
 
 # (name, method, url, json body or raw bytes, status, substrings of detail)
 CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
-    ("ragged grid", "POST", "/maps", {"grid": [[0, 0], [0]]}, 422, ["grid", "rectangular"]),
+    ("ragged grid", "POST", "/maps", {"grid": [[0, 0], [0]]}, 422,
+     ["grid", "rectangular", "grid[1] has 1 cells; grid[0] has 2"]),
     ("empty grid", "POST", "/maps", {"grid": []}, 422, ["grid", "(0,)"]),
     ("empty rows of grid", "POST", "/maps", {"grid": [[], []]}, 422, ["grid", "(2, 0)"]),
     ("cell 2", "POST", "/maps", {"grid": [[0, 2]]}, 422, ["grid", "found 2 at [0, 1]"]),
@@ -133,6 +134,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("unknown policy", "POST", "/maps/{map}/simulate", {**OK, "unknown": "maybe"}, 422, ["unknown", "'maybe'"]),
     ("unknown policy in params", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"unknown": "maybe"}}, 422, ["unknown must be 'blocked' or 'free'", "'maybe'"]),
     ("start occupied by the radius", "POST", "/plan", {"map_id": "{map}", **OK, "robot_radius": 1.0}, 422, ["START_OCCUPIED", "start [0, 0]", "robot_radius 1"]),
+    ("circle outside", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": 0.5}, {"x": 50.0, "y": 1.0, "radius": 0.5}]}, 422, ["dynamic_obstacles[1]", "entirely outside the map", "x [0, 6], y [0, 5]"]),
     ("circle without radius", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0}]}, 422, ["dynamic_obstacles[0].radius", "Field required"]),
     ("circle radius negative", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": -1}]}, 422, ["dynamic_obstacles[0].radius", "-1"]),
     ("circle with extra", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": 1, "z": 0}]}, 422, ["dynamic_obstacles[0].z", "unknown field"]),

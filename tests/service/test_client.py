@@ -257,3 +257,90 @@ def test_the_readme_example_runs(live_url: str, tmp_path: Path, monkeypatch: Any
     monkeypatch.chdir(tmp_path)
     exec(compile(code.replace("http://127.0.0.1:8000", live_url), "README.md", "exec"), {})
     assert (tmp_path / "plan.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_the_readme_example_type_checks(tmp_path: Path) -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    code = readme.split("## The Python client", 1)[1].split("```python\n", 1)[1].split("```")[0]
+    (tmp_path / "readme_client.py").write_text(code)
+    mypy = [sys.executable, "-m", "mypy", "--strict", str(tmp_path / "readme_client.py")]
+    checked = subprocess.run(mypy, cwd=ROOT, capture_output=True, text=True)
+    assert checked.returncode == 0, checked.stdout + checked.stderr
+
+
+OCCUPANCY_GRID = {
+    "info": {"resolution": 0.5, "width": 3, "height": 2,
+             "origin": {"position": {"x": -1.0, "y": 0.0, "z": 0.0}}},
+    "data": [0, 0, 0, 0, 100, -1],
+}  # fmt: skip
+EVERY_OPTION: dict[str, Any] = {
+    "preset": "wfs-mmas",
+    "params": {"alpha": 2},
+    "max_steps": 50,
+    "obstacle_motion": "simultaneous",
+    "robot_radius": 0.4,
+    "unknown": "free",
+    "allow_narrow": False,
+}
+
+
+def test_every_field_of_a_map_and_a_simulation_is_sent(live_url: str) -> None:
+    with PlannerClient(live_url) as planner:
+        ros = planner.upload_map(
+            occupancy_grid=OCCUPANCY_GRID,
+            start={"x": -0.75, "y": 0.75},
+            goal={"x": 0.25, "y": 0.25},
+        )
+        assert (ros.height, ros.width, ros.resolution, ros.unknown_cells) == (2, 3, 0.5, 1)
+        assert ros.origin == [-1.0, 0.0, 0.0]
+        assert ros.plan is not None
+        framed = planner.upload_map(
+            grid=[[0, 0, -1], [0, 1, 0]], resolution=0.05, origin=(-1, 2, 0)
+        )
+        assert (framed.resolution, framed.origin) == (0.05, [-1.0, 2.0, 0.0])
+        info = planner.upload_map(grid=GRID)
+        episode = planner.simulate(
+            info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1, **EVERY_OPTION
+        )
+        assert episode.raw["obstacle_motion"] == "simultaneous"
+        assert 1 <= episode.metrics["iterations"] <= 50
+        # Each is sent: a value the server refuses shows it.
+        with pytest.raises(ValidationError, match="START_OCCUPIED"):
+            planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=1, seed=1, robot_radius=1)
+        with pytest.raises(ValidationError) as refused:
+            planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=1, seed=1, unknown="x")
+        assert refused.value.field == "unknown"
+        with pytest.raises(ValidationError) as refused:
+            planner.simulate(info.map_id, [0, 0], [19, 19], dynamic_count=1, seed=1, max_steps=0)
+        assert refused.value.field == "max_steps"
+    seen: list[dict[str, Any]] = []
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        seen.append(json.loads(request.content))
+        return httpx.Response(200, json={"trajectory": [[0, 0]], "metrics": {}})
+
+    with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as planner:
+        planner.simulate("m", [0, 0], [1, 1], dynamic_count=2, seed=3, **EVERY_OPTION)
+        planner.simulate("m", [0, 0], [1, 1], dynamic_count=2, seed=3)
+    assert seen == [
+        {"start": [0, 0], "goal": [1, 1], "dynamic_count": 2, "seed": 3, **EVERY_OPTION},
+        {"start": [0, 0], "goal": [1, 1], "dynamic_count": 2, "seed": 3},
+    ]
+
+
+@pytest.mark.anyio
+async def test_the_async_client_sends_every_field_too(live_url: str) -> None:
+    async with AsyncPlannerClient(live_url) as planner:
+        ros = await planner.upload_map(occupancy_grid=OCCUPANCY_GRID)
+        assert (ros.resolution, ros.origin) == (0.5, [-1.0, 0.0, 0.0])
+        framed = await planner.upload_map(rows=["..", ".@"], resolution=0.1, origin=[1, 1, 0])
+        assert (framed.resolution, framed.origin) == (0.1, [1.0, 1.0, 0.0])
+        info = await planner.upload_map(grid=GRID)
+        episode = await planner.simulate(
+            info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1, **EVERY_OPTION
+        )
+        assert episode.raw["obstacle_motion"] == "simultaneous"
+        with pytest.raises(ValidationError, match="START_OCCUPIED"):
+            await planner.simulate(
+                info.map_id, [0, 0], [19, 19], dynamic_count=1, seed=1, robot_radius=1
+            )
