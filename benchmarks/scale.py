@@ -133,7 +133,7 @@ def numpy_analysis(grid: Grid, weight: float = 0.5, radius: int = 2) -> tuple[Gr
     b = np.pad(grid, 1, constant_values=1).astype(bool)
     free = ~b[1:-1, 1:-1]
     tunnel = free & ((b[:-2, 1:-1] & b[2:, 1:-1]) | (b[1:-1, :-2] & b[1:-1, 2:]))
-    state = np.where(free, np.where(tunnel, K.TUNNEL, K.FREE), K.OBSTACLE).astype(np.uint8)
+    state = np.where(free, np.where(tunnel, K.TUNNEL, K.FREE), K.BLOCKED_CELL).astype(np.uint8)
     g = grid == 0
     gates = int(
         np.count_nonzero(g[:-1, :-1] & g[1:, 1:] & ~g[:-1, 1:] & ~g[1:, :-1])
@@ -148,7 +148,7 @@ def numpy_analysis(grid: Grid, weight: float = 0.5, radius: int = 2) -> tuple[Gr
         clean += (box - inner) / d
         inner = box
     clean *= weight
-    clean[state == K.OBSTACLE] = 0
+    clean[state == K.BLOCKED_CELL] = 0
     return state, gates, clean
 
 

@@ -10,9 +10,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-# Cell states of an analysed map.
+# Cell states of an analysed map: free, blocked (a static obstacle: "blocked" as in the API), a
+# tight tunnel.
 FREE = 0
-OBSTACLE = 1
+BLOCKED_CELL = 1
 TUNNEL = 2  # a tight-tunnel cell: free, but sealed when ``seal_tunnels`` is on
 
 # Decision outcomes.
@@ -59,14 +60,14 @@ def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int
 
 @njit(cache=True, nogil=True)
 def _classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
-    """Cell states (FREE, OBSTACLE, TUNNEL), the gate count and the tunnel count."""
+    """Cell states (FREE, BLOCKED_CELL, TUNNEL), the gate count and the tunnel count."""
     H, W = grid.shape
     state = np.empty((H, W), dtype=np.uint8)
     tunnels = 0
     for r in range(H):
         for c in range(W):
             if grid[r, c] != 0:
-                state[r, c] = OBSTACLE
+                state[r, c] = BLOCKED_CELL
                 continue
             north = r == 0 or grid[r - 1, c] != 0
             south = r == H - 1 or grid[r + 1, c] != 0
@@ -117,7 +118,7 @@ def _classify_rows(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
             blocked = mid[c + 1]
             tunnel = (up[c + 1] & down[c + 1]) | (mid[c] & mid[c + 2])
             tunnel &= 1 - blocked
-            state[r, c] = blocked * OBSTACLE + tunnel * TUNNEL
+            state[r, c] = blocked * BLOCKED_CELL + tunnel * TUNNEL
             tunnels += tunnel
         if r + 1 < H:
             # A gate: two free cells diagonal to each other, the other two of the square blocked.
@@ -170,12 +171,12 @@ def _clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndar
                 v = 1
             else:
                 s = state[r, c]
-                v = 1 if (s == OBSTACLE or (seal and s == TUNNEL)) else 0
+                v = 1 if (s == BLOCKED_CELL or (seal and s == TUNNEL)) else 0
             S[i + 1, j + 1] = S[i, j + 1] + S[i + 1, j] - S[i, j] + v
     out = np.zeros((H, W), dtype=np.float32)
     for r in range(H):
         for c in range(W):
-            if state[r, c] == OBSTACLE:
+            if state[r, c] == BLOCKED_CELL:
                 continue
             i = r + p
             j = c + p
@@ -217,7 +218,7 @@ def _clean_rows(state: np.ndarray, seal: bool, weight: float, radius: int) -> np
         if 0 <= r < H:
             for c in range(W):
                 s = state[r, c]
-                blocked[slot, c + p] = 1 if (s == OBSTACLE or (seal and s == TUNNEL)) else 0
+                blocked[slot, c + p] = 1 if (s == BLOCKED_CELL or (seal and s == TUNNEL)) else 0
         else:
             for c in range(Wp):
                 blocked[slot, c] = 1
@@ -245,7 +246,7 @@ def _clean_rows(state: np.ndarray, seal: bool, weight: float, radius: int) -> np
                 total[c] += (box[c] - inner[c]) / d
                 inner[c] = box[c]
         for c in range(W):
-            if state[r, c] != OBSTACLE:
+            if state[r, c] != BLOCKED_CELL:
                 out[r, c] = weight * total[c]
     return out
 

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit, types
 from numba.typed import Dict
 
-from planner._kernels import DC, DR, FREE, MODE_WIDE, MOVE, OBSTACLE, _decide_core
+from planner._kernels import BLOCKED_CELL, DC, DR, FREE, MODE_WIDE, MOVE, _decide_core
 
 SHIFT = 5
 TILE = 1 << SHIFT
@@ -53,7 +53,7 @@ def _passable_at(state: np.ndarray, sealed: bool, goal: int, r: int, c: int) -> 
     if r * W + c == goal:
         return True
     s = state[r, c]
-    return bool(s == FREE) if sealed else bool(s != OBSTACLE)
+    return bool(s == FREE) if sealed else bool(s != BLOCKED_CELL)
 
 
 @njit(cache=True, nogil=True)

@@ -107,7 +107,7 @@ class Analysis:
     @property
     def grid(self) -> npt.NDArray[np.uint8]:
         """The static map: 1 where blocked."""
-        grid: npt.NDArray[np.uint8] = (self.state == K.OBSTACLE).astype(np.uint8)
+        grid: npt.NDArray[np.uint8] = (self.state == K.BLOCKED_CELL).astype(np.uint8)
         return grid
 
     @property
@@ -118,7 +118,7 @@ class Analysis:
     def passable(self, *, narrow: bool = False) -> npt.NDArray[np.uint8]:
         """1 where the robot may stand: free cells, and tunnel cells unless they are sealed."""
         sealed = self.seal_tunnels and not narrow
-        mask = self.state == K.FREE if sealed else self.state != K.OBSTACLE
+        mask = self.state == K.FREE if sealed else self.state != K.BLOCKED_CELL
         out: npt.NDArray[np.uint8] = mask.astype(np.uint8)
         return out
 
@@ -129,7 +129,7 @@ class Analysis:
         of the map itself (not of the configuration space), as the unknown policy says."""
         if self.cspace is not None:
             return self.cspace.distance
-        free = np.ascontiguousarray(self.state != K.OBSTACLE)
+        free = np.ascontiguousarray(self.state != K.BLOCKED_CELL)
         out: npt.NDArray[np.float32] = edt.edt(free, black_border=True).astype(
             np.float32, copy=False
         )
@@ -326,7 +326,7 @@ def goal_wave(
         r, c = analysis.frame.cell_of(goal, name="goal")
     else:
         r, c = as_cell(goal, analysis.shape, name="goal")
-    if analysis.state[r, c] == K.OBSTACLE:
+    if analysis.state[r, c] == K.BLOCKED_CELL:
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]
     if not low <= diagonal_cost <= high:

@@ -279,7 +279,7 @@ def free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
     ``{NAME}_OCCUPIED``) within its clearance margin; the message quotes a point as sent."""
     point = isinstance(cell, Mapping)
     r, c = cell_of(analysis, cell, name)
-    if analysis.state[r, c] != K.OBSTACLE:
+    if analysis.state[r, c] != K.BLOCKED_CELL:
         return r, c
     where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
     cs = analysis.cspace

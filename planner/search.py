@@ -541,7 +541,7 @@ def resumable_wave(
     1.414
     """
     r, c = as_cell(goal, analysis.shape, name="goal")
-    if analysis.state[r, c] == K.OBSTACLE:
+    if analysis.state[r, c] == K.BLOCKED_CELL:
         raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
     low, high = PARAMETER_RANGES["diagonal_cost"]
     if not low <= diagonal_cost <= high:

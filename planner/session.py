@@ -462,7 +462,7 @@ def detour(
     """
     a, wave, params = plan.analysis, plan.wave, plan.params
     r, c = as_cell(cell, a.shape, name="cell")
-    if a.state[r, c] == K.OBSTACLE:
+    if a.state[r, c] == K.BLOCKED_CELL:
         raise InvalidInput(f"cell [{r}, {c}] is on an obstacle", field="cell")
     obstacles = _obstacles(dynamic_obstacles, a.shape)
     if margin is None:

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-FREE, OBSTACLE, TUNNEL = 0, 1, 2
+FREE, BLOCKED_CELL, TUNNEL = 0, 1, 2
 MOVES = [(-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1)]
 
 
@@ -26,7 +26,7 @@ def classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
     for r in range(H):
         for c in range(W):
             if grid[r, c]:
-                state[r, c] = OBSTACLE
+                state[r, c] = BLOCKED_CELL
             elif (blocked(grid, r - 1, c) and blocked(grid, r + 1, c)) or (
                 blocked(grid, r, c - 1) and blocked(grid, r, c + 1)
             ):
@@ -49,12 +49,12 @@ def clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndarr
     def is_blocked(r: int, c: int) -> bool:
         if not (0 <= r < H and 0 <= c < W):
             return True
-        return state[r, c] == OBSTACLE or (seal and state[r, c] == TUNNEL)
+        return state[r, c] == BLOCKED_CELL or (seal and state[r, c] == TUNNEL)
 
     out = np.zeros((H, W))
     for r in range(H):
         for c in range(W):
-            if state[r, c] == OBSTACLE:
+            if state[r, c] == BLOCKED_CELL:
                 continue
             total = 0.0
             for dr in range(-radius, radius + 1):

@@ -33,7 +33,7 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
     p, rng = random_case(seed)
     a, w = p.analysis, p.wave
     H, W = a.shape
-    free = np.argwhere(a.state != K.OBSTACLE)
+    free = np.argwhere(a.state != K.BLOCKED_CELL)
     for _ in range(60):
         r, c = (int(v) for v in free[rng.integers(len(free))])
         m = int(rng.integers(0, 6))
@@ -69,7 +69,7 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
 def test_detour_is_an_optimal_legal_way_round_the_obstacles(seed: int) -> None:
     p, rng = random_case(seed)
     a, w = p.analysis, p.wave
-    free = np.argwhere(a.state != K.OBSTACLE)
+    free = np.argwhere(a.state != K.BLOCKED_CELL)
     for _ in range(10):
         sr, sc = (int(v) for v in free[rng.integers(len(free))])
         start = (sr, sc)
