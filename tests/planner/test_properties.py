@@ -70,8 +70,10 @@ def test_session_never_enters_a_reported_cell(case: Case, preset: str, seed: int
         return
     rng = np.random.default_rng(seed)
     session = planner.Session(p)
-    passable = p.wave.passable.copy()
-    passable[start] = 1
+    # Sealed cells too: a robot held up takes the narrow way when the wide one is blocked, and
+    # says so (narrow_fallback); a reported cell, never.
+    passable = p.analysis.passable(narrow=True)
+    sealed = np.asarray(p.wave.passable) == 0
     free = np.argwhere(grid == 0)
     for _ in range(60):
         obstacles = free[rng.random(len(free)) < 0.15]
@@ -83,5 +85,7 @@ def test_session_never_enters_a_reported_cell(case: Case, preset: str, seed: int
             assert step.position == prev
         else:
             assert_legal(np.array([prev, step.position]), blocked)
+            if sealed[step.position]:
+                assert step.narrow_fallback, f"into sealed {step.position} without saying so"
         if step.status in ("arrived", "blocked"):
             break
