@@ -52,6 +52,8 @@ class StepView:
     step: planner.Step
     frame: planner.MapFrame
     obstacles: list[list[int]]
+    replayed: bool = False
+    """The answer of a retried ``seq``: nothing moved, nothing was written or published."""
 
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
@@ -124,6 +126,7 @@ async def step(
         if isinstance(position, Point):
             position = position.model_dump()
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
+        replayed = body.seq is not None and body.seq == state.last_seq
         args = (obstacles,)
         if session.may_replan_at(position):
             # On the steps' own workers: a step never queues behind analyses and renders.
@@ -134,6 +137,8 @@ async def step(
             # Measured: a step that cannot replan is a few microseconds of bounded work, and
             # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
             result = session.step(*args, position=position, seq=body.seq)
+        if replayed:  # the robot did not move again: nothing to write, no event to send
+            return StepView(result, frame, obstacles, replayed=True)
         record["state"] = stored = session.state.as_dict()
         moved = stored.pop("trajectory")[len(trajectory) :]
         view = StepView(result, frame, obstacles)

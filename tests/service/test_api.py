@@ -321,3 +321,21 @@ async def test_every_documented_request_example_is_accepted(client: httpx.AsyncC
     for body in examples("SimulationCreate"):
         r = await client.post(f"/maps/{plan['map_id']}/simulate", json=body)
         assert r.status_code == 200, (body, r.text)
+
+
+async def test_a_retried_seq_is_no_new_event_for_the_viewer(
+    app: FastAPI, client: httpx.AsyncClient
+) -> None:
+    r = await client.post("/maps", json={"rows": ROWS, "start": [4, 0], "goal": [0, 5]})
+    plan_id = r.json()["plan"]["plan_id"]
+    subscription = await app.state.bus.subscribe(plan_id)
+    try:
+        for seq in (0, 0, 1):  # the second is a client's retry of the first
+            step = await client.post(f"/plan/{plan_id}/step", json={"seq": seq})
+            assert step.status_code == 200
+        first, second = await subscription.next(), await subscription.next()
+        assert first is not None
+        assert second is not None
+        assert (first["seq"], second["seq"]) == (0, 1)
+    finally:
+        await subscription.close()

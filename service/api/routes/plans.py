@@ -78,7 +78,8 @@ async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
         )
     else:
         view = await plans.step(engine, plan_id, body)
-        await bus.publish(plan_id, _event(view))
+        if not view.replayed:  # a retried seq is not a new step for the viewer
+            await bus.publish(plan_id, _event(view))
     # Built and encoded directly (the hot path): `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(present.step_answer(view)), media_type="application/json")
