@@ -306,11 +306,11 @@ def _fresh(
     return fresh
 
 
-WRK_SCRIPT = ROOT / "benchmarks" / "wrk_step.lua"
+WRK_SCRIPT = ROOT / "benchmarks" / "http_steps.lua"
 
 
 def wrk(url: str, connections: int, seconds: int, *args: str) -> dict[str, float]:
-    """One ``wrk`` run of ``wrk_step.lua``: requests/s, p50 and p99 (ms), errors (non-2xx
+    """One ``wrk`` run of ``http_steps.lua``: requests/s, p50 and p99 (ms), errors (non-2xx
     responses and socket errors)."""
     out = subprocess.run(
         ["wrk", "-t", str(connections), "-c", str(connections), "-d", f"{seconds}s",
@@ -580,7 +580,7 @@ def main() -> None:
         "saturates first, so both columns there are mostly the client's; 1 client is the sharper test."
     )
     out()
-    out("The same measured with `wrk` (`benchmarks/wrk_step.lua`, one connection per thread, each")
+    out("The same measured with `wrk` (`benchmarks/http_steps.lua`, one connection per thread, each")
     out("stepping its own plan; 5 s runs, best of two, alternated with the echo). A run with")
     out("errors is not a result: the errors column must read 0.")
     out()
