@@ -580,7 +580,9 @@ def main() -> None:
         "saturates first, so both columns there are mostly the client's; 1 client is the sharper test."
     )
     out()
-    out("The same measured with `wrk` (`benchmarks/http_steps.lua`, one connection per thread, each")
+    out(
+        "The same measured with `wrk` (`benchmarks/http_steps.lua`, one connection per thread, each"
+    )
     out("stepping its own plan; 5 s runs, best of two, alternated with the echo). A run with")
     out("errors is not a result: the errors column must read 0.")
     out()
