@@ -258,7 +258,20 @@ def circle_cells(
 def nav2_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> float:
     """The least total of ``(50 + 0.8 * cost(Y)) * step length`` over legal moves (cells of
     infinite cost are not passable), by a textbook Dijkstra."""
-    passable = np.isfinite(cost)
+    return dijkstra(
+        np.isfinite(cost), start, goal,
+        lambda y, diagonal: (50.0 + 0.8 * float(cost[y])) * (math.sqrt(2.0) if diagonal else 1.0),
+    )  # fmt: skip
+
+
+def dijkstra(
+    passable: np.ndarray,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    move_cost: Callable[[tuple[int, int], bool], float],
+) -> float:
+    """The least total of ``move_cost(Y, diagonal)`` over legal moves from ``start`` to
+    ``goal``, by a textbook Dijkstra; inf when the goal cannot be reached."""
     dist = {start: 0.0}
     heap = [(0.0, start)]
     while heap:
@@ -271,7 +284,7 @@ def nav2_cost(cost: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -
             if not legal(passable, r, c, dr, dc):
                 continue
             y = (r + dr, c + dc)
-            nd = d + (50.0 + 0.8 * float(cost[y])) * (math.sqrt(2.0) if dr and dc else 1.0)
+            nd = d + move_cost(y, bool(dr and dc))
             if nd < dist.get(y, math.inf):
                 dist[y] = nd
                 heapq.heappush(heap, (nd, y))
@@ -396,23 +409,12 @@ def detour_cost(
                     free[r, c] = 0
     if not free[goal]:
         return math.inf
-    dist = {start: 0.0}
-    heap = [(0.0, start)]
-    while heap:
-        d, (r, c) = heapq.heappop(heap)
-        if (r, c) == goal:
-            return d
-        if d > dist[(r, c)]:
-            continue
-        for dr, dc in MOVES:
-            if not legal(free, r, c, dr, dc):
-                continue
-            y = (r + dr, c + dc)
-            nd = d + (diagonal_cost if dr and dc else 1.0) + float(clean[y])
-            if nd < dist.get(y, math.inf):
-                dist[y] = nd
-                heapq.heappush(heap, (nd, y))
-    return math.inf
+    return dijkstra(
+        free,
+        start,
+        goal,
+        lambda y, diagonal: (diagonal_cost if diagonal else 1.0) + float(clean[y]),
+    )
 
 
 def walk(
