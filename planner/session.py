@@ -483,6 +483,19 @@ def detour(
 
 
 def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:
+    """``cells`` as an ``(n, 2)`` array of cells inside the map, else ``InvalidInput``."""
+    H, W = shape
+    if type(cells) is list:  # the usual input, JSON's lists of ints: checked in Python
+        flat: list[int] = []
+        for cell in cells:
+            if type(cell) is not list or len(cell) != 2:
+                break
+            r, c = cell
+            if type(r) is not int or type(c) is not int or not (0 <= r < H and 0 <= c < W):
+                break
+            flat += cell
+        else:
+            return np.array(flat, dtype=np.int64).reshape(-1, 2)
     try:
         obstacles = np.asarray(cells, dtype=np.int64)
     except (TypeError, ValueError, OverflowError):
@@ -493,7 +506,6 @@ def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:
     if obstacles.ndim != 2 or obstacles.shape[1] != 2:
         msg = f"dynamic_obstacles must be a list of [row, col] cells; got shape {obstacles.shape}"
         raise InvalidInput(msg, field="dynamic_obstacles")
-    H, W = shape
     outside = (obstacles[:, 0] < 0) | (obstacles[:, 0] >= H)
     outside |= (obstacles[:, 1] < 0) | (obstacles[:, 1] >= W)
     if outside.any():

@@ -8,13 +8,12 @@ the warm-up time.
 
 from __future__ import annotations
 
-import logging.config
 import socket
 
 import uvicorn
 
 from service.config import Settings
-from service.ops.logs import LOG, log_config
+from service.ops.logs import LOG, configure
 
 __all__ = ["KEEP_ALIVE_SECONDS", "MAX_CONCURRENCY", "main"]
 
@@ -40,8 +39,7 @@ class _Server(uvicorn.Server):
 def main() -> int:
     """Serve until stopped (Ctrl-C, SIGTERM); 1 when the service could not start."""
     settings = Settings()
-    config = log_config(settings.log_level)
-    logging.config.dictConfig(config)
+    config = configure(settings.log_level)
     server = _Server(
         uvicorn.Config(
             "service.main:app",

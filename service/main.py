@@ -9,7 +9,8 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 
 from service import errors
-from service.api import api_router
+from service.api import routers
+from service.api.hot import HotPath
 from service.config import Settings
 from service.edge.auth import ApiKeys
 from service.edge.middleware import BodyLimit
@@ -94,11 +95,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         openapi_tags=TAGS,
         docs_url=None,  # served by service.ops.docs, with no CDN
         redoc_url=None,
+        # FastAPI's native OpenTelemetry off: it asks the global providers on every request,
+        # and the service's own metrics (/metrics) and request lines already cover it.
+        telemetry={"tracing": False, "metrics": False, "logs": False},
     )
     app.state.settings = settings
     app.state.metrics = Metrics()
     errors.install(app)
     docs.install(app)
+    # Innermost: steps served straight from here, the body already bounded and read.
+    app.add_middleware(HotPath, routers=routers, handlers=app.exception_handlers)
     app.add_middleware(
         BodyLimit,
         max_bytes=settings.max_body_bytes,
@@ -109,7 +115,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(ApiKeys, keys=settings.keys)  # no key, nothing is read
     # Outermost: times, counts and logs every answer, the 401s and 413s included.
     app.add_middleware(Observe, metrics=app.state.metrics)
-    app.include_router(api_router)
+    for router in routers:  # each directly: one level of route matching
+        app.include_router(router)
     return app
 
 

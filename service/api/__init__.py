@@ -1,5 +1,5 @@
 """The HTTP layer: dependencies and thin routers."""
 
-from service.api.routes import api_router
+from service.api.routes import routers
 
-__all__ = ["api_router"]
+__all__ = ["routers"]

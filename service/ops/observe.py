@@ -8,9 +8,9 @@ The request id is the client's ``X-Request-ID`` when it is a plain token (letter
 from __future__ import annotations
 
 import logging
+import os
 import re
 import time
-import uuid
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -75,4 +75,4 @@ def _request_id(scope: Scope) -> bytes:
     for name, value in scope["headers"]:
         if name == HEADER and _TOKEN.fullmatch(value):
             return bytes(value)
-    return uuid.uuid4().hex.encode()
+    return os.urandom(16).hex().encode()  # 128 random bits, as a UUID4's hex but cheaper

@@ -75,6 +75,10 @@ class EventBus(ABC):
     async def subscribe(self, plan_id: str) -> Subscription:
         """A subscription to the plan's events from now on."""
 
+    def listening(self, plan_id: str) -> bool:
+        """Whether an event of the plan may reach anyone (else the caller need not build it)."""
+        return True
+
     async def close(self) -> None:  # noqa: B027 - a bus with nothing to release keeps this
         """Release connections."""
 
@@ -88,6 +92,9 @@ class MemoryBus(EventBus):
     async def publish(self, plan_id: str, event: Event) -> None:
         for queue in self._queues.get(plan_id, ()):
             queue.put_nowait(event)
+
+    def listening(self, plan_id: str) -> bool:
+        return plan_id in self._queues
 
     async def subscribe(self, plan_id: str) -> Subscription:
         queue: asyncio.Queue[Event] = asyncio.Queue()

@@ -10,6 +10,7 @@ from fastapi import APIRouter, Query, Request, Response, status
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
+from service.api.hot import HotRoute
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
@@ -18,6 +19,50 @@ from service.work.engine import Engine
 __all__ = ["router"]
 
 router = APIRouter(tags=["plans"], route_class=OrjsonRoute)
+
+
+async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
+    """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
+    optionally where the robot really is, a cell or a point); the answer is the cell to move
+    to (and its center `position_xy`), which the service records. `seq`, when given, must be
+    the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
+    robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
+    # The hot path (service.api.hot): the engine and the bus are read here, not dependencies.
+    state = request.app.state
+    engine: Engine = state.engine
+    bus: EventBus = state.bus
+    if isinstance(bus, RedisBus) and engine.store.publishes:
+        # Redis: the step's write publishes its event in the same round trip.
+        view = await plans.step(
+            engine, plan_id, body, event=lambda v: (channel(plan_id), orjson.dumps(_event(v)))
+        )
+        answer = present.step_answer(view)
+    else:
+        view = await plans.step(engine, plan_id, body)
+        answer = present.step_answer(view)
+        if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
+            await bus.publish(plan_id, {**answer, "dynamic_obstacles": view.obstacles})
+    # Built and encoded directly (the hot path): `response_model` documents it, and
+    # tests/service/test_api.py checks that its answers validate as StepPublic.
+    return Response(orjson.dumps(answer), media_type="application/json")
+
+
+# The hot path: served by service.api.hot.HotPath, before the router (and first in it).
+router.add_api_route(
+    "/plan/{plan_id}/step",
+    step,
+    methods=["POST"],
+    response_model=StepPublic,
+    summary="Report the dynamic obstacles; get the move to make now",
+    responses=responses(404, 409, 413, 422),
+    route_class_override=HotRoute,
+)
+
+
+def _event(view: plans.StepView) -> dict[str, Any]:
+    """What the live viewer gets of a step: the answer, and the cells the obstacles blocked
+    (it draws cells: circles go out as the cells they blocked)."""
+    return {**present.step_answer(view), "dynamic_obstacles": view.obstacles}
 
 
 @router.post(
@@ -52,43 +97,6 @@ async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
 async def delete_plan(plan_id: str, engine: EngineDep) -> None:
     """Forget the plan now (plans also expire when untouched for `PLANNER_PLAN_TTL_SECONDS`)."""
     await plans.delete_plan(engine, plan_id)
-
-
-@router.post(
-    "/plan/{plan_id}/step",
-    response_model=StepPublic,
-    summary="Report the dynamic obstacles; get the move to make now",
-    responses=responses(404, 409, 413, 422),
-)
-async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
-    """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
-    optionally where the robot really is, a cell or a point); the answer is the cell to move
-    to (and its center `position_xy`), which the service records. `seq`, when given, must be
-    the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
-    robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    # The engine and the bus read here rather than as dependencies: on the hot path, FastAPI's
-    # solving of two sub-dependencies costs more than the memory store's whole step.
-    state = request.app.state
-    engine: Engine = state.engine
-    bus: EventBus = state.bus
-    if isinstance(bus, RedisBus) and engine.store.publishes:
-        # Redis: the step's write publishes its event in the same round trip.
-        view = await plans.step(
-            engine, plan_id, body, event=lambda v: (channel(plan_id), orjson.dumps(_event(v)))
-        )
-    else:
-        view = await plans.step(engine, plan_id, body)
-        if not view.replayed:  # a retried seq is not a new step for the viewer
-            await bus.publish(plan_id, _event(view))
-    # Built and encoded directly (the hot path): `response_model` documents it, and
-    # tests/service/test_api.py checks that its answers validate as StepPublic.
-    return Response(orjson.dumps(present.step_answer(view)), media_type="application/json")
-
-
-def _event(view: plans.StepView) -> dict[str, Any]:
-    """What the live viewer gets of a step: the answer, and the cells the obstacles blocked
-    (it draws cells: circles go out as the cells they blocked)."""
-    return {**present.step_answer(view), "dynamic_obstacles": view.obstacles}
 
 
 @router.get(
