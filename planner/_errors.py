@@ -32,15 +32,18 @@ def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
 class PlannerError(Exception):
     """Base of every error the planner raises on purpose.
 
-    ``field`` names the input at fault (``"start"``, ``"params.alpha"``...) when there is one.
+    ``field`` names the input at fault (``"start"``, ``"params.alpha"``...) when there is one;
+    ``code``, when given, a more precise code than the class's (``"START_OCCUPIED"``).
     """
 
     code = "PLANNER_ERROR"
 
-    def __init__(self, message: str, *, field: str | None = None) -> None:
+    def __init__(self, message: str, *, field: str | None = None, code: str | None = None) -> None:
         super().__init__(message)
         self.message = message
         self.field = field
+        if code is not None:
+            self.code = code
 
 
 class InvalidInput(PlannerError, ValueError):

@@ -290,7 +290,7 @@ def free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
         f"{name.upper()}_OCCUPIED: {where} is not traversable: its clearance {clearance:.3f} m "
         f"is not more than robot_radius {cs.robot_radius:g} m"
     )
-    raise InvalidInput(msg, field=name)
+    raise InvalidInput(msg, field=name, code=f"{name.upper()}_OCCUPIED")
 
 
 def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:

@@ -209,16 +209,10 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
     return JSONResponse(body.model_dump(), status_code=status, headers=headers or None)
 
 
-_NAMED_CODES = ("START_OCCUPIED", "GOAL_OCCUPIED")
-"""Codes the planner puts first in an InvalidInput's message: the answer's ``code`` too."""
-
-
 async def _planner_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, planner.PlannerError)
     status = next((s for kind, s in _PLANNER_STATUS.items() if isinstance(exc, kind)), 422)
-    named = exc.message.split(":", 1)[0]
-    code = named if named in _NAMED_CODES else exc.code
-    return problem(status, exc.message, field=exc.field, code=code)
+    return problem(status, exc.message, field=exc.field, code=exc.code)
 
 
 async def _service_error(request: Request, exc: Exception) -> JSONResponse:

@@ -314,6 +314,13 @@ async def test_a_start_the_robot_cannot_stand_on_is_named(small: httpx.AsyncClie
         assert text in error["detail"]
     r = await small.post("/plan", json={**body, "start": [0, 0], "goal": point})
     assert (r.status_code, r.json()["code"], r.json()["field"]) == (422, "GOAL_OCCUPIED", "goal")
+    made = await small.post("/plan", json={**body, "start": [0, 0], "goal": [0, 1]})
+    r = await small.post(f"/plan/{made.json()['plan_id']}/step", json={"position": point})
+    assert (r.status_code, r.json()["code"], r.json()["field"]) == (
+        422,
+        "POSITION_OCCUPIED",
+        "position",
+    )
     assert (await small.post("/plan", json={**body, "robot_radius": 0.09})).status_code == 201
 
 
