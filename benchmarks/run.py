@@ -11,6 +11,7 @@ import argparse
 import datetime as dt
 import os
 import platform
+import re
 import shutil
 import socket
 import statistics
@@ -371,6 +372,10 @@ def http_section(out: Callable[..., None], seconds: int) -> list[dict[str, Any]]
         for line in http_steps.table(results).splitlines():
             out(line)
         out()
+        echo_errors = sum(r["bare"]["errors"] for r in results)
+        out(f"The echo's runs had {echo_errors:.0f} non-2xx answers or socket errors in all (the")
+        out("summary counts both sides of a ratio: an error on either spoils it).")
+        out()
     for problem in problems:
         out(f"Not measured: {problem}.")
         out()
@@ -400,8 +405,8 @@ def tool_version(argv: list[str]) -> str:
         done = subprocess.run(argv, capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.TimeoutExpired):
         return "-"
-    words = (done.stdout or done.stderr).split()
-    return next((w.removeprefix("v=") for w in words if w[:1].isdigit() or w[:2] == "v="), "-")
+    found = re.search(r"\d+\.\d+(?:\.\d+)?", done.stdout or done.stderr)
+    return found.group() if found else "-"
 
 
 def machine() -> str:
