@@ -2,7 +2,11 @@
 
 Every figure that matters is a ratio of two things measured in the same run on the same machine,
 alternating between them, so a noisy shared machine slows both alike. Run it with
-``make bench``; it prints a table and writes ``benchmarks/RESULTS.md``.
+``make bench`` (``make bench BENCH_ARGS=--quick`` for fewer repeats); it prints every section and
+writes ``benchmarks/RESULTS.md``: the machine (``lscpu``'s CPU), the versions, then one table of
+issue 14's targets from this run (``benchmarks/summary.py``: ratio, absolute figures, threshold,
+met or not), then the sections. The HTTP section is ``benchmarks/http_steps.py``'s (``wrk``
+against the real service on the memory store and on Redis, and a bare FastAPI echo).
 """
 
 from __future__ import annotations
@@ -352,9 +356,9 @@ def scale_section(
     return {"plans": plans, "analysis": analysis, "upload": upload}
 
 
-def http_section(out: Callable[..., None], seconds: int) -> list[dict[str, Any]]:
+def http_section(out: Callable[..., None], seconds: int, repeats: int) -> list[dict[str, Any]]:
     """Section 3's HTTP part: ``benchmarks/http_steps.py``'s cases and table, from this run."""
-    results, problems = bench_http_steps(seconds, 1)
+    results, problems = bench_http_steps(seconds, repeats)
     out("Over HTTP, driven by `wrk` (`benchmarks/http_steps.py`, `benchmarks/http_steps.lua`): the")
     out("real service (`python -m service`, default settings and logging) on the memory store and")
     out("on a private `redis-server`, and a bare FastAPI JSON echo (`benchmarks/bare_app.py`)")
@@ -363,7 +367,8 @@ def http_section(out: Callable[..., None], seconds: int) -> list[dict[str, Any]]
     out(
         f"then `wrk` runs {seconds} s with one thread a connection and 10 random dynamic obstacles a"
     )
-    out("step, the echo with the same bodies and connections just before it. 'c=16, one plan'")
+    out("step, the echo with the same bodies and connections just before it; each side's best")
+    out(f"of {repeats} such runs (requests/s). 'c=16, one plan'")
     out("steps one plan from 16 connections without `seq` (its steps are serialised by the plan's")
     out("lock). CPU µs: the server process's user + system time over the run per request served.")
     out("non-2xx counts non-2xx answers and socket errors: a run with any is not a result.")
@@ -487,7 +492,7 @@ def main() -> None:
     out(f"In-process `Session.step` on a 1024 x 1024 map with 10 dynamic obstacles, {steps}")
     out(f"steps: median **{s['median_us']:.1f} us**, p99 {s['p99_us']:.1f} us.")
     out()
-    measured["http"] = http_section(out, wrk_seconds)
+    measured["http"] = http_section(out, wrk_seconds, 1 if quick else 2)
     out("## 4. Memory")
     out()
     m = bench_memory()
