@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
+BENCH_STAMP := $(VENV)/.bench-installed
 
 .PHONY: run serve demo test lint typecheck unit scen-all bench lock clean
 
@@ -16,10 +17,11 @@ $(STAMP): pyproject.toml requirements-dev.lock
 
 UV_COMPILE := $(PY) -m uv pip compile pyproject.toml --python-version 3.11 --universal --generate-hashes --quiet
 
-lock: $(STAMP)  ## re-pin requirements.lock (runtime) and requirements-dev.lock from pyproject's ranges
+lock: $(STAMP)  ## re-pin requirements.lock (runtime), requirements-dev.lock and requirements-bench.lock from pyproject's ranges
 	$(PY) -m pip install --quiet uv
 	$(UV_COMPILE) --upgrade -o requirements.lock
 	$(UV_COMPILE) --upgrade --extra dev -c requirements.lock -o requirements-dev.lock
+	$(UV_COMPILE) --upgrade --extra bench -c requirements-dev.lock -o requirements-bench.lock
 
 run: serve  ## the main job: the service on 127.0.0.1:8000, in-memory store (docs at /docs)
 
@@ -44,9 +46,13 @@ unit: $(STAMP)
 scen-all: $(STAMP)  ## every line of every Moving AI scenario file in ../shared (slow: minutes)
 	for f in ../shared/maps/movingai/*.scen; do $(PY) -m planner scen "$$f" || exit 1; done
 
-bench: $(STAMP)  ## side-by-side benchmarks; writes benchmarks/RESULTS.md
-	$(PY) -m pip install --quiet -e '.[dev,bench]'
-	$(PY) benchmarks/run.py
+# The bench extra's pinned versions (requirements-bench.lock, constrained by the dev lock).
+$(BENCH_STAMP): $(STAMP) requirements-bench.lock
+	$(PY) -m pip install --quiet --require-hashes -r requirements-bench.lock
+	touch $(BENCH_STAMP)
+
+bench: $(BENCH_STAMP)  ## side-by-side benchmarks, issue 14's targets on top; writes benchmarks/RESULTS.md (BENCH_ARGS=--quick: faster)
+	$(PY) benchmarks/run.py $(BENCH_ARGS)
 
 clean:
 	rm -rf $(VENV) .pytest_cache .mypy_cache .ruff_cache

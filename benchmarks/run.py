@@ -2,16 +2,21 @@
 
 Every figure that matters is a ratio of two things measured in the same run on the same machine,
 alternating between them, so a noisy shared machine slows both alike. Run it with
-``make bench``; it prints a table and writes ``benchmarks/RESULTS.md``.
+``make bench`` (``make bench BENCH_ARGS=--quick`` for fewer repeats); it prints every section and
+writes ``benchmarks/RESULTS.md``: the machine (``lscpu``'s CPU), the versions, then one table of
+issue 14's targets from this run (``benchmarks/summary.py``: ratio, absolute figures, threshold,
+met or not), then the sections. The HTTP section is ``benchmarks/http_steps.py``'s (``wrk``
+against the real service on the memory store and on Redis, and a bare FastAPI echo).
 """
 
 from __future__ import annotations
 
 import argparse
-import asyncio
 import datetime as dt
 import os
 import platform
+import re
+import shutil
 import socket
 import statistics
 import subprocess
@@ -23,9 +28,11 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+import http_steps
 import httpx
 import numpy as np
 import scale
+import summary
 
 import planner
 
@@ -215,161 +222,36 @@ class Server:
         self.process.wait(timeout=30)
 
 
-async def load(
-    url: str, requests: list[list[tuple[str, dict[str, Any]]]]
-) -> tuple[float, list[float]]:
-    """Send each client's requests in order, the clients at once; (requests/s, latencies)."""
-    latencies: list[float] = []
-    limits = httpx.Limits(max_connections=len(requests))
-    async with httpx.AsyncClient(base_url=url, limits=limits, timeout=60) as client:
-
-        async def client_loop(queue: list[tuple[str, dict[str, Any]]]) -> None:
-            for path, body in queue:
-                t0 = time.perf_counter()
-                r = await client.post(path, json=body)
-                latencies.append(time.perf_counter() - t0)
-                r.raise_for_status()
-
-        t0 = time.perf_counter()
-        await asyncio.gather(*(client_loop(q) for q in requests))
-        elapsed = time.perf_counter() - t0
-    return sum(map(len, requests)) / elapsed, latencies
-
-
-def bench_http(steps: int) -> list[dict[str, float]]:
-    """Step throughput and latency over HTTP against a bare endpoint echoing a body as large."""
-    grid, start, goal = random_map(1024)
-    rows = ["".join(".@"[v] for v in row) for row in grid.tolist()]
-    rng = np.random.default_rng(2)
-    out = []
-    with Server("service.main:app") as ours, Server("benchmarks.bare_app:app") as bare:
-        ours.wait("/healthz")
-        bare.wait()
-        map_id = httpx.post(ours.url + "/maps", json={"rows": rows}, timeout=120).json()["map_id"]
-        for clients in (1, 16):
-            plans = [
-                httpx.post(
-                    ours.url + "/plan",
-                    json={"map_id": map_id, "start": list(start), "goal": list(goal)},
-                    timeout=120,
-                ).json()["plan_id"]
-                for _ in range(clients)
-            ]
-            per_client = max(steps // clients, 50)
-            step_queues = []
-            for plan_id in plans:
-                queue = []
-                for seq in range(per_client):
-                    cells = rng.integers(0, 1024, size=(10, 2)).tolist()
-                    queue.append(
-                        (f"/plan/{plan_id}/step", {"seq": seq, "dynamic_obstacles": cells})
-                    )
-                step_queues.append(queue)
-            # The same bodies to the echo endpoint: the same bytes in, as many requests.
-            echo_queues = [[("/echo", body) for _, body in q] for q in step_queues]
-            best: dict[str, tuple[float, list[float]]] = {}
-            for _ in range(2):  # alternate, keep each one's better run
-                for name, url, queues in (
-                    ("ours", ours.url, step_queues),
-                    ("bare", bare.url, echo_queues),
-                ):
-                    if name == "ours":  # a fresh copy of the plans each round: seq restarts
-                        queues = _fresh(ours.url, map_id, start, goal, queues)
-                    rate, lat = asyncio.run(load(url, queues))
-                    if name not in best or rate > best[name][0]:
-                        best[name] = (rate, lat)
-            row: dict[str, float] = {"clients": clients}
-            for name, (rate, lat) in best.items():
-                arr = np.asarray(lat) * 1e3
-                row[f"{name}_rps"] = rate
-                row[f"{name}_p50_ms"] = float(np.percentile(arr, 50))
-                row[f"{name}_p99_ms"] = float(np.percentile(arr, 99))
-            row["ratio"] = row["ours_rps"] / row["bare_rps"]
-            out.append(row)
-    return out
-
-
-def _fresh(
-    url: str,
-    map_id: str,
-    start: tuple[int, int],
-    goal: tuple[int, int],
-    queues: list[list[tuple[str, dict[str, Any]]]],
-) -> list[list[tuple[str, dict[str, Any]]]]:
-    """The same step bodies, addressed to new plans (each starts at seq 0 again)."""
-    fresh = []
-    for queue in queues:
-        plan_id = httpx.post(
-            url + "/plan", json={"map_id": map_id, "start": list(start), "goal": list(goal)}
-        ).json()["plan_id"]
-        fresh.append([(f"/plan/{plan_id}/step", body) for _, body in queue])
-    return fresh
-
-
-WRK_SCRIPT = ROOT / "benchmarks" / "http_steps.lua"
-
-
-def wrk(url: str, connections: int, seconds: int, *args: str) -> dict[str, float]:
-    """One ``wrk`` run of ``http_steps.lua``: requests/s, p50 and p99 (ms), errors (non-2xx
-    responses and socket errors)."""
-    out = subprocess.run(
-        ["wrk", "-t", str(connections), "-c", str(connections), "-d", f"{seconds}s",
-         "--latency", "-s", str(WRK_SCRIPT), url, "--", *args],
-        capture_output=True, text=True, check=True,
-    ).stdout  # fmt: skip
-    scale_of = {"us": 1e-3, "ms": 1.0, "s": 1e3}
-    result = {"errors": 0.0}
-    for line in out.splitlines():
-        words = line.split()
-        if line.startswith("Requests/sec:"):
-            result["rps"] = float(words[1])
-        elif words[:1] in (["50%"], ["99%"]):
-            value = words[1]
-            unit = value.lstrip("0123456789.")
-            result[f"p{words[0][:-1]}_ms"] = float(value[: -len(unit)]) * scale_of[unit]
-        elif line.strip().startswith("Non-2xx or 3xx responses:"):
-            result["errors"] += float(words[-1])
-        elif line.strip().startswith("Socket errors:"):
-            result["errors"] += sum(float(w.rstrip(",")) for w in words[3::2])
-    return result
-
-
-def bench_wrk(seconds: int = 5) -> list[dict[str, float]]:
-    """Steps over HTTP driven by ``wrk`` (C, not the Python client): the memory store, one plan
-    per connection, against a bare FastAPI echo of the same bodies; alternated, best of two."""
-    grid, start, goal = random_map(1024)
-    rows = ["".join(".@"[v] for v in row) for row in grid.tolist()]
-    out = []
-    with (
-        Server("service.main:app") as ours,
-        Server("benchmarks.bare_app:app") as bare,
-        tempfile.TemporaryDirectory() as tmp,
-    ):
-        ours.wait("/healthz")
-        bare.wait()
-        map_id = httpx.post(ours.url + "/maps", json={"rows": rows}, timeout=120).json()["map_id"]
-        ids = Path(tmp) / "plans"
-        body = {"map_id": map_id, "start": list(start), "goal": list(goal)}
-        for clients in (1, 16):
-            best: dict[str, dict[str, float]] = {}
-            for _ in range(2):
-                plans = [
-                    httpx.post(ours.url + "/plan", json=body, timeout=120).json()["plan_id"]
-                    for _ in range(clients)
-                ]  # fresh plans each run: seq starts at 0
-                ids.write_text("\n".join(plans) + "\n")
-                runs = {
-                    "ours": wrk(ours.url, clients, seconds, str(ids)),
-                    "bare": wrk(bare.url, clients, seconds, str(ids), "echo"),
-                }
-                for name, run in runs.items():
-                    if name not in best or run["rps"] > best[name]["rps"]:
-                        best[name] = run
-            row = {"clients": float(clients), "ratio": best["ours"]["rps"] / best["bare"]["rps"]}
-            for name, run in best.items():
-                row.update({f"{name}_{k}": v for k, v in run.items()})
-            out.append(row)
-    return out
+def bench_http_steps(seconds: int, repeats: int) -> tuple[list[dict[str, Any]], list[str]]:
+    """``benchmarks/http_steps.py``'s cases (memory store, then a private ``redis-server``),
+    each against the bare echo with the same bodies and connections; and what went wrong, if
+    anything (a store that could not be measured is left out, and its targets are not met)."""
+    results: list[dict[str, Any]] = []
+    problems: list[str] = []
+    if shutil.which("wrk") is None:
+        return results, ["`wrk` is not installed (Debian: `apt-get install -y wrk`)"]
+    with tempfile.TemporaryDirectory() as name, http_steps.echo() as bare:
+        tmp = Path(name)
+        bare.wait("/docs")
+        try:
+            results += http_steps.run_store("memory", {}, bare, seconds, repeats, tmp)
+        except (subprocess.CalledProcessError, httpx.HTTPError, RuntimeError, KeyError) as e:
+            problems.append(f"memory store: {e!r}")
+        redis = shutil.which("redis-server")
+        if redis is None:
+            problems.append("`redis-server` is not installed: the Redis store was not measured")
+            return results, problems
+        port = http_steps.free_port()
+        argv = [redis, "--port", str(port), "--bind", "127.0.0.1", "--save", ""]
+        argv += ["--appendonly", "no"]
+        with http_steps.Process(argv, port):
+            time.sleep(0.5)
+            env = {"PLANNER_STORE_URL": f"redis://127.0.0.1:{port}/0"}
+            try:
+                results += http_steps.run_store("redis", env, bare, seconds, repeats, tmp)
+            except (subprocess.CalledProcessError, httpx.HTTPError, RuntimeError, KeyError) as e:
+                problems.append(f"Redis store: {e!r}")
+    return results, problems
 
 
 def bench_upload(repeats: int) -> dict[str, float]:
@@ -388,13 +270,15 @@ def bench_upload(repeats: int) -> dict[str, float]:
     return {"median_s": statistics.median(times), "max_s": max(times)}
 
 
-def bench_cold_start() -> dict[str, float]:
+def bench_cold_start(cold: bool = True) -> dict[str, float]:
     """Seconds from starting the service process to the first plan served, numba cache warm
-    (the project's cache, filled by earlier runs) and cold (an empty cache directory)."""
+    (the project's cache, filled by earlier runs) and, if ``cold``, cold (an empty cache
+    directory)."""
     body = {"rows": ["......", ".@@@@.", "......"], "start": [0, 0], "goal": [2, 5]}
     out = {}
     with tempfile.TemporaryDirectory() as empty:
-        for name, env in (("warm", {}), ("cold", {"NUMBA_CACHE_DIR": empty})):
+        cases = [("warm", {}), ("cold", {"NUMBA_CACHE_DIR": empty})][: 2 if cold else 1]
+        for name, env in cases:
             with Server("service.main:app", env) as server:
                 deadline = time.monotonic() + 600
                 while True:
@@ -409,11 +293,13 @@ def bench_cold_start() -> dict[str, float]:
     return out
 
 
-def scale_section(out: Callable[..., None], repeats: int) -> None:
-    """Section 6: issue 14's figures, each a ratio measured side by side in this run."""
-    plans = scale.bench_plans()
+def scale_section(
+    out: Callable[..., None], field: dict[str, float], far_repeats: int
+) -> dict[str, dict[str, Any]]:
+    """Section 6: issue 14's figures at 4096 x 4096, each a ratio measured side by side in this
+    run (the whole-map plan against tcod is section 1's 1024 x 1024 row, ``field``)."""
+    plans = scale.bench_plans(far_repeats=far_repeats)
     analysis = scale.bench_analysis()
-    field = bench_field(1024, repeats)
     with Server("service.main:app") as ours, Server("benchmarks.bare_app:app") as bare:
         ours.wait("/healthz")
         bare.wait()
@@ -427,7 +313,7 @@ def scale_section(out: Callable[..., None], repeats: int) -> None:
     )
     out("corner to corner. A plan: `planner.plan(None, start, goal, analysis=...)` and its path.")
     out("Memory: numpy allocations held by the plan (tracemalloc), per cell of the map. The whole-")
-    out("map plan and its tcod field are section 1's 1024 x 1024 figures, measured again here.")
+    out("map plan and its tcod field are section 1's 1024 x 1024 row.")
     out("Analysis: `planner.analyse` against the same states, gate count and clean field written")
     out("with numpy and `scipy.ndimage.uniform_filter`. Upload: `POST /maps` with the map as")
     out("`rows` against a bare FastAPI endpoint echoing the same body (loopback, one worker).")
@@ -442,7 +328,7 @@ def scale_section(out: Callable[..., None], repeats: int) -> None:
         f"| memory held by a near plan | {plans['near_bytes_per_cell']:.3f} B/cell "
         f"(worst {plans['near_bytes_per_cell_max']:.3f}) "
         f"| a whole-map wave: {plans['whole_wave_bytes_per_cell']:.1f} B/cell "
-        f"| **{plans['near_bytes_per_cell'] / 17:.4f}** of 17 (<= 0.01) |"
+        f"| **{plans['near_bytes_per_cell_max'] / 17:.4f}** of 17, worst (<= 0.01) |"
     )
     out(f"| memory held by a far plan | {plans['far_bytes_per_cell']:.1f} B/cell | | |")
     out(
@@ -467,10 +353,49 @@ def scale_section(out: Callable[..., None], repeats: int) -> None:
         f"{plans['near_reached']} of {plans['near_plans']} reached their goal."
     )
     out()
+    return {"plans": plans, "analysis": analysis, "upload": upload}
+
+
+def http_section(out: Callable[..., None], seconds: int, repeats: int) -> list[dict[str, Any]]:
+    """Section 3's HTTP part: ``benchmarks/http_steps.py``'s cases and table, from this run."""
+    results, problems = bench_http_steps(seconds, repeats)
+    out("Over HTTP, driven by `wrk` (`benchmarks/http_steps.py`, `benchmarks/http_steps.lua`): the")
+    out("real service (`python -m service`, default settings and logging) on the memory store and")
+    out("on a private `redis-server`, and a bare FastAPI JSON echo (`benchmarks/bare_app.py`)")
+    out("beside it. One 1024 x 1024 map (10% random obstacles and walls that make the way to the")
+    out("goal ~32,000 cells long, so no robot arrives during a run); each case gets fresh plans,")
+    out(
+        f"then `wrk` runs {seconds} s with one thread a connection and 10 random dynamic obstacles a"
+    )
+    out("step, the echo with the same bodies and connections just before it; each side's best")
+    out(f"of {repeats} such runs (requests/s). 'c=16, one plan'")
+    out("steps one plan from 16 connections without `seq` (its steps are serialised by the plan's")
+    out("lock). CPU µs: the server process's user + system time over the run per request served.")
+    out("non-2xx counts non-2xx answers and socket errors: a run with any is not a result.")
+    out()
+    if results:
+        for line in http_steps.table(results).splitlines():
+            out(line)
+        out()
+        echo_errors = sum(r["bare"]["errors"] for r in results)
+        out(f"The echo's runs had {echo_errors:.0f} non-2xx answers or socket errors in all (the")
+        out("summary counts both sides of a ratio: an error on either spoils it).")
+        out()
+    for problem in problems:
+        out(f"Not measured: {problem}.")
+        out()
+    out("The Python (httpx) load generator this section used before is gone: sharing the 2 cores")
+    out("with the server, it saturated first, and `wrk` measures everything it did (requests/s,")
+    out("p50 / p99, each connection stepping its own plan with `seq`), so nothing needs it.")
+    out()
+    return results
 
 
 def versions() -> dict[str, str]:
-    names = ["numpy", "numba", "edt", "tcod", "scikit-image", "pyastar2d", "fastapi", "uvicorn"]
+    names = [
+        "numpy", "numba", "edt", "scipy", "tcod", "scikit-image", "pyastar2d", "fastapi",
+        "uvicorn", "orjson", "redis",
+    ]  # fmt: skip
     out = {}
     for name in names:
         try:
@@ -480,41 +405,48 @@ def versions() -> dict[str, str]:
     return out
 
 
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
+def tool_version(argv: list[str]) -> str:
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, {platform.system()}"
+        done = subprocess.run(argv, capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return "-"
+    found = re.search(r"\d+\.\d+(?:\.\d+)?", done.stdout or done.stderr)
+    return found.group() if found else "-"
+
+
+def machine() -> str:
+    """The CPU as ``lscpu`` names it and its count, the Python and the operating system."""
+    return (
+        f"{http_steps.cpu_model()}, {platform.system()} {platform.release()}, "
+        f"Python {platform.python_version()}"
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--queries", type=int, default=60, help="scenario lines per 512 x 512 map")
-    parser.add_argument("--steps", type=int, default=20000)
-    parser.add_argument("--http-steps", type=int, default=2000, help="steps per HTTP load run")
+    parser.add_argument("--quick", action="store_true", help="fewer repeats: a faster, rougher run")
+    parser.add_argument("--repeats", type=int, default=None, help="alternated runs (7; quick 3)")
+    parser.add_argument("--queries", type=int, default=None, help="lines per 512² map (60; 20)")
+    parser.add_argument("--steps", type=int, default=None, help="in-process steps (20000; 5000)")
+    parser.add_argument("--wrk-seconds", type=int, default=None, help="a wrk run's length (5; 3)")
     parser.add_argument("--no-write", action="store_true", help="print only; leave RESULTS.md")
     args = parser.parse_args()
+    quick = args.quick
+    repeats = args.repeats or (3 if quick else 7)
+    queries = args.queries or (20 if quick else 60)
+    steps = args.steps or (5000 if quick else 20000)
+    wrk_seconds = args.wrk_seconds or (3 if quick else 5)
+    began = time.monotonic()
+    load_before = os.getloadavg()
     planner.warm_up()
 
     lines: list[str] = []
+    measured: dict[str, Any] = {}
 
     def out(text: str = "") -> None:
         print(text, flush=True)
         lines.append(text)
 
-    out("# Benchmark results")
-    out()
-    out(f"- Date: {dt.datetime.now(dt.UTC).strftime('%Y-%m-%d %H:%M UTC')}")
-    out(f"- Machine: {machine()}")
-    out("- Versions: " + ", ".join(f"{k} {v}" for k, v in versions().items()))
-    out("- Command: `make bench` (each comparison alternates its contenders in one run)")
-    out()
     out("## 1. Field: a whole `wide` plan against one cost-to-go field")
     out()
     out(
@@ -522,16 +454,18 @@ def main() -> None:
     )
     out("tunnels, clean), both whole-map waves `k` and `kw` (two threads), and the path. tcod:")
     out("`dijkstra2d` (costs 100/141), one thread;")
-    out("scikit-image: `MCP_Geometric.find_costs`. Medians of alternated runs.")
+    out(f"scikit-image: `MCP_Geometric.find_costs`. Medians of {repeats} alternated runs.")
     out()
     out("| map | ours (ms) | tcod (ms) | skimage (ms) | ours / tcod | ours / skimage |")
     out("|---|---|---|---|---|---|")
     for size in (256, 1024):
-        f = bench_field(size, args.repeats)
+        f = bench_field(size, repeats)
         out(
             f"| {size} x {size} | {f['ours_ms']:.1f} | {f['tcod_ms']:.1f} | {f['skimage_ms']:.1f} "
             f"| **{f['ratio_tcod']:.2f}** | {f['ratio_skimage']:.2f} |"
         )
+        if size == 1024:
+            measured["field"] = f
     out()
     out("## 2. Query: `shortest` against A* on the 512 x 512 Moving AI maps")
     out()
@@ -545,7 +479,7 @@ def main() -> None:
         "| ours / pyastar2d | agree ours / tcod / pyastar2d |"
     )
     out("|---|---|---|---|---|---|---|---|")
-    for r in bench_query(args.queries):
+    for r in bench_query(queries):
         out(
             f"| {r['map']} | {r['queries']} | {r['ours_ms']:.2f} | {r['tcod_ms']:.2f} "
             f"| {r['pyastar2d_ms']:.2f} | {r['ratio_tcod']:.2f} | {r['ratio_pyastar2d']:.2f} "
@@ -554,51 +488,11 @@ def main() -> None:
     out()
     out("## 3. Step")
     out()
-    s = bench_step(args.steps)
-    out(f"In-process `Session.step` on a 1024 x 1024 map with 10 dynamic obstacles, {args.steps}")
+    s = bench_step(steps)
+    out(f"In-process `Session.step` on a 1024 x 1024 map with 10 dynamic obstacles, {steps}")
     out(f"steps: median **{s['median_us']:.1f} us**, p99 {s['p99_us']:.1f} us.")
     out()
-    out("Over HTTP (uvicorn on 127.0.0.1, one worker, the in-memory store; httpx clients in one")
-    out("process): `POST /plan/{id}/step` with 10 obstacles on a 1024 x 1024 map, against a bare")
-    out("FastAPI endpoint echoing the same bodies, alternated; each client steps its own plan.")
-    out()
-    out(
-        "| clients | ours (req/s) | bare (req/s) | ours / bare | ours p50 / p99 (ms) | bare p50 / p99 (ms) |"
-    )
-    out("|---|---|---|---|---|---|")
-    for h in bench_http(args.http_steps):
-        out(
-            f"| {h['clients']:.0f} | {h['ours_rps']:.0f} | {h['bare_rps']:.0f} | **{h['ratio']:.2f}** "
-            f"| {h['ours_p50_ms']:.2f} / {h['ours_p99_ms']:.2f} "
-            f"| {h['bare_p50_ms']:.2f} / {h['bare_p99_ms']:.2f} |"
-        )
-    out()
-    out(
-        "At 16 clients the load generator (one Python process, sharing the 2 cores with the server)"
-    )
-    out(
-        "saturates first, so both columns there are mostly the client's; 1 client is the sharper test."
-    )
-    out()
-    out(
-        "The same measured with `wrk` (`benchmarks/http_steps.lua`, one connection per thread, each"
-    )
-    out("stepping its own plan; 5 s runs, best of two, alternated with the echo). A run with")
-    out("errors is not a result: the errors column must read 0.")
-    out()
-    out(
-        "| connections | ours (req/s) | bare (req/s) | ours / bare | ours p50 / p99 (ms) "
-        "| bare p50 / p99 (ms) | errors ours / bare |"
-    )
-    out("|---|---|---|---|---|---|---|")
-    for h in bench_wrk():
-        out(
-            f"| {h['clients']:.0f} | {h['ours_rps']:.0f} | {h['bare_rps']:.0f} | **{h['ratio']:.2f}** "
-            f"| {h['ours_p50_ms']:.2f} / {h['ours_p99_ms']:.2f} "
-            f"| {h['bare_p50_ms']:.2f} / {h['bare_p99_ms']:.2f} "
-            f"| {h['ours_errors']:.0f} / {h['bare_errors']:.0f} |"
-        )
-    out()
+    measured["http"] = http_section(out, wrk_seconds, 1 if quick else 2)
     out("## 4. Memory")
     out()
     m = bench_memory()
@@ -612,16 +506,47 @@ def main() -> None:
     out(f"`POST /maps` with a 1024 x 1024 map as `rows`: median **{u['median_s']:.3f} s**, worst")
     out(f"{u['max_s']:.3f} s (loopback, client-observed, parsing and hashing included).")
     out()
-    c = bench_cold_start()
+    c = bench_cold_start(cold=not quick)
     out(f"From starting the service process to the first plan served: **{c['warm']:.2f} s** with")
-    out(f"numba's cache warm, {c['cold']:.2f} s cold (every kernel compiled at start-up).")
+    if "cold" in c:
+        out(f"numba's cache warm, {c['cold']:.2f} s cold (every kernel compiled at start-up).")
+    else:
+        out("numba's cache warm (`--quick`: the cold start, every kernel compiled, not measured).")
     out()
-    scale_section(out, args.repeats)
+    measured.update(scale_section(out, measured["field"], far_repeats=2 if quick else 3))
+
+    took = time.monotonic() - began
+    header = [
+        "# Benchmark results",
+        "",
+        f"- Date: {dt.datetime.now(dt.UTC).strftime('%Y-%m-%d %H:%M UTC')}",
+        f"- Machine: {machine()}; load average {load_before[0]:.1f} at the start, "
+        f"{os.getloadavg()[0]:.1f} at the end (the machine is shared: absolute times are noisy, "
+        "the ratios are each measured side by side)",
+        "- Versions: "
+        + ", ".join(f"{k} {v}" for k, v in versions().items())
+        + f", wrk {tool_version(['wrk', '-v'])}, "
+        + f"redis-server {tool_version(['redis-server', '--version'])}",
+        f"- Command: `make bench`{' (`--quick`)' if quick else ''}, that is "
+        f"`benchmarks/run.py{' --quick' if quick else ''}`; the whole run took "
+        f"{took / 60:.1f} min. Each comparison alternates its contenders in this one run.",
+        "",
+        "## Issue 14's targets, from this run",
+        "",
+        "Each target as measured in this run, the ratio (or value) compared with its threshold and",
+        "the absolute figures it comes from; the sections below give the details. An HTTP figure",
+        "from a `wrk` run with any non-2xx answer or socket error is not a result, so not met.",
+        "",
+        *summary.table(summary.rows(measured)),
+        "",
+    ]
+    print("\n".join(header), flush=True)
+    print(f"run.py took {took:.0f} s", flush=True)
     if not args.no_write:
         # Sections other scripts write (benchmarks/nav2_baseline.py) are kept as they are.
         old = RESULTS.read_text() if RESULTS.exists() else ""
         kept = old[old.index(KEPT) :] if KEPT in old else ""
-        RESULTS.write_text("\n".join(lines) + "\n" + ("\n" + kept if kept else ""))
+        RESULTS.write_text("\n".join(header + lines) + "\n" + ("\n" + kept if kept else ""))
         print(f"\nwrote {RESULTS.relative_to(ROOT)}")
 
 

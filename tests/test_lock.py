@@ -40,6 +40,10 @@ def _pins(name: str) -> dict[str, Version]:
             "requirements-dev.lock",
             PROJECT["dependencies"] + PROJECT["optional-dependencies"]["dev"],
         ),
+        (
+            "requirements-bench.lock",
+            PROJECT["dependencies"] + PROJECT["optional-dependencies"]["bench"],
+        ),
     ],
 )
 def test_every_dependency_is_pinned_within_its_range(lock: str, requirements: list[str]) -> None:
@@ -56,6 +60,19 @@ def test_every_dependency_is_pinned_within_its_range(lock: str, requirements: li
 def test_the_runtime_lock_agrees_with_the_dev_lock() -> None:
     runtime, dev = _pins("requirements.lock"), _pins("requirements-dev.lock")
     assert runtime.items() <= dev.items()
+
+
+def test_the_bench_lock_agrees_with_the_dev_lock() -> None:
+    bench, dev = _pins("requirements-bench.lock"), _pins("requirements-dev.lock")
+    assert {name: bench[name] for name in bench.keys() & dev.keys()} == {
+        name: dev[name] for name in bench.keys() & dev.keys()
+    }
+
+
+def test_the_makefile_installs_and_repins_the_bench_lock() -> None:
+    makefile = (ROOT / "Makefile").read_text(encoding="utf-8")
+    assert "pip install --quiet --require-hashes -r requirements-bench.lock" in makefile
+    assert "--extra bench -c requirements-dev.lock -o requirements-bench.lock" in makefile
 
 
 def test_this_environment_runs_the_pinned_versions() -> None:
