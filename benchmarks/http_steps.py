@@ -9,7 +9,7 @@ obstacles per step). The echo is run with the same bodies and connections just b
 the store's cases. Prints a markdown table: requests/s, ratio to the echo, p50/p99, non-2xx
 (and socket errors: a run with any is not a result), the server's CPU per request, and the CPU.
 
-    .venv/bin/python benchmarks/http_steps.py [--seconds 5] [--repeats 1] [--no-redis]
+    .venv/bin/python benchmarks/http_steps.py [--seconds 5] [--repeats 1] [--no-redis|--only-redis]
 """
 
 from __future__ import annotations
@@ -206,7 +206,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seconds", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=1, help="best of this many runs")
-    parser.add_argument("--no-redis", action="store_true")
+    only = parser.add_mutually_exclusive_group()
+    only.add_argument("--no-redis", action="store_true")
+    only.add_argument("--only-redis", action="store_true")
     args = parser.parse_args()
     if shutil.which("wrk") is None:
         print("wrk is not installed (Debian: apt-get install -y wrk)", file=sys.stderr)
@@ -215,7 +217,8 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as name, echo() as bare:
         tmp = Path(name)
         bare.wait("/docs")
-        results += run_store("memory", {}, bare, args.seconds, args.repeats, tmp)
+        if not args.only_redis:
+            results += run_store("memory", {}, bare, args.seconds, args.repeats, tmp)
         redis = shutil.which("redis-server")
         if redis and not args.no_redis:
             port = free_port()

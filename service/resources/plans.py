@@ -19,7 +19,7 @@ from planner._errors import quote
 from schemas import Circle, PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
-from service.stores.base import Event
+from service.stores.base import Event, Update
 from service.work.engine import Engine, cell_size, frame_map, overrides, where
 
 __all__ = [
@@ -99,18 +99,18 @@ async def step(
     body: StepCreate,
     event: Callable[[StepView], Event] | None = None,
 ) -> StepView:
-    """Load the robot's state, decide its move, save the state: under the plan's lock, so
-    concurrent steps never lose a move. A ``position`` point means the cell containing it; a
-    circle obstacle, the cells it covers (:func:`planner.circle_cells`, with the robot's
-    radius). ``event``, when given, makes the step's event for the live viewer, which the
-    store publishes with its write (a store that :attr:`~service.stores.Store.publishes`)."""
+    """Load the robot's state, decide its move, save the state: one
+    :meth:`~service.stores.Store.update_plan`, so concurrent steps never lose a move. A
+    ``position`` point means the cell containing it; a circle obstacle, the cells it covers
+    (:func:`planner.circle_cells`, with the robot's radius). ``event``, when given, makes the
+    step's event for the live viewer, which the store publishes with its write (a store that
+    :attr:`~service.stores.Store.publishes`)."""
     limit = engine.settings.max_dynamic_obstacles
     if len(body.dynamic_obstacles) > limit:
         msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
         raise planner.InvalidInput(msg, field="dynamic_obstacles")
-    async with engine.store.plan_lock(plan_id) as record:
-        if record is None:
-            raise _unknown_plan(plan_id)
+
+    async def decide(record: PlanRecord) -> Update[StepView]:
         plan = await engine.plan_of(record)
         # The trajectory log is read only for the paper's tabu list: the wide decision needs
         # none of it, and its step then costs the same at any length of episode.
@@ -138,18 +138,18 @@ async def step(
             # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
             result = session.step(*args, position=position, seq=body.seq)
         if replayed:  # the robot did not move again: nothing to write, no event to send
-            return StepView(result, frame, obstacles, replayed=True)
-        record["state"] = stored = session.state.as_dict()
+            return Update(StepView(result, frame, obstacles, replayed=True))
+        stored = session.state.as_dict()
         moved = stored.pop("trajectory")[len(trajectory) :]
         view = StepView(result, frame, obstacles)
         message = None if event is None else event(view)
-        # Written only if the plan still exists: a DELETE that won the race stays a delete.
-        written = await engine.store.put_plan(
-            plan_id, record, append=moved, existing=True, event=message
-        )
-        if not written:
-            raise _unknown_plan(plan_id)
-    return view
+        return Update(view, {**record, "state": stored}, moved, message)
+
+    # Written only if the plan still exists: a DELETE that won the race stays a delete.
+    update = await engine.store.update_plan(plan_id, decide)
+    if update is None:
+        raise _unknown_plan(plan_id)
+    return update.answer
 
 
 def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:

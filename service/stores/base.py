@@ -9,18 +9,21 @@ of constant size and appends a cell, whatever the length of the episode.
 Ids are kept per tenant (:func:`service.edge.tenants.scoped`): every store prefixes the map and plan
 ids it is given with the current request's tenant, so tenants never see each other's data.
 
-A step runs inside :meth:`Store.plan_lock`, which yields the plan's record read under the lock
-(None, and no lock taken, for a plan that does not exist), and writes back with
-``put_plan(..., existing=True)``: a write that finds the plan deleted meanwhile writes nothing,
-so a plan deleted while a step was in flight stays deleted.
+A step is one :meth:`Store.update_plan`: the store hands the plan's current record to the step's
+``decide``, which answers an :class:`Update` (the new record, the cells to append, the viewer's
+event; or nothing to write, for a retried ``seq``), and the store writes it only if the plan still
+exists and nobody wrote it meanwhile. Steps on one plan in one process are served one at a time,
+in arrival order (:class:`PlanLocks`); a plan deleted while a step was in flight stays deleted.
 """
 
 from __future__ import annotations
 
+import asyncio
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
-from contextlib import AbstractAsyncContextManager
-from typing import Any
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
+from contextlib import asynccontextmanager
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -29,10 +32,13 @@ from planner.robot_maps import MapFrame, RobotMap
 
 __all__ = [
     "Cells",
+    "Decide",
     "Event",
     "Grid",
+    "PlanLocks",
     "PlanRecord",
     "Store",
+    "Update",
     "decode_map",
     "encode_map",
     "pack",
@@ -44,6 +50,51 @@ PlanRecord = dict[str, Any]
 Cells = Sequence[Sequence[int]]
 Event = tuple[str, bytes]
 """A message for the live viewer: its pub/sub channel and its bytes."""
+T = TypeVar("T")
+
+
+@dataclass(frozen=True, slots=True)
+class Update(Generic[T]):
+    """What a step decided from a plan's record: its ``answer`` (handed back by
+    :meth:`Store.update_plan`) and what to write: the new ``record`` (None: nothing, a retried
+    ``seq``), the cells to ``append`` to the trajectory and the viewer's ``event``."""
+
+    answer: T
+    record: PlanRecord | None = None
+    append: Cells = ()
+    event: Event | None = None
+
+
+Decide = Callable[[PlanRecord], Awaitable[Update[T]]]
+"""A step's decision from the plan's current record; it may run again on a newer record (a
+networked store whose write found another replica's step first), so it changes nothing else."""
+
+
+class PlanLocks:
+    """One FIFO ``asyncio.Lock`` a plan, made when a step comes and dropped when none holds or
+    waits for it: steps on one plan in this process are served one at a time, in arrival order."""
+
+    def __init__(self) -> None:
+        self._locks: dict[str, tuple[asyncio.Lock, int]] = {}  # lock, steps holding or waiting
+
+    @asynccontextmanager
+    async def hold(self, key: str) -> AsyncIterator[None]:
+        lock, users = self._locks.get(key, (None, 0))
+        if lock is None:
+            lock = asyncio.Lock()
+        self._locks[key] = (lock, users + 1)
+        try:
+            async with lock:
+                yield
+        finally:
+            lock, users = self._locks[key]
+            if users == 1:
+                del self._locks[key]
+            else:
+                self._locks[key] = (lock, users - 1)
+
+    def __len__(self) -> int:
+        return len(self._locks)
 
 
 def pack(cells: Cells) -> bytes:
@@ -92,7 +143,7 @@ class Store(ABC):
 
     kind: str
     publishes = False
-    """Whether :meth:`put_plan` publishes its ``event`` (else the caller publishes it)."""
+    """Whether :meth:`update_plan` publishes an update's ``event`` (else the caller does)."""
 
     @abstractmethod
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
@@ -103,21 +154,18 @@ class Store(ABC):
         """The map (read-only), or None."""
 
     @abstractmethod
-    async def put_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        *,
-        append: Cells = (),
-        existing: bool = False,
-        event: Event | None = None,
-    ) -> bool:
+    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         """Keep (or replace) a plan's record and add ``append`` to its trajectory, both at once;
-        restarts the plan's TTL (and its map's). With ``existing``, only a plan that still
-        exists is written: False when it was deleted or expired (nothing written then).
-        ``event``, a ``(channel, message)`` for the live viewer, is published with the write by a
-        store that can (Redis: in the same round trip) when the write happens; others ignore it
-        (see :attr:`publishes`)."""
+        restarts the plan's TTL (and its map's)."""
+
+    @abstractmethod
+    async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
+        """Step a plan: ``decide`` on its current record, then write the :class:`Update` it
+        answers (record, appended cells, and the ``event`` published with the write by a store
+        that :attr:`publishes`), all at once, restarting the plan's TTL and its map's. Steps on
+        one plan never interleave: none loses or doubles a move. None when the plan does not
+        exist or was deleted before the write (then nothing is written or published); errors of
+        ``decide`` propagate, with nothing written."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
@@ -130,11 +178,6 @@ class Store(ABC):
     @abstractmethod
     async def delete_plan(self, plan_id: str) -> bool:
         """Forget a plan; True when it existed."""
-
-    @abstractmethod
-    def plan_lock(self, plan_id: str) -> AbstractAsyncContextManager[PlanRecord | None]:
-        """An async context manager held while a plan is read, stepped and written back; it
-        yields the plan's record, or None (holding nothing) when the plan does not exist."""
 
     @abstractmethod
     async def counts(self) -> tuple[int, int]:

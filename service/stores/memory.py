@@ -2,18 +2,16 @@
 
 from __future__ import annotations
 
-import asyncio
 import time
 from collections import OrderedDict
-from collections.abc import AsyncIterator, Callable
-from contextlib import asynccontextmanager
+from collections.abc import Callable
 
 import orjson
 
 from planner.robot_maps import RobotMap
 from service.edge.tenants import TENANT, scoped
 from service.errors import InsufficientStorage
-from service.stores.base import Cells, Event, PlanRecord, Store, pack, unpack
+from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, Update, pack, unpack
 
 __all__ = ["MemoryStore"]
 
@@ -47,8 +45,7 @@ class MemoryStore(Store):
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
         # An entry: (expiry, the record as JSON, the trajectory log, its map's key).
         self._plans: OrderedDict[str, tuple[float, bytes, bytearray, str | None]] = OrderedDict()
-        # A lock and how many steps hold or wait for it: dropped when none does.
-        self._locks: dict[str, tuple[asyncio.Lock, int]] = {}
+        self._locks = PlanLocks()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = scoped(map_id)
@@ -73,20 +70,30 @@ class MemoryStore(Store):
         self._expire()
         return len(self._maps), len(self._plans)
 
-    async def put_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        *,
-        append: Cells = (),
-        existing: bool = False,
-        event: Event | None = None,
-    ) -> bool:
+    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         self._expire()
+        self._write(scoped(plan_id), record, append)
+
+    async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
         key = scoped(plan_id)
+        self._expire()
+        if key not in self._plans:
+            return None  # no lock is made for a plan that does not exist
+        async with self._locks.hold(key):
+            # Read under the lock: the previous holder's write, or its delete, is seen.
+            record = await self.get_plan(plan_id)
+            if record is None:
+                return None
+            update = await decide(record)
+            if update.record is not None:
+                self._expire()
+                if key not in self._plans:
+                    return None  # deleted (or expired) while the step decided: it stays so
+                self._write(key, update.record, update.append)
+            return update
+
+    def _write(self, key: str, record: PlanRecord, append: Cells) -> None:
         entry = self._plans.get(key)
-        if entry is None and existing:
-            return False  # deleted (or expired) while a step was in flight: it stays so
         if entry is None:
             map_key = scoped(record["map_id"]) if "map_id" in record else None
             if map_key is not None:
@@ -100,7 +107,6 @@ class MemoryStore(Store):
         self._plans.move_to_end(key)
         if map_key is not None and map_key in self._maps:
             self._maps.move_to_end(map_key)
-        return True
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         self._expire()
@@ -115,26 +121,6 @@ class MemoryStore(Store):
     async def delete_plan(self, plan_id: str) -> bool:
         self._expire()
         return self._forget(scoped(plan_id))
-
-    @asynccontextmanager
-    async def plan_lock(self, plan_id: str) -> AsyncIterator[PlanRecord | None]:
-        key = scoped(plan_id)
-        self._expire()
-        if key not in self._plans:  # the record is read (decoded) once, under the lock
-            yield None  # no lock is made for a plan that does not exist
-            return
-        lock, users = self._locks.get(key, (asyncio.Lock(), 0))
-        self._locks[key] = (lock, users + 1)
-        try:
-            async with lock:
-                # Read under the lock: the previous holder's write, or its delete, is seen.
-                yield await self.get_plan(plan_id)
-        finally:
-            lock, users = self._locks[key]
-            if users == 1:
-                del self._locks[key]
-            else:
-                self._locks[key] = (lock, users - 1)
 
     @property
     def lock_count(self) -> int:

@@ -5,14 +5,15 @@ Keys, all under ``planner:``:
 - ``planner:map:{map_id}``: the map as :func:`~service.stores.base.encode_map` writes it (a
   header with shape, resolution and origin, then the occupancy, one byte a cell); expires
   ``PLANNER_MAP_TTL_SECONDS`` after its last use (an upload, a read, a step of a plan on it).
-- ``planner:plan:{plan_id}``: the plan's record as JSON; expires ``PLANNER_PLAN_TTL_SECONDS``
-  after its last write.
+- ``planner:plan:{plan_id}``: the plan's version, a space, then its record as JSON
+  (``b"8841 {...}"``); expires ``PLANNER_PLAN_TTL_SECONDS`` after its last write. Each step's
+  write adds 1 to the version; a new plan's starts at random. A record written before versions
+  (plain JSON) is read as version 0 and stepped on (its prefix is its ``{``).
 - ``planner:path:{plan_id}``: the robot's trajectory, packed cells appended with ``APPEND``;
   expires with the record.
-- ``planner:lock:{plan_id}``: held by the replica stepping the plan, for ``LOCK_TIMEOUT``
-  seconds renewed while it steps: a replica that dies holding it frees it within that time.
 
-With API keys, ids are the tenant's (``{tenant}.{id}``, :func:`service.edge.tenants.scoped`).
+No lock lives in Redis: steps are fenced by the version (:class:`RedisStore`). With API keys,
+ids are the tenant's (``{tenant}.{id}``, :func:`service.edge.tenants.scoped`).
 
 Analyses stay in each replica's own cache: they are recomputed from the map on a miss. This is
 the one module that knows ``redis``: its errors become :class:`StoreUnavailable` (or
@@ -22,14 +23,11 @@ not answered.
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import logging
 import secrets
-import time
+from collections import OrderedDict
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from contextvars import ContextVar
 
 import orjson
 from redis import exceptions as rx
@@ -43,90 +41,80 @@ from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import (
     Cells,
-    Event,
+    Decide,
+    PlanLocks,
     PlanRecord,
     Store,
+    T,
+    Update,
     decode_map,
     encode_map,
     pack,
     unpack,
 )
 
-__all__ = ["LOCK_TIMEOUT", "LOCK_WAIT", "SOCKET_TIMEOUT", "RedisStore"]
+__all__ = ["CACHED_PLANS", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
 
 log = logging.getLogger("service.store")
 
 SOCKET_TIMEOUT = 2.0
 """Seconds to connect to Redis or wait for an answer before a request answers 503."""
-LOCK_TIMEOUT = 2.0
-"""Seconds after which a plan's lock frees itself unless renewed: its holder renews it every
-third of that while it steps, so only a dead (or stalled) holder loses it."""
-LOCK_WAIT = 10.0
-"""Seconds a step waits for another replica's step on the same plan before answering 503."""
+CACHED_PLANS = 4096
+"""Records each replica keeps of the plans it read or wrote last (the least recently used
+are dropped): a step on one of them reads nothing before its write."""
+STEP_TRIES = 16
+"""Times a step decides before answering 503 when other replicas' steps on the same plan keep
+writing first (each lost try means another step was recorded)."""
 UNAVAILABLE = "store unavailable; retry later"
 """What a client is told when Redis cannot answer (the reason goes to the log)."""
 
-# The plan lock this task holds, as (plan_id, token): put_plan fences its write with it.
-_held: ContextVar[tuple[str, str] | None] = ContextVar("planner_plan_lock", default=None)
-
-# One round trip to start a step: the plan's record and its lock at once, or why not.
-# Returns {1, record} (locked), {0} (no such plan: no lock made), {2, pttl} (someone holds it).
-_LOCK_AND_READ = """
-local record = redis.call('GET', KEYS[1])
-if not record then return {0} end
-if redis.call('SET', KEYS[2], ARGV[1], 'NX', 'PX', ARGV[2]) then return {1, record} end
-return {2, redis.call('PTTL', KEYS[2])}
+# A step's one round trip: KEYS the plan, its path (and its map, when maps expire); ARGV the
+# version prefix the step decided on, the new value ('' for none: a replay, only checked), the
+# plan's TTL, the cells to append, the map's TTL, the viewer's channel and message ('': none).
+# Returns {1} (written, or checked), {0} (no such plan: nothing written), {2, value} (another
+# step wrote first: the plan's value now, to decide again on).
+_STEP = """
+local now = redis.call('GET', KEYS[1])
+if not now then return {0} end
+if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
+if ARGV[2] == '' then return {1} end
+redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
+if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
+redis.call('PEXPIRE', KEYS[2], ARGV[3])
+if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[5]) end
+if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
+return {1}
 """
 
-# One round trip to end it: write the plan and append to its trajectory only while the lock
-# holds this holder's token and (for a step) the plan still exists, refresh the map's TTL, and
-# release the lock, and publish the step's event for the live viewer (when given: ARGV[7] the
-# channel, ARGV[8] the message). A new plan runs the same script with no token.
-# Returns 1 (written), 0 (the lock was lost: nothing written), -1 (the plan is gone).
-_WRITE_AND_RELEASE = """
-local mine = ARGV[2] == '' or redis.call('GET', KEYS[2]) == ARGV[2]
-if ARGV[6] == '1' and redis.call('EXISTS', KEYS[1]) == 0 then
-  if mine and ARGV[2] ~= '' then redis.call('DEL', KEYS[2]) end
-  return -1
-end
-if not mine then return 0 end
-redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[3])
-if ARGV[4] ~= '' then redis.call('APPEND', KEYS[3], ARGV[4]) end
-redis.call('PEXPIRE', KEYS[3], ARGV[3])
-if KEYS[4] ~= '' then redis.call('PEXPIRE', KEYS[4], ARGV[5]) end
-if ARGV[2] ~= '' then redis.call('DEL', KEYS[2]) end
-if ARGV[7] ~= '' then redis.call('PUBLISH', ARGV[7], ARGV[8]) end
+# A new plan (or a replaced one) in one round trip: the same keys and arguments, unfenced.
+_PUT = """
+redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[2])
+if ARGV[3] ~= '' then redis.call('APPEND', KEYS[2], ARGV[3]) end
+redis.call('PEXPIRE', KEYS[2], ARGV[2])
+if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[4]) end
 return 1
-"""
-
-# Release or renew the lock only while it is still this holder's.
-_RELEASE = """
-if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('DEL', KEYS[1]) end
-return 0
-"""
-_RENEW = """
-if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('PEXPIRE', KEYS[1], ARGV[2]) end
-return 0
 """
 
 
 class RedisStore(Store):
     """Maps and plans in Redis, for any number of replicas.
 
-    Steps on one plan are serialised by a per-plan lock rather than by ``WATCH``/``MULTI``: a
-    step reads the plan, runs the planner (on a replica that has not seen the map yet, a whole
-    analysis) and writes back. Optimistically, two replicas stepping at once would both compute,
-    and the loser would redo it all; WATCH would also pin a connection for the whole
-    computation. With the lock, the second waits, then reads the first's state: for the same
-    ``seq`` it replays the stored answer, for none it steps on from there. No move is lost or
-    doubled. A step costs two round trips: lock-and-read, then write-and-release (which also
-    publishes the step's event for the live viewer: no third).
+    A step is optimistic, fenced by the plan's version, and costs one round trip: the replica
+    decides on the record it last read or wrote (kept in a bounded cache, else read first),
+    then one script writes the new record, appends to the trajectory, refreshes the TTLs and
+    publishes the viewer's event, only if the plan still exists (else 404: a plan deleted
+    while a step was in flight stays deleted) and its version is still the one decided on.
+    When another replica's step wrote first, the script answers the plan as it is now and the
+    step decides again on it: for the same ``seq`` it replays the stored answer, for none it
+    steps on from there; after ``STEP_TRIES`` lost races it answers 503. A retried ``seq`` is
+    only checked (nothing written), and a step refused on this replica's copy (a ``seq`` out
+    of order) is decided again on a fresh read before it is refused. No move is lost or
+    doubled, nothing is ever held in Redis (a replica killed mid-step leaves nothing behind),
+    and no step waits on another replica.
 
-    The lock lives ``LOCK_TIMEOUT`` (2 s) and its holder renews it while it steps, so a replica
-    killed mid-step frees it within 2 s. A holder that stalls past that loses it: the write back
-    is fenced (the script writes only while the lock holds this holder's token), so it writes
-    nothing and answers 503; its client's retry of the same ``seq`` replays what the new holder
-    stored.
+    Within a replica, steps on one plan are served one at a time, in arrival order (a
+    :class:`~service.stores.base.PlanLocks` lock, in this process): so they never race each
+    other, and under load on one plan each waits behind the steps queued before it, no longer.
 
     Connections are made on demand, with short timeouts and one immediate retry (a pooled
     connection dead since Redis restarted is replaced on first use), so the service resumes by
@@ -148,10 +136,11 @@ class RedisStore(Store):
         self.address = kw.get("path") or f"{kw.get('host', 'localhost')}:{kw.get('port', 6379)}"
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
-        self._lock_and_read = self._redis.register_script(_LOCK_AND_READ)
-        self._write_and_release = self._redis.register_script(_WRITE_AND_RELEASE)
-        self._release = self._redis.register_script(_RELEASE)
-        self._renew = self._redis.register_script(_RENEW)
+        self._step = self._redis.register_script(_STEP)
+        self._put = self._redis.register_script(_PUT)
+        self._locks = PlanLocks()
+        # Scoped plan key -> (version, record as JSON), least recently used first.
+        self._plans: OrderedDict[str, tuple[int, bytes]] = OrderedDict()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"
@@ -178,45 +167,61 @@ class RedisStore(Store):
         assert isinstance(value, bytes)  # no decode_responses
         return decode_map(value)
 
-    async def put_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        *,
-        append: Cells = (),
-        existing: bool = False,
-        event: Event | None = None,
-    ) -> bool:
-        held = _held.get()
-        token = held[1] if held is not None and held[0] == plan_id else ""
+    async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         key = scoped(plan_id)
-        map_key = (
-            f"planner:map:{scoped(record['map_id'])}"
-            if self._map_ttl_ms and "map_id" in record
-            else ""
-        )
-        keys = [f"planner:plan:{key}", f"planner:lock:{key}", f"planner:path:{key}", map_key]
-        args: list[bytes | str | int] = [
-            orjson.dumps(record), token, self._ttl_ms, pack(append), self._map_ttl_ms,
-            "1" if existing else "0", *(event if event is not None else ("", b"")),
-        ]  # fmt: skip
+        # A new plan's version starts at random: a record cached of a plan replaced under the
+        # same id is never taken for the new one.
+        version, json = secrets.randbits(62) + 1, orjson.dumps(record)
         async with self._reaching():
-            written = await self._write_and_release(keys=keys, args=args)
-        if token:
-            _held.set((plan_id, ""))  # released by the script (or lost): nothing to release
-        if written == -1:
-            return False
-        if not written:
-            msg = (
-                f"plan_id: plan {quote(plan_id)} was held over {LOCK_TIMEOUT:g} s by this step "
-                "without renewal, so its lock expired and nothing was recorded; retry the step"
+            await self._put(
+                keys=self._keys(key, record),
+                args=[b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms],
             )
-            raise StoreUnavailable(msg, field="plan_id")
-        return True
+        self._remember(key, version, json)
+
+    async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
+        key = scoped(plan_id)
+        async with self._locks.hold(key):
+            cached = self._plans.get(key)
+            fresh = cached is None  # read from Redis by this step (else this replica's copy)
+            if cached is None:
+                cached = await self._read(key)
+                if cached is None:
+                    return None
+            for _ in range(STEP_TRIES):
+                version, json = cached
+                try:
+                    update = await decide(orjson.loads(json))
+                except Exception:
+                    if fresh:
+                        raise
+                    # Refused on this replica's copy, which another replica's steps may have
+                    # outdated (a seq that is next there): decided again on what Redis holds.
+                    now = await self._read(key)
+                    if now is None:
+                        return None
+                    if now[0] == version:
+                        raise
+                    cached, fresh = now, True
+                    continue
+                if update.record is None and fresh:
+                    return update  # a replay of what was just read: nothing to write or check
+                answer = await self._write(key, version, update)
+                if answer[0] == 1:
+                    return update
+                if answer[0] == 0:
+                    self._plans.pop(key, None)
+                    return None
+                cached, fresh = self._parse(key, answer[1]), True
+        msg = (
+            f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps on it were recorded "
+            f"first {STEP_TRIES} times in a row; retry later"
+        )
+        raise StoreUnavailable(msg, field="plan_id")
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         value = await self._get(f"planner:plan:{scoped(plan_id)}")
-        return None if value is None else dict(orjson.loads(value))
+        return None if value is None else dict(orjson.loads(_split(value)[1]))
 
     async def get_trajectory(self, plan_id: str) -> list[tuple[int, int]]:
         return unpack(await self._get(f"planner:path:{scoped(plan_id)}") or b"")
@@ -225,55 +230,57 @@ class RedisStore(Store):
         key = scoped(plan_id)
         async with self._reaching():
             gone = await self._redis.delete(f"planner:plan:{key}", f"planner:path:{key}")
+        self._plans.pop(key, None)
         return bool(gone)
 
-    @asynccontextmanager
-    async def plan_lock(self, plan_id: str) -> AsyncIterator[PlanRecord | None]:
-        key = scoped(plan_id)
-        keys = [f"planner:plan:{key}", f"planner:lock:{key}"]
-        lock_ms = max(1, round(LOCK_TIMEOUT * 1000))
-        token = secrets.token_hex(16)
-        deadline = time.monotonic() + LOCK_WAIT
-        while True:
-            async with self._reaching():
-                answer = await self._lock_and_read(keys=keys, args=[token, lock_ms])
-            if answer[0] == 0:
-                yield None  # no such plan: no lock was made
-                return
-            if answer[0] == 1:
-                break
-            if time.monotonic() >= deadline:
-                msg = (
-                    f"plan_id: plan {quote(plan_id)} is busy: another step held it for over "
-                    f"{LOCK_WAIT:g} s; retry later"
-                )
-                raise StoreUnavailable(msg, field="plan_id")
-            await asyncio.sleep(min(0.01, max(0.001, int(answer[1]) / 1000)))
-        held = _held.set((plan_id, token))
-        # Renewed from a third of its life on: a step done sooner (nearly all) costs a timer.
-        renewal: list[asyncio.Task[None]] = []
-        timer = asyncio.get_running_loop().call_later(
-            lock_ms / 3000,
-            lambda: renewal.append(asyncio.ensure_future(self._keep(keys[1], token, lock_ms))),
-        )
-        try:
-            yield dict(orjson.loads(answer[1]))
-        finally:
-            timer.cancel()
-            for task in renewal:
-                task.cancel()
-            still = _held.get()
-            _held.reset(held)
-            if still is not None and still[1]:  # not released by a write: release it now
-                # A Redis gone frees the lock by its timeout; the answer stands either way.
-                with contextlib.suppress(rx.RedisError):
-                    await self._release(keys=[keys[1]], args=[token])
+    @property
+    def lock_count(self) -> int:
+        """Plans with steps in progress or waiting on this replica (for tests)."""
+        return len(self._locks)
 
-    async def _keep(self, lock_key: str, token: str, lock_ms: int) -> None:
-        """Renew the lock now and every third of its life while its holder steps."""
-        with contextlib.suppress(rx.RedisError):
-            while await self._renew(keys=[lock_key], args=[token, lock_ms]):
-                await asyncio.sleep(lock_ms / 3000)
+    def _keys(self, key: str, record: PlanRecord) -> list[str]:
+        keys = [f"planner:plan:{key}", f"planner:path:{key}"]
+        if self._map_ttl_ms and "map_id" in record:
+            keys.append(f"planner:map:{scoped(record['map_id'])}")
+        return keys
+
+    async def _write(self, key: str, version: int, update: Update[T]) -> list[bytes | int]:
+        """The step's one round trip: write ``update`` if the plan is still at ``version``
+        (only check it when there is nothing to write)."""
+        expect = b"%d " % version if version else b"{"
+        args: list[bytes | int | str]
+        if update.record is None:
+            keys, args = [f"planner:plan:{key}"], [expect, b""]
+        else:
+            json = orjson.dumps(update.record)
+            value = b"%d %b" % (version + 1, json)
+            channel, message = update.event or ("", b"")
+            keys = self._keys(key, update.record)
+            args = [
+                expect, value, self._ttl_ms, pack(update.append), self._map_ttl_ms, channel,
+                message,
+            ]  # fmt: skip
+        async with self._reaching():
+            answer: list[bytes | int] = await self._step(keys=keys, args=args)
+        if answer[0] == 1 and update.record is not None:
+            self._remember(key, version + 1, json)
+        return answer
+
+    async def _read(self, key: str) -> tuple[int, bytes] | None:
+        value = await self._get(f"planner:plan:{key}")
+        return None if value is None else self._parse(key, value)
+
+    def _parse(self, key: str, value: object) -> tuple[int, bytes]:
+        assert isinstance(value, bytes)  # no decode_responses
+        version, json = _split(value)
+        return self._remember(key, version, json)
+
+    def _remember(self, key: str, version: int, json: bytes) -> tuple[int, bytes]:
+        entry = self._plans[key] = (version, json)
+        self._plans.move_to_end(key)
+        if len(self._plans) > CACHED_PLANS:
+            self._plans.popitem(last=False)
+        return entry
 
     async def counts(self) -> tuple[int, int]:
         # SCAN, not KEYS: it never blocks Redis for long. Expired plans are not listed.
@@ -317,6 +324,14 @@ class RedisStore(Store):
                 raise InsufficientStorage(msg) from exc
             log.warning("redis at %s refused a command: %s", self.address, exc)
             raise StoreUnavailable(UNAVAILABLE) from exc
+
+
+def _split(value: bytes) -> tuple[int, bytes]:
+    """A stored plan's version and record (0 for a record written before versions)."""
+    if value[:1] == b"{":
+        return 0, value
+    version, _, json = value.partition(b" ")
+    return int(version), json
 
 
 def _why(exc: rx.RedisError) -> str:

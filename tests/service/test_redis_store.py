@@ -1,10 +1,12 @@
-"""``RedisStore`` against a real redis-server: maps, plans, TTL, delete, the per-plan lock and
-its fenced write, and Redis out of reach."""
+"""``RedisStore`` against a real redis-server: maps, plans, TTL, delete, steps fenced by the
+plan's version (one round trip, decided again when another replica wrote first), the cache of
+records, and Redis out of reach."""
 
 from __future__ import annotations
 
 import asyncio
 from collections.abc import AsyncIterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -13,8 +15,9 @@ from pydantic import ValidationError
 import planner
 from service.config import Settings
 from service.errors import StoreUnavailable
-from service.stores import MemoryStore, RedisStore, open_store
+from service.stores import MemoryStore, PlanRecord, RedisStore, open_store
 from service.stores import redis as redis_store
+from service.stores.base import Decide, Update
 from service.viewer.events import RedisBus, Subscription
 from tests.service.conftest import RedisServer, free_port
 
@@ -65,10 +68,16 @@ async def test_plans_are_written_read_and_deleted(store: RedisStore) -> None:
 @pytest.mark.anyio
 async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
     await store.put_map("m", planner.grid_map(np.zeros((2, 2), dtype=np.uint8)))
-    await store.put_plan("p", {})
-    async with store.plan_lock("p"):
-        keys = sorted(await store._redis.keys("*"))
-    assert keys == [b"planner:lock:p", b"planner:map:m", b"planner:plan:p"]
+    await store.put_plan("p", {}, append=[(0, 0)])
+    seen: list[bytes | str] = []
+
+    async def decide(record: PlanRecord) -> Update[None]:
+        seen.extend(sorted(await store._redis.keys("*"), key=str))  # mid-step: no lock key
+        return Update(None, {"n": 1})
+
+    assert await store.update_plan("p", decide) is not None
+    assert seen == [b"planner:map:m", b"planner:path:p", b"planner:plan:p"]
+    assert sorted(await store._redis.keys("*"), key=str) == seen
     assert await store._redis.ttl("planner:map:m") == -1  # maps are kept
 
 
@@ -87,73 +96,221 @@ async def test_plans_expire_by_redis_ttl(redis_server: RedisServer) -> None:
         await store.close()
 
 
+def _count(
+    n: int = 1, *, after: asyncio.Event | None = None, log: list[int] | None = None
+) -> Decide[int]:
+    """A step's decision: add 1 to the record's ``n``, append the cell ``(n, 0)`` and answer
+    the new ``n``; ``after`` held first (a slow step), every ``n`` decided on noted in ``log``."""
+
+    async def decide(record: PlanRecord) -> Update[int]:
+        if log is not None:
+            log.append(record["n"])
+        if after is not None:
+            await after.wait()
+        k = record["n"] + n
+        return Update(k, {"n": k}, [(k, 0)], ("planner:events:p", b'{"n":%d}' % k))
+
+    return decide
+
+
 @pytest.mark.anyio
-async def test_the_lock_admits_one_replica_at_a_time(redis_server: RedisServer) -> None:
+async def test_steps_on_two_replicas_never_lose_or_double_a_move(
+    redis_server: RedisServer,
+) -> None:
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
-    order: list[str] = []
-
-    async def hold(store: RedisStore, name: str) -> None:
-        async with store.plan_lock("p"):
-            order.append(f"{name} in")
-            await asyncio.sleep(0.1)  # the other one asks for the lock meanwhile
-            order.append(f"{name} out")
-
     try:
-        await a.put_plan("p", {})
-        await asyncio.gather(hold(a, "a"), hold(b, "b"), hold(a, "c"))
-        assert [o.split()[1] for o in order] == ["in", "out"] * 3
-        assert [o.split()[0] for o in order[::2]] == [o.split()[0] for o in order[1::2]]
-        assert await a._redis.exists("planner:lock:p") == 0  # released
+        await a.put_plan("p", {"n": 0}, append=[(0, 0)])
+
+        async def client(store: RedisStore, pause: float) -> list[Update[int] | None]:
+            done = []
+            for _ in range(15):  # one step at a time, a client's round trip between them
+                done.append(await store.update_plan("p", _count()))
+                await asyncio.sleep(pause)
+            return done
+
+        clients = [client(s, pause) for s in (a, b) for pause in (0.001, 0.002)]
+        updates = [u for done in await asyncio.gather(*clients) for u in done]
+        answers = sorted(u.answer for u in updates if u is not None)
+        assert answers == list(range(1, 61))  # each step moved once, from the one before
+        assert await b.get_plan("p") == {"n": 60}
+        assert await a.get_trajectory("p") == [(k, 0) for k in range(61)]
+        assert a.lock_count == b.lock_count == 0
     finally:
         await a.close()
         await b.close()
 
 
 @pytest.mark.anyio
-async def test_a_holder_whose_lock_expired_writes_nothing(
-    redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
+async def test_a_step_decided_on_a_stale_record_decides_again_on_the_new_one(
+    redis_server: RedisServer,
 ) -> None:
+    """A decides on its copy while B's step is recorded: A's write is refused, and A decides
+    again on B's record (read in the same round trip), so neither move is lost."""
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
     try:
-        await a.put_plan("p", {"v": 0})
-        monkeypatch.setattr(redis_store, "LOCK_TIMEOUT", 0.2)
-
-        async def stalled(*args: object) -> None:  # a holder too stalled to renew its lock
-            await asyncio.sleep(3600)
-
-        monkeypatch.setattr(a, "_keep", stalled)
-        async with a.plan_lock("p"):
-            while await a._redis.exists("planner:lock:p"):  # a stalls past its lock's timeout
-                await asyncio.sleep(0.02)
-            async with b.plan_lock("p"):
-                await b.put_plan("p", {"v": "b"})
-            with pytest.raises(StoreUnavailable, match="lock expired and nothing was recorded"):
-                await a.put_plan("p", {"v": "a"})
-        assert await a.get_plan("p") == {"v": "b"}
+        await a.put_plan("p", {"n": 0}, append=[(0, 0)])
+        go, seen = asyncio.Event(), list[int]()
+        slow = asyncio.ensure_future(a.update_plan("p", _count(after=go, log=seen)))
+        await asyncio.sleep(0.05)
+        assert seen == [0]
+        stepped = await b.update_plan("p", _count(10))
+        assert stepped is not None
+        assert stepped.answer == 10
+        go.set()
+        late = await slow
+        assert late is not None
+        assert late.answer == 11
+        assert seen == [0, 10]
+        assert await a.get_trajectory("p") == [(0, 0), (10, 0), (11, 0)]
+        # A, B, A again: each on a copy the other's step made stale; nothing is lost.
+        for store, k in ((b, 12), (a, 13), (b, 14), (a, 15)):
+            update = await store.update_plan("p", _count())
+            assert update is not None
+            assert update.answer == k
+        assert await b.get_trajectory("p") == [(0, 0), (10, 0), *((k, 0) for k in range(11, 16))]
     finally:
         await a.close()
         await b.close()
 
 
 @pytest.mark.anyio
-async def test_a_step_waiting_too_long_for_the_lock_gets_503(
+async def test_a_steady_step_is_one_round_trip(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """One EVALSHA a step on a plan this replica last wrote; a GET before it only on a copy it
+    does not have; a retried seq's replay is checked (one EVALSHA writing nothing) or, just
+    read, costs nothing more."""
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
-    monkeypatch.setattr(redis_store, "LOCK_WAIT", 0.1)
+    sent: list[str] = []
+    for store in (a, b):
+        run = store._redis.execute_command
+
+        async def counted(*args: Any, run: Any = run, **options: Any) -> Any:
+            sent.append(str(args[0]).upper())
+            return await run(*args, **options)
+
+        monkeypatch.setattr(store._redis, "execute_command", counted)
     try:
-        await a.put_plan("p", {})
-        async with a.plan_lock("p"):
-            with pytest.raises(StoreUnavailable, match="plan 'p' is busy") as caught:
-                async with b.plan_lock("p"):
-                    pass
+        await a.put_plan("p", {"n": 0})
+        await a.update_plan("p", _count())  # the first also loads the script into Redis
+        sent.clear()
+        for _ in range(19):
+            await a.update_plan("p", _count())
+        assert sent == ["EVALSHA"] * 19
+        sent.clear()
+        await b.update_plan("p", _count())  # b never read it: one GET first
+        assert sent == ["GET", "EVALSHA"]
+        sent.clear()
+        await a.update_plan("p", _count())  # a's copy is stale: refused, decided again
+        assert sent == ["EVALSHA", "EVALSHA"]
+
+        async def replay(record: PlanRecord) -> Update[int]:
+            return Update(record["n"])  # nothing to write
+
+        before = await a._redis.get("planner:plan:p")
+        sent.clear()
+        assert (await a.update_plan("p", replay)) == Update(22)
+        assert sent == ["EVALSHA"]  # on a's copy: checked, not written
+        assert await a._redis.get("planner:plan:p") == before
+        await a.delete_plan("p")
+        await b.put_plan("p", {"n": 5})
+        sent.clear()
+        assert (await a.update_plan("p", replay)) == Update(5)
+        assert sent == ["GET"]  # a's copy was dropped with the delete: read, and that is all
+    finally:
+        await a.close()
+        await b.close()
+
+
+@pytest.mark.anyio
+async def test_a_step_that_keeps_losing_the_race_gets_503(
+    redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(redis_store, "STEP_TRIES", 3)
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    tries: list[int] = []
+    try:
+        await a.put_plan("p", {"n": 0})
+
+        async def loser(record: PlanRecord) -> Update[int]:
+            tries.append(record["n"])
+            await b.update_plan("p", _count(100))  # another replica's step, recorded first
+            return Update(-1, {"n": -1})
+
+        with pytest.raises(StoreUnavailable, match="plan 'p' is busy") as caught:
+            await a.update_plan("p", loser)
         assert caught.value.status == 503
+        assert tries == [0, 100, 200]
+        assert await a.get_plan("p") == {"n": 300}  # nothing of a's was written
+        assert a.lock_count == 0
     finally:
         await a.close()
         await b.close()
+
+
+@pytest.mark.anyio
+async def test_a_step_refused_on_a_stale_copy_is_decided_again_on_a_fresh_read(
+    redis_server: RedisServer,
+) -> None:
+    """A refusal (a seq out of order, say) decided on this replica's copy is checked against
+    what Redis holds; one decided on a record just read is final."""
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    seen: list[int] = []
+
+    async def only_after_b(record: PlanRecord) -> Update[int]:
+        seen.append(record["n"])
+        if record["n"] != 1:
+            raise planner.InvalidInput("not next", field="seq")
+        return Update(2, {"n": 2})
+
+    try:
+        await a.put_plan("p", {"n": 0})
+        await b.update_plan("p", _count())
+        update = await a.update_plan("p", only_after_b)
+        assert update is not None
+        assert update.answer == 2
+        assert seen == [0, 1]
+        seen.clear()
+        await b.put_plan("q", {"n": 0})
+        with pytest.raises(planner.InvalidInput, match="not next"):
+            await a.update_plan("q", only_after_b)  # read fresh: refused once
+        assert seen == [0]
+        seen.clear()
+        with pytest.raises(planner.InvalidInput, match="not next"):
+            await a.update_plan("q", only_after_b)  # on a's copy, checked current: final
+        assert seen == [0]
+    finally:
+        await a.close()
+        await b.close()
+
+
+@pytest.mark.anyio
+async def test_records_written_before_versions_are_stepped_on(store: RedisStore) -> None:
+    await store._redis.set("planner:plan:p", b'{"n":3}')
+    assert await store.get_plan("p") == {"n": 3}
+    update = await store.update_plan("p", _count())
+    assert update is not None
+    assert update.answer == 4
+    assert await store._redis.get("planner:plan:p") == b'1 {"n":4}'
+
+
+@pytest.mark.anyio
+async def test_the_cache_of_records_is_bounded(
+    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(redis_store, "CACHED_PLANS", 3)
+    for i in range(10):
+        await store.put_plan(f"p{i}", {"n": 0})
+        await store.update_plan(f"p{i}", _count())
+    assert list(store._plans) == ["p7", "p8", "p9"]
+    update = await store.update_plan("p0", _count())  # read again
+    assert update is not None
+    assert update.answer == 2
 
 
 @pytest.mark.anyio
@@ -167,8 +324,7 @@ async def test_redis_out_of_reach_is_store_unavailable() -> None:
                 await call
             assert caught.value.message == expected
         with pytest.raises(StoreUnavailable):
-            async with store.plan_lock("p"):
-                pass
+            await store.update_plan("p", _count())
         assert await store.check() == expected
     finally:
         await store.close()
@@ -192,44 +348,27 @@ def test_the_store_url_picks_the_store() -> None:
 
 
 @pytest.mark.anyio
-async def test_the_lock_is_short_renewed_while_held_and_made_only_for_plans(
-    redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
+async def test_a_plan_deleted_while_a_step_decides_stays_deleted(
+    store: RedisStore, redis_server: RedisServer
 ) -> None:
-    assert redis_store.LOCK_TIMEOUT <= 2.0
-    monkeypatch.setattr(redis_store, "LOCK_TIMEOUT", 0.3)
-    monkeypatch.setattr(redis_store, "LOCK_WAIT", 0.2)
-    a = RedisStore(redis_server.url, ttl_seconds=60)
-    b = RedisStore(redis_server.url, ttl_seconds=60)
+    other = RedisStore(redis_server.url, ttl_seconds=60)
     try:
-        async with a.plan_lock("nope") as record:
-            assert record is None
-            assert await a._redis.exists("planner:lock:nope") == 0
-        await a.put_plan("p", {"v": 1})
-        async with a.plan_lock("p") as record:
-            assert record == {"v": 1}
-            assert 0 < await a._redis.pttl("planner:lock:p") <= 300
-            await asyncio.sleep(1.0)  # over three lifetimes: renewed meanwhile
-            with pytest.raises(StoreUnavailable, match="busy"):
-                async with b.plan_lock("p"):
-                    pass
-        assert await a._redis.exists("planner:lock:p") == 0
+        for deleting in (store, other):  # this replica's DELETE, or another's
+            await store.put_plan("p", {"n": 0}, append=[(0, 0)])
+
+            async def decide(record: PlanRecord, deleting: RedisStore = deleting) -> Update[int]:
+                assert await deleting.delete_plan("p") is True
+                return Update(1, {"n": 1}, [(0, 1)])
+
+            assert await store.update_plan("p", decide) is None
+            assert await store.get_plan("p") is None
+            assert await store.get_trajectory("p") == []
+            assert sorted(await store._redis.keys("*")) == []
+            assert await store.update_plan("p", _count()) is None  # and stays unknown
+        assert await store.update_plan("nope", _count()) is None
+        assert store.lock_count == 0
     finally:
-        await a.close()
-        await b.close()
-
-
-@pytest.mark.anyio
-async def test_a_plan_deleted_while_a_step_holds_its_lock_stays_deleted(
-    store: RedisStore,
-) -> None:
-    await store.put_plan("p", {"v": 0}, append=[(0, 0)])
-    async with store.plan_lock("p") as record:
-        assert record == {"v": 0}
-        assert await store.delete_plan("p") is True  # another replica's DELETE
-        assert await store.put_plan("p", {"v": 1}, append=[(0, 1)], existing=True) is False
-    assert await store.get_plan("p") is None
-    assert await store.get_trajectory("p") == []
-    assert sorted(await store._redis.keys("*")) == []  # no lock left either
+        await other.close()
 
 
 @pytest.mark.anyio
@@ -254,19 +393,24 @@ async def test_a_steps_write_publishes_its_event_only_when_written(
     store: RedisStore, redis_server: RedisServer
 ) -> None:
     """One round trip writes the step and publishes its event for the live viewer; a write
-    that does not happen (the plan deleted meanwhile) publishes nothing."""
+    that does not happen (the plan deleted meanwhile, or a replay) publishes nothing."""
     bus = RedisBus(redis_server.url)
     subscription = await bus.subscribe("p")
     try:
-        await store.put_plan("p", {"v": 0})
-        async with store.plan_lock("p"):
-            event = ("planner:events:p", b'{"seq":0}')
-            assert await store.put_plan("p", {"v": 1}, existing=True, event=event) is True
-        assert await _next_event(subscription) == {"seq": 0}
-        async with store.plan_lock("p"):
-            assert await store.delete_plan("p") is True
-            event = ("planner:events:p", b'{"seq":1}')
-            assert await store.put_plan("p", {"v": 2}, existing=True, event=event) is False
+        await store.put_plan("p", {"n": 0})
+        assert await store.update_plan("p", _count()) is not None
+        assert await _next_event(subscription) == {"n": 1}
+
+        async def replay(record: PlanRecord) -> Update[int]:
+            return Update(record["n"], event=("planner:events:p", b'{"n":99}'))  # nothing to write
+
+        assert await store.update_plan("p", replay) is not None
+
+        async def deleted(record: PlanRecord) -> Update[int]:
+            await store.delete_plan("p")
+            return await _count()(record)
+
+        assert await store.update_plan("p", deleted) is None
         await store._redis.publish("planner:events:p", b'{"after":true}')
         assert await _next_event(subscription) == {"after": True}  # nothing came before it
     finally:

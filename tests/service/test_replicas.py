@@ -101,6 +101,29 @@ def test_concurrent_steps_on_two_replicas_move_once_per_seq(two: list[Replica]) 
         assert detail["trajectory"] == path[: 6 + 2 * 3 + 1]
 
 
+def test_steps_alternated_between_replicas_never_use_a_stale_copy(two: list[Replica]) -> None:
+    """Each replica keeps the record it last wrote; the other's steps make it stale. A step, a
+    read, a retried seq and an out-of-order seq on the stale replica all see the latest step."""
+    with _client(two[0]) as ca, _client(two[1]) as cb:
+        plan_id, path = _new_plan(ca)
+        answers = [_step((ca, cb)[seq % 2], plan_id, seq) for seq in range(4)]  # A B A B
+        for seq, answer in enumerate(answers):
+            assert (answer["previous"], answer["position"]) == (path[seq], path[seq + 1])
+        assert ca.get(f"/plan/{plan_id}").json()["iteration"] == 4  # read, not A's copy
+        assert _step(ca, plan_id, 3) == answers[3]  # B's answer, replayed by A
+        answers.append(_step(cb, plan_id, 4))
+        # A's copy (refreshed above) says seq 3 was the last: Redis says 4, so 3 is refused.
+        late = ca.post(f"/plan/{plan_id}/step", json={"seq": 3})
+        assert late.status_code == 409, late.text
+        for client in (ca, cb, ca):  # no seq: each steps on from the other's move
+            answers.append(_step(client, plan_id, None))
+            assert answers[-1]["iteration"] == answers[-2]["iteration"] + 1
+            assert answers[-1]["previous"] == answers[-2]["position"]
+        detail = cb.get(f"/plan/{plan_id}").json()
+        assert detail["iteration"] == 8
+        assert detail["trajectory"] == path[:9]
+
+
 def test_redis_down_answers_503_and_service_resumes_when_it_returns(tmp_path: Path) -> None:
     server = RedisServer(tmp_path / "redis", persistent=True)
     server.start()
