@@ -19,7 +19,7 @@ import numpy as np
 import orjson
 
 import planner
-from planner import _kernels as K
+from planner.analysis import _kernels as K
 
 Grid = np.ndarray
 

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner.simulation import OBSTACLE_MOTIONS
+from planner.stepping.simulation import OBSTACLE_MOTIONS
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The Moving AI maps beside the checkout (a git worktree sits one level deeper).

@@ -15,7 +15,7 @@ robot over its configuration space.
 """
 
 from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
-from planner.analysis import (
+from planner.analysis.fields import (
     Analysis,
     Wave,
     WaveView,
@@ -26,14 +26,21 @@ from planner.analysis import (
     goal_wave,
     resolve_wall_cost,
 )
-from planner.cspace import CSpace, circle_cells, configuration_space, wide_clean
-from planner.environments import TABLE1, environment
-from planner.experiment import compare, run_experiment
-from planner.grids import Scenario, as_grid, format_map, parse_map, parse_rows, read_map, read_scen
-from planner.params import PRESETS, Params, resolve_params
-from planner.planning import Plan, plan, reaches
-from planner.render import render_episode, render_map, render_plan
-from planner.robot_maps import (
+from planner.analysis.planning import Plan, plan, reaches
+from planner.analysis.search import ResumableWave, resumable_wave
+from planner.experiment.environments import TABLE1, environment
+from planner.experiment.runs import compare, run_experiment
+from planner.maps.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.maps.grids import (
+    Scenario,
+    as_grid,
+    format_map,
+    parse_map,
+    parse_rows,
+    read_map,
+    read_scen,
+)
+from planner.maps.robot_maps import (
     MapFrame,
     MapYaml,
     RobotMap,
@@ -45,9 +52,10 @@ from planner.robot_maps import (
     parse_ros_map,
     read_ros_map,
 )
-from planner.search import ResumableWave, resumable_wave
-from planner.session import MOVES, Session, SessionState, Step, detour
-from planner.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
+from planner.params import PRESETS, Params, resolve_params
+from planner.render import render_episode, render_map, render_plan
+from planner.stepping.session import MOVES, Session, SessionState, Step, detour
+from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
 __all__ = [
     "MOVES",

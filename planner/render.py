@@ -22,10 +22,10 @@ import numpy.typing as npt
 from PIL import Image, ImageDraw, ImageFont
 
 from planner._errors import InvalidInput, quote
-from planner.analysis import Analysis, Wave
-from planner.planning import Plan
-from planner.session import Session
-from planner.simulation import Episode
+from planner.analysis.fields import Analysis, Wave
+from planner.analysis.planning import Plan
+from planner.stepping.session import Session
+from planner.stepping.simulation import Episode
 
 __all__ = [
     "COLOURS",

@@ -36,7 +36,7 @@ from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 
 from planner._errors import quote
-from planner.robot_maps import RobotMap
+from planner.maps.robot_maps import RobotMap
 from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import (

@@ -19,7 +19,7 @@ import numpy as np
 
 import planner
 from planner._errors import quote
-from planner.analysis import params_key
+from planner.analysis.fields import params_key
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings

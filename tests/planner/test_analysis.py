@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner import _kernels as K
+from planner.analysis import _kernels as K
 from tests import naive
 from tests.conftest import grid_from
 

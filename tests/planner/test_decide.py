@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner import _kernels as K
+from planner.analysis import _kernels as K
 from tests import naive
 
 OUTCOMES = {K.MOVE: "move", K.EVADE: "evade", K.WAIT: "wait", K.BLOCKED: "blocked"}

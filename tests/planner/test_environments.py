@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner.environments import SIZE, TABLE1, connected, environment
+from planner.experiment.environments import SIZE, TABLE1, connected, environment
 
 SEEDS = (0, 1, 7, 123)
 

@@ -9,7 +9,7 @@ import pytest
 
 import planner
 from planner.cli import main
-from planner.experiment import (
+from planner.experiment.runs import (
     METRICS,
     PAPER_WEIGHTS,
     PRESET_ORDER,
@@ -49,7 +49,7 @@ def test_json_has_one_row_per_environment_pair_and_preset(
 def test_rows_match_a_hand_run_episode() -> None:
     rows = run_experiment(episodes=2, seeds=[3], environments=[1], pairs=1, presets=["mmas"])
     (row,) = rows
-    grid = planner.environments.environment(1, seed=3)
+    grid = planner.environment(1, seed=3)
     p = planner.plan(grid, (37, 8), (5, 38), preset="mmas", alpha=5)
     assert (row["seed"], row["alpha"], row["beta"]) == (3, 5.0, 1.0)
     assert row["gates"] == p.gates

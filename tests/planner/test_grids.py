@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner.grids import MAP_BLOCKED, MAP_FREE
+from planner.maps.grids import MAP_BLOCKED, MAP_FREE
 
 
 def test_every_moving_ai_letter() -> None:

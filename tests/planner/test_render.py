@@ -12,7 +12,7 @@ from PIL import Image
 
 import planner
 from planner.cli import main
-from planner.environments import environment
+from planner.experiment.environments import environment
 from planner.render import COLOURS, draw, render_episode, render_map, render_plan
 from tests.conftest import grid_from
 

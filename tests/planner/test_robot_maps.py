@@ -16,7 +16,7 @@ from PIL import Image
 
 import planner
 from planner import InvalidInput
-from planner.robot_maps import MapFrame
+from planner.maps.robot_maps import MapFrame
 from tests import naive
 from tests.conftest import ROS_MAP_NAMES
 

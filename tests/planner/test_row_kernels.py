@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from planner import _kernels as K
+from planner.analysis import _kernels as K
 from tests import naive
 
 

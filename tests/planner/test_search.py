@@ -1,6 +1,6 @@
-"""The resumable goal wave (planner.search) against the whole-map wave and the naive Dijkstra:
-exact values wherever a decision reads, the same plans and the same sessions (strays and dynamic
-obstacles included), the same paths wherever no tie allowed another."""
+"""The resumable goal wave (``planner.analysis.search``) against the whole-map wave and the
+naive Dijkstra: exact values wherever a decision reads, the same plans and the same sessions
+(strays and dynamic obstacles included), the same paths wherever no tie allowed another."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import planner
-from planner import _kernels as K
-from planner.search import ResumableWave, resumable_wave
+from planner.analysis import _kernels as K
+from planner.analysis.search import ResumableWave, resumable_wave
 from tests import naive
 
 Case = tuple[np.ndarray, tuple[int, int], tuple[int, int]]

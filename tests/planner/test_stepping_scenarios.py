@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner import _kernels as K
+from planner.analysis import _kernels as K
 from tests.conftest import grid_from
 
 PRESETS = sorted(planner.PRESETS)

@@ -63,7 +63,7 @@ def _project_imports() -> dict[str, set[str]]:
                 if isinstance(node, ast.Import):
                     found.update(alias.name for alias in node.names)
                 elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-                    # ``from planner import _kernels`` imports planner._kernels, a module
+                    # ``from planner.analysis import _kernels`` imports a module
                     for alias in node.names:
                         sub = f"{node.module}.{alias.name}"
                         found.add(sub if _is_module(sub) else node.module)

@@ -5,7 +5,7 @@ A cell is *traversable* when it is free and the distance from its center to the 
 cell's center is more than the robot's radius (Nav2's inscribed rule); distances come from an
 exact Euclidean distance transform (``edt``).
 
->>> from planner.robot_maps import grid_map
+>>> from planner.maps.robot_maps import grid_map
 >>> m = grid_map([[0, 0, 0, 0, 0], [0, 0, 0, 0, 1]], resolution=0.1)
 >>> cs = configuration_space(m, robot_radius=0.15, unknown="free")
 >>> cs.traversable.tolist()
@@ -23,8 +23,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planner._errors import InvalidInput, quote
+from planner.maps.robot_maps import MapFrame, RobotMap, point_xy
 from planner.params import Unknown
-from planner.robot_maps import MapFrame, RobotMap, point_xy
 
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
 
@@ -137,7 +137,7 @@ def circle_cells(
     """The cells whose centers lie within ``radius + robot_radius`` of a circle's center, for
     circles ``{"x", "y", "radius"}`` in meters (``(n, 2)`` ``[row, col]``, each cell once).
 
-    >>> from planner.robot_maps import grid_map
+    >>> from planner.maps.robot_maps import grid_map
     >>> m = grid_map([[0] * 5] * 5, resolution=0.1)
     >>> circle_cells(m, [{"x": 0.25, "y": 0.25, "radius": 0.12}]).tolist()
     [[1, 2], [2, 1], [2, 2], [2, 3], [3, 2]]

@@ -13,13 +13,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
 from planner._errors import InvalidInput, NoValidPath, quote
-from planner.analysis import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
-from planner.grids import as_cell, as_grid
+from planner.analysis import _kernels as K
+from planner.analysis.fields import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
+from planner.analysis.search import ResumableWave, resumable_wave
+from planner.maps.grids import as_cell, as_grid
+from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
-from planner.robot_maps import RobotMap, grid_map
-from planner.search import ResumableWave, resumable_wave
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
 
@@ -172,10 +172,10 @@ def plan(
     ``shortest``; keyword ``params`` override it one by one (see :class:`planner.Params`), among
     them ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
     ``analysis`` (then ``grid`` may be None; build its cache key with :func:`analysis_key`) and a
-    ``waves`` source. Without one, the plan's wave is a :class:`~planner.search.ResumableWave`,
+    ``waves`` source. Without one, the plan's wave is a :class:`~planner.ResumableWave`,
     settled only as far as the robot needs (its time and memory grow with the region explored),
     or, with ``whole`` or on a robot map (an analysis over a configuration space), a whole-map
-    :func:`~planner.analysis.goal_wave`.
+    :func:`~planner.analysis.fields.goal_wave`.
 
     >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
     >>> p.path.tolist(), round(p.length, 3)

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit, types
 from numba.typed import Dict
 
-from planner._kernels import BLOCKED_CELL, DC, DR, FREE, MODE_WIDE, MOVE, _decide_core
+from planner.analysis._kernels import BLOCKED_CELL, DC, DR, FREE, MODE_WIDE, MOVE, _decide_core
 
 SHIFT = 5
 TILE = 1 << SHIFT

@@ -1,6 +1,6 @@
 """The resumable goal wave: ``k`` and ``kw`` settled only where the robot needs them.
 
-:class:`ResumableWave` is a :class:`~planner.analysis.Wave` whose two fields come from A* searches
+:class:`ResumableWave` is a :class:`~planner.Wave` whose two fields come from A* searches
 rooted at the goal and aimed at the robot (RRA*). A decision at a cell reads the cost-to-go of
 the cell and its neighbours; :meth:`ResumableWave.ensure` resumes both searches until exactly
 those are settled, so a plan's memory and time grow with the region explored, not the map. The
@@ -19,11 +19,11 @@ from typing import Any, Concatenate, ParamSpec, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
-from planner import _search as S
 from planner._errors import InvalidInput, quote
-from planner.analysis import Analysis, Wave, WaveView, goal_wave
-from planner.grids import as_cell
+from planner.analysis import _kernels as K
+from planner.analysis import _search as S
+from planner.analysis.fields import Analysis, Wave, WaveView, goal_wave
+from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 
 __all__ = ["ResumableWave", "resumable_wave"]

@@ -1,6 +1,6 @@
 """Stepping among dynamic obstacles (ALGORITHM.md §4): one decision per reported step.
 
-A :class:`Session` pairs a :class:`~planner.planning.Plan` (heavy, cacheable arrays) with a
+A :class:`Session` pairs a :class:`~planner.analysis.planning.Plan` (heavy, cacheable arrays) with a
 :class:`SessionState` (small, plain data that a store can keep as JSON), so a session can be
 rebuilt anywhere from the plan's inputs and its state.
 """
@@ -13,13 +13,13 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
 from planner._errors import InvalidInput, SequenceConflict, quote
-from planner.analysis import WaveView
-from planner.grids import as_cell
+from planner.analysis import _kernels as K
+from planner.analysis.fields import WaveView
+from planner.analysis.planning import Plan, cell_of, free_cell
+from planner.analysis.search import ResumableWave
+from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
-from planner.planning import Plan, cell_of, free_cell
-from planner.search import ResumableWave
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
 

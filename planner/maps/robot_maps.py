@@ -32,7 +32,7 @@ import yaml
 from PIL import Image, UnidentifiedImageError
 
 from planner._errors import InvalidInput, quote
-from planner.grids import grid_array
+from planner.maps.grids import grid_array
 
 __all__ = [
     "DEFAULT_FREE_THRESH",

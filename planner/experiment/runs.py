@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 
 from planner._errors import InvalidInput, quote
-from planner.environments import TABLE1, environment
+from planner.analysis.planning import plan
+from planner.experiment.environments import TABLE1, environment
 from planner.params import PRESETS
-from planner.planning import plan
-from planner.simulation import run_episode
+from planner.stepping.simulation import run_episode
 
 __all__ = [
     "COMPARISONS",

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
 from planner._errors import InvalidInput, quote
+from planner.analysis import _kernels as K
 
 __all__ = [
     "MAP_BLOCKED",

@@ -22,10 +22,10 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
 from planner._errors import InvalidInput, quote
-from planner.planning import Plan, clearance_metrics, plan
-from planner.session import Session
+from planner.analysis import _kernels as K
+from planner.analysis.planning import Plan, clearance_metrics, plan
+from planner.stepping.session import Session
 
 __all__ = ["Episode", "ObstacleMotion", "run_episode", "simulate", "warm_up"]
 

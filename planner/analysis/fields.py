@@ -19,12 +19,12 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner import _kernels as K
 from planner._errors import InvalidInput, quote
-from planner.cspace import CSpace, configuration_space, wide_clean
-from planner.grids import as_cell, as_grid
+from planner.analysis import _kernels as K
+from planner.maps.cspace import CSpace, configuration_space, wide_clean
+from planner.maps.grids import as_cell, as_grid
+from planner.maps.robot_maps import MapFrame, RobotMap
 from planner.params import PARAMETER_RANGES, SQRT2, Params, WallCost, resolve_params
-from planner.robot_maps import MapFrame, RobotMap
 
 __all__ = [
     "Analysis",
@@ -400,7 +400,7 @@ def analysis_key(robot_map: RobotMap, params: Params) -> tuple[Hashable, ...]:
     """The key to cache an analysis of ``robot_map`` for ``params`` by: the map's id and
     :func:`analysis_params`. Two requests with the same key may share one analysis.
 
-    >>> from planner.robot_maps import grid_map
+    >>> from planner.maps.robot_maps import grid_map
     >>> m = grid_map([[0, 1], [0, 0]])
     >>> analysis_key(m, resolve_params("wide"))[1:]
     (0.0, 'blocked', None, True, 'cells', 0.5, 2)
@@ -416,7 +416,7 @@ def analyse_map(robot_map: RobotMap, params: Params | None = None) -> Analysis:
     the wall term (``params.wall_cost``). On a plain 0/1 grid with a point robot this is exactly
     :func:`analyse` of the grid.
 
-    >>> from planner.robot_maps import grid_map
+    >>> from planner.maps.robot_maps import grid_map
     >>> m = grid_map([[0] * 7] * 3 + [[1, 1, 0, 0, 0, 1, 1]] + [[0] * 7] * 3, resolution=0.1)
     >>> a = analyse_map(m, resolve_params("wide", robot_radius=0.1, unknown="free"))
     >>> a.state[3].tolist()   # the robot only just fits through the 0.3 m gap: a tight tunnel

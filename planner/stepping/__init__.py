@@ -1,0 +1,1 @@
+"""Stepping a robot among dynamic obstacles: sessions, and whole simulated episodes."""
