@@ -14,7 +14,14 @@ robot over its configuration space.
 [[0, 0], [0, 1], [0, 2], [1, 2], [2, 2], [2, 1], [2, 0]]
 """
 
-from planner._errors import InvalidInput, NoValidPath, PlannerError, SequenceConflict
+from planner._errors import (
+    QUOTE_LIMIT,
+    InvalidInput,
+    NoValidPath,
+    PlannerError,
+    SequenceConflict,
+    quote,
+)
 from planner.analysis.fields import (
     Analysis,
     Wave,
@@ -60,6 +67,7 @@ from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, si
 __all__ = [
     "MOVES",
     "PRESETS",
+    "QUOTE_LIMIT",
     "TABLE1",
     "Analysis",
     "CSpace",
@@ -102,6 +110,7 @@ __all__ = [
     "parse_ros_map",
     "parse_rows",
     "plan",
+    "quote",
     "reaches",
     "read_map",
     "read_ros_map",

@@ -29,7 +29,7 @@ from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 import planner
-from planner._errors import QUOTE_LIMIT
+from planner import QUOTE_LIMIT
 from schemas import UNION_TAGS, ErrorPublic
 
 __all__ = [

@@ -35,8 +35,7 @@ from redis.asyncio import Redis
 from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 
-from planner._errors import quote
-from planner.maps.robot_maps import RobotMap
+from planner import RobotMap, quote
 from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import (
