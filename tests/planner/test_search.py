@@ -4,6 +4,7 @@ obstacles included), the same paths wherever no tie allowed another."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -75,6 +76,38 @@ def test_settled_values_are_the_naive_wave(
     # The whole-map fields, on demand, are the whole-map wave's.
     np.testing.assert_allclose(w.k, k, rtol=1e-12)
     np.testing.assert_allclose(w.kw, kw, rtol=1e-9)
+
+
+def _settled(w: ResumableWave) -> tuple[np.ndarray, np.ndarray]:
+    """The flat cells both searches have settled, and their ``k`` and ``kw`` there."""
+    H, W = w.shape
+    cells = np.arange(H * W, dtype=np.int64)
+    k, kw = w._k_search.values(cells), w._kw_search.values(cells)
+    return k, kw
+
+
+@pytest.mark.parametrize("name", ["depot", "tb3_sandbox"])
+def test_settled_values_are_the_whole_map_waves_to_the_bit(ros: Path, name: str) -> None:
+    """On a robot map (metric wall term: costs that tie only up to rounding), whatever robots
+    the search was aimed at, in whatever order: the very floats of the whole-map wave, so a
+    shared wave's decisions never depend on its history."""
+    m = planner.read_ros_map(ros / f"{name}.yaml")
+    p = planner.resolve_params("wide", robot_radius=0.22)
+    a = planner.analyse_map(m, p)
+    free = np.argwhere(a.state == K.FREE)
+    rng = np.random.default_rng(5)
+    for goal in free[rng.integers(len(free), size=4)]:
+        whole = planner.goal_wave(a, goal, diagonal_cost=p.diagonal_cost)
+        w = resumable_wave(a, goal, diagonal_cost=p.diagonal_cost)
+        w.budget = a.state.size  # searched to anywhere, never handed over
+        for r, c in free[rng.integers(len(free), size=6)]:
+            w.ensure(int(r), int(c))
+        assert w.resumable
+        k, kw = _settled(w)
+        assert np.isfinite(kw).sum() > 100
+        for got, want in ((k, whole.k.ravel()), (kw, whole.kw.ravel())):
+            seen = np.isfinite(got)
+            np.testing.assert_array_equal(got[seen], want[seen])
 
 
 def _tie(plan: planner.Plan, cell: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
