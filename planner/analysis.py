@@ -285,6 +285,11 @@ class Wave:
         )  # fmt: skip
         return out
 
+    def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Whether each cell (flat indices) is on the grid the wave ran over."""
+        out: npt.NDArray[np.bool_] = self.passable.ravel()[cells] == 1
+        return out
+
     def k_at(self, r: int, c: int) -> float:
         """``k`` at (r, c)."""
         return float(self.k[r, c])

@@ -60,6 +60,7 @@ _BUDGET_LEAST = 4096
 # A robot on a cell the goal's search has not reached yet may be cut off from the goal (a
 # pocket): a search from the robot of at most this many cells finds most pockets at once.
 _PROBE = 4096
+_POCKETS = 4
 
 
 class _Search:
@@ -87,7 +88,7 @@ class _Search:
         self.diagonal_cost = diagonal_cost
         tiles = ((H + S.TILE_MASK) >> S.SHIFT) * ((W + S.TILE_MASK) >> S.SHIFT)
         self.tile_of = np.full(tiles, -1, dtype=np.int32)
-        cap = min(16, tiles)
+        cap = min(4, tiles)
         self.g = np.empty((cap, S.TILE_CELLS), dtype=np.float64)
         self.status = np.empty((cap, S.TILE_CELLS), dtype=np.uint8)
         self.keys = np.empty((1024, 2), dtype=np.float64)  # rows: f, g
@@ -207,7 +208,11 @@ class ResumableWave(Wave):
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
+        self._pockets: list[_Search] = []
         self._lock = threading.RLock()
+        self.on_resize: Callable[[], None] | None = None
+        """Called, in the thread that grew the wave and holding it, whenever :attr:`nbytes`
+        changed: a cache that bounds its bytes measures the wave again."""
         self._last_view: tuple[tuple[int, int], WaveView] | None = None
         H = analysis.shape[0]
         self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
@@ -249,24 +254,38 @@ class ResumableWave(Wave):
 
     def _cut_off(self, r: int, c: int) -> bool:
         """Whether a small search from (r, c) runs out of cells before reaching the goal: then
-        the goal's search need not run through its whole region to prove it."""
+        the goal's search need not run through its whole region to prove it. The last pockets
+        found are kept (a robot in one asks again at every step)."""
+        flat = r * self.analysis.shape[1] + c
+        if any(pocket.seen(flat) for pocket in self._pockets):
+            return True
         probe = _Search(
             self.analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
-            diagonal_cost=self.diagonal_cost, root=r * self.analysis.shape[1] + c,
+            diagonal_cost=self.diagonal_cost, root=flat,
         )  # fmt: skip
         probe.settle(np.array([self._flat_goal], dtype=np.int64), self.goal, 0.0, _PROBE)
+        if probe.exhausted:
+            self._pockets = [probe, *self._pockets[: _POCKETS - 1]]
+            self._resized()
         return probe.exhausted
 
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
         if self._whole is not None:
             return
         t0 = time.perf_counter()
+        before = self.nbytes
         within = self._k_search.settle(targets, aim, slack, self.budget)
         if within and self._kw_search is not self._k_search:
             within = self._kw_search.settle(targets, aim, slack, self.budget)
         self.elapsed_ms += (time.perf_counter() - t0) * 1e3
         if not within:
             self.whole()
+        elif self.nbytes != before:
+            self._resized()
+
+    def _resized(self) -> None:
+        if self.on_resize is not None:
+            self.on_resize()
 
     @property
     def resumable(self) -> bool:
@@ -280,6 +299,40 @@ class ResumableWave(Wave):
         if self._whole is not None:
             return self.analysis.shape[0] * self.analysis.shape[1]
         return int(self._kw_search.meta[S.SETTLED_COUNT])
+
+    def hold_if_settled(self, r: int, c: int) -> bool:
+        """Take the wave, without waiting for it, if a session's step from (r, c) would read
+        only what is settled: the neighbourhood of (r, c) and of each cell it may move to.
+        True: the caller holds the wave (no other thread may grow it) and must
+        :meth:`release` it; False, not held: another thread holds it, or the step would
+        resume the searches (seconds, at worst: the whole-map wave)."""
+        if not self._lock.acquire(blocking=False):
+            return False
+        try:
+            if self._whole is not None:
+                return True
+            k, kw = self._k_search, self._kw_search
+            if S._settled_block(
+                self.analysis.state, self._sealed, self._flat_goal, r, c, k.tile_of, k.status,
+                kw.tile_of, kw.status,
+            ):  # fmt: skip
+                return True
+        except BaseException:
+            self._lock.release()
+            raise
+        self._lock.release()
+        return False
+
+    def release(self) -> None:
+        """Let go of the wave taken by :meth:`hold_if_settled`."""
+        self._lock.release()
+
+    def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Whether each cell (flat indices) is on the wave's grid, without the whole wave."""
+        state = self.analysis.state.ravel()[cells]
+        on = state == K.FREE if self._sealed else state != K.BLOCKED_CELL
+        out: npt.NDArray[np.bool_] = on | (cells == self._flat_goal)
+        return out
 
     # -- what decisions read -----------------------------------------------------------------
 
@@ -337,6 +390,8 @@ class ResumableWave(Wave):
             if value < np.inf:
                 return value  # settled: exact
         if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
+            if self._whole is None and not self._k_search.seen(r * W + c) and self._cut_off(r, c):
+                return np.inf
             self._settle(flat, (r, c), 0.0)
         if self._whole is not None:
             return self._whole.k_at(r, c)
@@ -504,6 +559,8 @@ class ResumableWave(Wave):
             self.elapsed_ms += (time.perf_counter() - t0) * 1e3
             self._k_search.release()
             self._kw_search.release()
+            self._pockets = []
+            self._resized()
         return self._whole
 
     @property
@@ -524,7 +581,7 @@ class ResumableWave(Wave):
 
     @property
     def nbytes(self) -> int:
-        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search)}
+        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search, *self._pockets)}
         whole = 0 if self._whole is None else self._whole.nbytes
         return sum(searches.values()) + whole
 

@@ -314,3 +314,45 @@ def _wide_cost(a: planner.Analysis, cells: list[Any]) -> float:
     rc = np.array(cells)
     steps = np.abs(np.diff(rc, axis=0)).sum(axis=1)
     return float((np.where(steps == 2, SQRT2, 1.0) + a.clean[rc[1:, 0], rc[1:, 1]]).sum())
+
+
+def test_robot_map_plans_are_resumable_and_follow_the_whole_map_waves_path(ros: Path) -> None:
+    m = planner.read_ros_map(ros / "depot.yaml")
+    p = planner.resolve_params("wide", robot_radius=0.22)
+    a = planner.analyse_map(m, p)
+    free = np.argwhere(a.state == K.FREE)
+    rng = np.random.default_rng(2)
+    planned = 0
+    for _ in range(12):
+        start, goal = (tuple(int(v) for v in x) for x in free[rng.integers(len(free), size=2)])
+        try:
+            whole = planner.plan(None, start, goal, analysis=a, whole=True, robot_radius=0.22)
+        except planner.NoValidPath:
+            continue
+        lazy = planner.plan(m, start, goal, analysis=a, robot_radius=0.22)
+        assert isinstance(lazy.wave, ResumableWave)
+        assert lazy.path.tolist() == whole.path.tolist()
+        assert lazy.arc_cost == whole.arc_cost
+        planned += 1
+    assert planned >= 6
+
+
+def test_the_narrow_fallback_and_detour_keep_the_wave_resumable() -> None:
+    grid = np.zeros((100, 100), dtype=np.uint8)
+    grid[10, :] = 1
+    grid[10, 50] = 0  # a tight tunnel, sealed: the rows above are a pocket of the plan's grid
+    p = planner.plan(grid, (70, 20), (90, 80), dynamic_margin=0)
+    assert isinstance(p.wave, ResumableWave)
+    assert not p.narrow_fallback
+    assert p.analysis.state[10, 50] == K.TUNNEL
+    session = planner.Session(p)
+    step = session.step([], position=(5, 50))  # in the pocket: searched out at once
+    assert step.status == "replanned"
+    assert step.narrow_fallback
+    assert 10 * 100 + 50 in session.state.detour
+    way = planner.detour(p, (5, 50), [[6, 50]], margin=0, narrow=True)
+    assert way[-1].tolist() == [90, 80]
+    assert [10, 50] in way.tolist()
+    wide = planner.detour(p, (70, 20), [[71, 21]], margin=0)
+    assert wide[-1].tolist() == [90, 80]
+    assert p.wave.resumable
