@@ -604,31 +604,3 @@ def _settled_around(
         if s < 0 or status_kw[s, o] != SETTLED:
             return False
     return True
-
-
-@njit(cache=True, nogil=True)
-def _settled_block(
-    state: np.ndarray,
-    sealed: bool,
-    goal: int,
-    r: int,
-    c: int,
-    tile_of_k: np.ndarray,
-    status_k: np.ndarray,
-    tile_of_kw: np.ndarray,
-    status_kw: np.ndarray,
-) -> bool:
-    """Whether a step from (r, c) reads only settled cells: what a decision reads at (r, c)
-    and at each cell of the map around it (where the robot may move)."""
-    H, W = state.shape
-    for dr in range(-1, 2):
-        for dc in range(-1, 2):
-            yr = r + dr
-            yc = c + dc
-            if yr < 0 or yr >= H or yc < 0 or yc >= W:
-                continue
-            if not _settled_around(
-                state, sealed, goal, yr, yc, tile_of_k, status_k, tile_of_kw, status_kw
-            ):
-                return False
-    return True

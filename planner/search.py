@@ -26,10 +26,14 @@ from planner.analysis import Analysis, Wave, WaveView, goal_wave
 from planner.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 
-__all__ = ["ResumableWave", "resumable_wave"]
+__all__ = ["ResumableWave", "Unsettled", "resumable_wave"]
 
 P = ParamSpec("P")
 R = TypeVar("R")
+
+
+class Unsettled(Exception):
+    """A held wave (:meth:`ResumableWave.hold`) was asked for what it has not settled."""
 
 
 def _locked(
@@ -114,6 +118,10 @@ class _Search:
         slot = int(self.tile_of[(r >> S.SHIFT) * tiles_w + (c >> S.SHIFT)])
         offset = ((r & S.TILE_MASK) << S.SHIFT) | (c & S.TILE_MASK)
         return slot >= 0 and int(self.status[slot, offset]) != S.UNSEEN
+
+    def done(self, targets: npt.NDArray[np.int64]) -> bool:
+        """Whether :meth:`settle` would have nothing to do for ``targets``."""
+        return self.exhausted or S._all_settled(self.width, self.tile_of, self.status, targets)
 
     def values(self, targets: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         out: npt.NDArray[np.float64] = S._settled_values(
@@ -210,6 +218,7 @@ class ResumableWave(Wave):
         self._whole: Wave | None = None
         self._pockets: list[_Search] = []
         self._lock = threading.RLock()
+        self._held = 0
         self.on_resize: Callable[[], None] | None = None
         """Called, in the thread that grew the wave and holding it, whenever :attr:`nbytes`
         changed: a cache that bounds its bytes measures the wave again."""
@@ -248,7 +257,8 @@ class ResumableWave(Wave):
         targets = S._neighbourhood(self.analysis.state, self._sealed, self._flat_goal, r, c)
         if targets.size == 0 or self._whole is not None:
             return
-        if not self._kw_search.seen(int(targets[0])) and self._cut_off(r, c):
+        kw = self._kw_search
+        if not kw.exhausted and not kw.seen(int(targets[0])) and self._cut_off(r, c):
             return
         self._settle(targets, (r, c), self.diagonal_cost)
 
@@ -259,6 +269,7 @@ class ResumableWave(Wave):
         flat = r * self.analysis.shape[1] + c
         if any(pocket.seen(flat) for pocket in self._pockets):
             return True
+        self._searching()
         probe = _Search(
             self.analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
             diagonal_cost=self.diagonal_cost, root=flat,
@@ -272,6 +283,9 @@ class ResumableWave(Wave):
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
         if self._whole is not None:
             return
+        if self._held and all(s.done(targets) for s in (self._k_search, self._kw_search)):
+            return
+        self._searching()
         t0 = time.perf_counter()
         before = self.nbytes
         within = self._k_search.settle(targets, aim, slack, self.budget)
@@ -300,32 +314,24 @@ class ResumableWave(Wave):
             return self.analysis.shape[0] * self.analysis.shape[1]
         return int(self._kw_search.meta[S.SETTLED_COUNT])
 
-    def hold_if_settled(self, r: int, c: int) -> bool:
-        """Take the wave, without waiting for it, if a session's step from (r, c) would read
-        only what is settled: the neighbourhood of (r, c) and of each cell it may move to.
-        True: the caller holds the wave (no other thread may grow it) and must
-        :meth:`release` it; False, not held: another thread holds it, or the step would
-        resume the searches (seconds, at worst: the whole-map wave)."""
+    def hold(self) -> bool:
+        """Take the wave if no other thread has it, without waiting: True, and until
+        :meth:`release` no other thread grows it, while a read here that would resume its
+        searches raises :class:`Unsettled` instead (the caller does that work elsewhere: a
+        search may take up to the whole-map wave); False, not taken."""
         if not self._lock.acquire(blocking=False):
             return False
-        try:
-            if self._whole is not None:
-                return True
-            k, kw = self._k_search, self._kw_search
-            if S._settled_block(
-                self.analysis.state, self._sealed, self._flat_goal, r, c, k.tile_of, k.status,
-                kw.tile_of, kw.status,
-            ):  # fmt: skip
-                return True
-        except BaseException:
-            self._lock.release()
-            raise
-        self._lock.release()
-        return False
+        self._held += 1
+        return True
 
     def release(self) -> None:
-        """Let go of the wave taken by :meth:`hold_if_settled`."""
+        """Let go of the wave taken by :meth:`hold`."""
+        self._held -= 1
         self._lock.release()
+
+    def _searching(self) -> None:
+        if self._held:
+            raise Unsettled("the wave would resume its searches")
 
     def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
         """Whether each cell (flat indices) is on the wave's grid, without the whole wave."""
@@ -369,6 +375,8 @@ class ResumableWave(Wave):
         budget of expansions, or on a map no larger than the budget (whose whole-map wave takes
         no more memory than the searches may), over the whole-map wave."""
         H, W = self.analysis.shape
+        if self._whole is None:
+            self._searching()
         if self._whole is None and self.budget < H * W:
             kw = self._kw_search
             out: npt.NDArray[np.int64]
@@ -390,7 +398,9 @@ class ResumableWave(Wave):
             if value < np.inf:
                 return value  # settled: exact
         if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
-            if self._whole is None and not self._k_search.seen(r * W + c) and self._cut_off(r, c):
+            k = self._k_search
+            unseen = self._whole is None and not k.exhausted and not k.seen(r * W + c)
+            if unseen and self._cut_off(r, c):
                 return np.inf
             self._settle(flat, (r, c), 0.0)
         if self._whole is not None:
@@ -552,6 +562,7 @@ class ResumableWave(Wave):
         """The whole-map wave of the same goal and grid (computed on first use, then kept in
         place of the searches, whose memory it frees)."""
         if self._whole is None:
+            self._searching()
             t0 = time.perf_counter()
             self._whole = goal_wave(
                 self.analysis, self.goal, diagonal_cost=self.diagonal_cost, narrow=self.narrow
