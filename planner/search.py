@@ -3,7 +3,10 @@
 :class:`ResumableWave` is a :class:`~planner.analysis.Wave` whose two fields come from A* searches
 rooted at the goal and aimed at the robot (RRA*). A decision at a cell reads the cost-to-go of
 the cell and its neighbours; :meth:`ResumableWave.ensure` resumes both searches until exactly
-those are settled, so a plan's memory and time grow with the region explored, not the map. The
+those are settled, so a plan's memory and time grow with the region explored, not the map.
+Settled values are the whole-map wave's to the last bit, whatever robots the searches were aimed
+at: robots sharing a goal may share one wave, each growing it where it goes (one thread at a
+time; :meth:`ResumableWave.hold` lets a caller read without waiting and without resuming). The
 whole-map arrays (``k``, ``kw``, ``passable``) are still there for pictures and simulations: the
 first read computes the whole wave once.
 """

@@ -349,8 +349,11 @@ class Engine:
             return session.step(obstacles, position=position, seq=seq)
         if wave.hold():
             try:
-                # Tried on a copy: a step that finds its cells unsettled is abandoned midway.
-                trial = planner.Session(session.plan, _copy(session.state))
+                # Tried on a copy: a step that finds its cells unsettled is abandoned midway
+                # (a whole-map wave has every cell settled: no copy needed).
+                trial = session
+                if wave.resumable:
+                    trial = planner.Session(session.plan, _copy(session.state))
                 if not trial.may_replan_at(position):
                     step = trial.step(obstacles, position=position, seq=seq)
                     session.state = trial.state
