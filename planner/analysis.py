@@ -246,6 +246,7 @@ class Wave:
         self.narrow = narrow
         self.diagonal_cost = diagonal_cost
         self.elapsed_ms = elapsed_ms
+        self._view: WaveView | None = None
         for arr in (k, kw, passable):
             arr.flags.writeable = False
 
@@ -265,8 +266,12 @@ class Wave:
         return self._passable
 
     def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
-        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields."""
-        return WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields
+        (one view, kept: a stepping robot asks for it several times a step)."""
+        view = self._view
+        if view is None or view.clean is not clean:
+            view = self._view = WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+        return view
 
     def detour(
         self,
