@@ -305,6 +305,12 @@ class ResumableWave(Wave):
             self.on_resize()
 
     @property
+    def handed_over(self) -> Wave | None:
+        """The whole-map wave once it took over (None while the wave is the searches): a
+        reader that needs no settling may read it directly, without taking the wave."""
+        return self._whole
+
+    @property
     def resumable(self) -> bool:
         """Whether the wave is still the searches (False once the whole-map wave took over)."""
         return self._whole is None

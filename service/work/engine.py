@@ -168,14 +168,21 @@ class Engine:
     def _forget(self, key: Hashable, value: Any) -> None:
         """An analysis or wave left the cache: so do the memo's plans over it (rebuilt on their
         next step over the cache's new one), which would otherwise keep it alive."""
+        whole = value.handed_over if isinstance(value, planner.ResumableWave) else None
         with self._plans_lock:
             stale = [
-                k for k, (p, _) in self._plans.items() if p.wave is value or p.analysis is value
+                k
+                for k, (p, _) in self._plans.items()
+                if p.wave is value or p.analysis is value or (whole is not None and p.wave is whole)
             ]
             for k in stale:
                 del self._plans[k]
 
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
+        wave = plan.wave
+        if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
+            # Its steps read the whole-map wave directly: no lock, nothing left to settle.
+            plan = dataclasses.replace(plan, wave=wave.handed_over)
         p, plain = plan.params, plan.analysis.plain
         keys = (
             analysis_key(map_id, p, plain=plain),
