@@ -246,6 +246,7 @@ class Wave:
         self.narrow = narrow
         self.diagonal_cost = diagonal_cost
         self.elapsed_ms = elapsed_ms
+        self._view: WaveView | None = None
         for arr in (k, kw, passable):
             arr.flags.writeable = False
 
@@ -265,8 +266,12 @@ class Wave:
         return self._passable
 
     def view(self, r: int, c: int, clean: npt.NDArray[np.float32]) -> WaveView:
-        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields."""
-        return WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+        """What a decision at (r, c) reads (see :class:`WaveView`): here, the whole fields
+        (one view, kept: a stepping robot asks for it several times a step)."""
+        view = self._view
+        if view is None or view.clean is not clean:
+            view = self._view = WaveView(self.passable, self.k, self.kw, clean, 0, 0)
+        return view
 
     def detour(
         self,
@@ -283,6 +288,11 @@ class Wave:
             self.passable, self.kw, clean, start, self.goal[0] * W + self.goal[1],
             self.diagonal_cost, obstacles, margin, True,
         )  # fmt: skip
+        return out
+
+    def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Whether each cell (flat indices) is on the grid the wave ran over."""
+        out: npt.NDArray[np.bool_] = self.passable.ravel()[cells] == 1
         return out
 
     def k_at(self, r: int, c: int) -> float:

@@ -173,9 +173,9 @@ def plan(
     them ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
     ``analysis`` (then ``grid`` may be None; build its cache key with :func:`analysis_key`) and a
     ``waves`` source. Without one, the plan's wave is a :class:`~planner.ResumableWave`,
-    settled only as far as the robot needs (its time and memory grow with the region explored),
-    or, with ``whole`` or on a robot map (an analysis over a configuration space), a whole-map
-    :func:`~planner.analysis.fields.goal_wave`.
+    settled only as far as the robot needs (its time and memory grow with the region explored;
+    its values are the whole-map wave's to the bit, so the path is the same), or, with
+    ``whole``, a whole-map :func:`~planner.analysis.fields.goal_wave`.
 
     >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
     >>> p.path.tolist(), round(p.length, 3)
@@ -218,9 +218,7 @@ def plan(
     def wave_for(narrow: bool) -> Wave:
         if waves is not None:
             return waves(narrow)
-        if whole or analysis.cspace is not None:
-            # A robot map's plan is the whole-map wave, as the service's plans are: settled in
-            # another order, the resumable one may break a float tie between moves otherwise.
+        if whole:
             return goal_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
         return resumable_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
 

@@ -3,7 +3,10 @@
 :class:`ResumableWave` is a :class:`~planner.Wave` whose two fields come from A* searches
 rooted at the goal and aimed at the robot (RRA*). A decision at a cell reads the cost-to-go of
 the cell and its neighbours; :meth:`ResumableWave.ensure` resumes both searches until exactly
-those are settled, so a plan's memory and time grow with the region explored, not the map. The
+those are settled, so a plan's memory and time grow with the region explored, not the map.
+Settled values are the whole-map wave's to the last bit, whatever robots the searches were aimed
+at: robots sharing a goal may share one wave, each growing it where it goes (one thread at a
+time; :meth:`ResumableWave.hold` lets a caller read without waiting and without resuming). The
 whole-map arrays (``k``, ``kw``, ``passable``) are still there for pictures and simulations: the
 first read computes the whole wave once.
 """
@@ -26,10 +29,14 @@ from planner.analysis.fields import Analysis, Wave, WaveView, goal_wave
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 
-__all__ = ["ResumableWave", "resumable_wave"]
+__all__ = ["ResumableWave", "Unsettled", "resumable_wave"]
 
 P = ParamSpec("P")
 R = TypeVar("R")
+
+
+class Unsettled(Exception):
+    """A held wave (:meth:`ResumableWave.hold`) was asked for what it has not settled."""
 
 
 def _locked(
@@ -60,6 +67,7 @@ _BUDGET_LEAST = 4096
 # A robot on a cell the goal's search has not reached yet may be cut off from the goal (a
 # pocket): a search from the robot of at most this many cells finds most pockets at once.
 _PROBE = 4096
+_POCKETS = 4
 
 
 class _Search:
@@ -87,7 +95,7 @@ class _Search:
         self.diagonal_cost = diagonal_cost
         tiles = ((H + S.TILE_MASK) >> S.SHIFT) * ((W + S.TILE_MASK) >> S.SHIFT)
         self.tile_of = np.full(tiles, -1, dtype=np.int32)
-        cap = min(16, tiles)
+        cap = min(4, tiles)
         self.g = np.empty((cap, S.TILE_CELLS), dtype=np.float64)
         self.status = np.empty((cap, S.TILE_CELLS), dtype=np.uint8)
         self.keys = np.empty((1024, 2), dtype=np.float64)  # rows: f, g
@@ -113,6 +121,10 @@ class _Search:
         slot = int(self.tile_of[(r >> S.SHIFT) * tiles_w + (c >> S.SHIFT)])
         offset = ((r & S.TILE_MASK) << S.SHIFT) | (c & S.TILE_MASK)
         return slot >= 0 and int(self.status[slot, offset]) != S.UNSEEN
+
+    def done(self, targets: npt.NDArray[np.int64]) -> bool:
+        """Whether :meth:`settle` would have nothing to do for ``targets``."""
+        return self.exhausted or S._all_settled(self.width, self.tile_of, self.status, targets)
 
     def values(self, targets: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         out: npt.NDArray[np.float64] = S._settled_values(
@@ -207,7 +219,12 @@ class ResumableWave(Wave):
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
+        self._pockets: list[_Search] = []
         self._lock = threading.RLock()
+        self._held = 0
+        self.on_resize: Callable[[], None] | None = None
+        """Called, in the thread that grew the wave and holding it, whenever :attr:`nbytes`
+        changed: a cache that bounds its bytes measures the wave again."""
         self._last_view: tuple[tuple[int, int], WaveView] | None = None
         H = analysis.shape[0]
         self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
@@ -243,30 +260,55 @@ class ResumableWave(Wave):
         targets = S._neighbourhood(self.analysis.state, self._sealed, self._flat_goal, r, c)
         if targets.size == 0 or self._whole is not None:
             return
-        if not self._kw_search.seen(int(targets[0])) and self._cut_off(r, c):
+        kw = self._kw_search
+        if not kw.exhausted and not kw.seen(int(targets[0])) and self._cut_off(r, c):
             return
         self._settle(targets, (r, c), self.diagonal_cost)
 
     def _cut_off(self, r: int, c: int) -> bool:
         """Whether a small search from (r, c) runs out of cells before reaching the goal: then
-        the goal's search need not run through its whole region to prove it."""
+        the goal's search need not run through its whole region to prove it. The last pockets
+        found are kept (a robot in one asks again at every step)."""
+        flat = r * self.analysis.shape[1] + c
+        if any(pocket.seen(flat) for pocket in self._pockets):
+            return True
+        self._searching()
         probe = _Search(
             self.analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
-            diagonal_cost=self.diagonal_cost, root=r * self.analysis.shape[1] + c,
+            diagonal_cost=self.diagonal_cost, root=flat,
         )  # fmt: skip
         probe.settle(np.array([self._flat_goal], dtype=np.int64), self.goal, 0.0, _PROBE)
+        if probe.exhausted:
+            self._pockets = [probe, *self._pockets[: _POCKETS - 1]]
+            self._resized()
         return probe.exhausted
 
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
         if self._whole is not None:
             return
+        if self._held and all(s.done(targets) for s in (self._k_search, self._kw_search)):
+            return
+        self._searching()
         t0 = time.perf_counter()
+        before = self.nbytes
         within = self._k_search.settle(targets, aim, slack, self.budget)
         if within and self._kw_search is not self._k_search:
             within = self._kw_search.settle(targets, aim, slack, self.budget)
         self.elapsed_ms += (time.perf_counter() - t0) * 1e3
         if not within:
             self.whole()
+        elif self.nbytes != before:
+            self._resized()
+
+    def _resized(self) -> None:
+        if self.on_resize is not None:
+            self.on_resize()
+
+    @property
+    def handed_over(self) -> Wave | None:
+        """The whole-map wave once it took over (None while the wave is the searches): a
+        reader that needs no settling may read it directly, without taking the wave."""
+        return self._whole
 
     @property
     def resumable(self) -> bool:
@@ -280,6 +322,32 @@ class ResumableWave(Wave):
         if self._whole is not None:
             return self.analysis.shape[0] * self.analysis.shape[1]
         return int(self._kw_search.meta[S.SETTLED_COUNT])
+
+    def hold(self) -> bool:
+        """Take the wave if no other thread has it, without waiting: True, and until
+        :meth:`release` no other thread grows it, while a read here that would resume its
+        searches raises :class:`Unsettled` instead (the caller does that work elsewhere: a
+        search may take up to the whole-map wave); False, not taken."""
+        if not self._lock.acquire(blocking=False):
+            return False
+        self._held += 1
+        return True
+
+    def release(self) -> None:
+        """Let go of the wave taken by :meth:`hold`."""
+        self._held -= 1
+        self._lock.release()
+
+    def _searching(self) -> None:
+        if self._held:
+            raise Unsettled("the wave would resume its searches")
+
+    def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+        """Whether each cell (flat indices) is on the wave's grid, without the whole wave."""
+        state = self.analysis.state.ravel()[cells]
+        on = state == K.FREE if self._sealed else state != K.BLOCKED_CELL
+        out: npt.NDArray[np.bool_] = on | (cells == self._flat_goal)
+        return out
 
     # -- what decisions read -----------------------------------------------------------------
 
@@ -316,6 +384,8 @@ class ResumableWave(Wave):
         budget of expansions, or on a map no larger than the budget (whose whole-map wave takes
         no more memory than the searches may), over the whole-map wave."""
         H, W = self.analysis.shape
+        if self._whole is None:
+            self._searching()
         if self._whole is None and self.budget < H * W:
             kw = self._kw_search
             out: npt.NDArray[np.int64]
@@ -337,6 +407,10 @@ class ResumableWave(Wave):
             if value < np.inf:
                 return value  # settled: exact
         if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
+            k = self._k_search
+            unseen = self._whole is None and not k.exhausted and not k.seen(r * W + c)
+            if unseen and self._cut_off(r, c):
+                return np.inf
             self._settle(flat, (r, c), 0.0)
         if self._whole is not None:
             return self._whole.k_at(r, c)
@@ -497,6 +571,7 @@ class ResumableWave(Wave):
         """The whole-map wave of the same goal and grid (computed on first use, then kept in
         place of the searches, whose memory it frees)."""
         if self._whole is None:
+            self._searching()
             t0 = time.perf_counter()
             self._whole = goal_wave(
                 self.analysis, self.goal, diagonal_cost=self.diagonal_cost, narrow=self.narrow
@@ -504,6 +579,8 @@ class ResumableWave(Wave):
             self.elapsed_ms += (time.perf_counter() - t0) * 1e3
             self._k_search.release()
             self._kw_search.release()
+            self._pockets = []
+            self._resized()
         return self._whole
 
     @property
@@ -524,7 +601,7 @@ class ResumableWave(Wave):
 
     @property
     def nbytes(self) -> int:
-        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search)}
+        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search, *self._pockets)}
         whole = 0 if self._whole is None else self._whole.nbytes
         return sum(searches.values()) + whole
 

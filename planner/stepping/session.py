@@ -23,6 +23,9 @@ from planner.params import PARAMETER_RANGES
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
 
+# The field argument of a detour over the unsealed grid, which reads none.
+_NO_FIELD = np.zeros((1, 1), dtype=np.float64)
+
 #: Move names by kernel move index; ``WAIT`` stays put.
 MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
@@ -356,18 +359,20 @@ class Session:
                 return cells, False
         if not (a.sealed and not wave.narrow):
             return (np.empty(0, dtype=np.int64), False) if on_plan else None
+        # Over the unsealed grid with the octile heuristic: the wave's fields are not read (a
+        # resumable wave stays resumable).
         unsealed = a.passable(narrow=True)
         cells = K._detour(
-            unsealed, wave.kw, a.clean, start, goal, p.diagonal_cost, obstacles, p.dynamic_margin,
-            False,
+            unsealed, _NO_FIELD, a.clean, start, goal, p.diagonal_cost, obstacles,
+            p.dynamic_margin, False,
         )  # fmt: skip
         if cells.size:
-            sealed = wave.passable.ravel()[cells] == 0
-            return cells, bool(sealed.any() or wave.passable[cell] == 0)
+            sealed = ~wave.on_grid(np.append(cells, start))
+            return cells, bool(sealed.any())
         if not on_plan:
             none = np.empty((0, 2), dtype=np.int64)
             way = K._detour(
-                unsealed, wave.kw, a.clean, start, goal, p.diagonal_cost, none, 0, False
+                unsealed, _NO_FIELD, a.clean, start, goal, p.diagonal_cost, none, 0, False
             )
             if way.size == 0:
                 return None
@@ -472,12 +477,13 @@ def detour(
         msg = f"margin must be an integer in [{low}, {high}]; got {margin!r}"
         raise InvalidInput(msg, field="margin")
     W = a.shape[1]
-    use_field = not narrow or wave.narrow or not a.sealed
-    passable = wave.passable if use_field else a.passable(narrow=True)
-    cells = K._detour(
-        passable, wave.kw, a.clean, r * W + c, plan.goal[0] * W + plan.goal[1],
-        params.diagonal_cost, obstacles, margin, use_field,
-    )  # fmt: skip
+    if not narrow or wave.narrow or not a.sealed:  # over the wave's grid (a resumable one's own)
+        cells = wave.detour(r * W + c, obstacles, a.clean, margin)
+    else:
+        cells = K._detour(
+            a.passable(narrow=True), _NO_FIELD, a.clean, r * W + c,
+            plan.goal[0] * W + plan.goal[1], params.diagonal_cost, obstacles, margin, False,
+        )  # fmt: skip
     out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
     return out
 

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner._errors import quote
+from planner import quote
 from schemas import Circle, PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
@@ -81,7 +81,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
 async def get_plan(engine: Engine, plan_id: str) -> PlanView:
     """The plan and the robot's whole state, its trajectory read back from the store's log."""
     record = await _record(engine, plan_id)
-    plan = await engine.plan_of(record)
+    plan = await engine.plan_of(record, preview=True)
     # A log lost on its own (never written with its record) still shows where the robot is.
     trajectory = await engine.store.get_trajectory(plan_id) or [record["state"]["position"]]
     state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
@@ -127,16 +127,8 @@ async def step(
             position = position.model_dump()
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
-        args = (obstacles,)
-        if session.may_replan_at(position):
-            # On the steps' own workers: a step never queues behind analyses and renders.
-            result = await engine.pool.run_step(
-                session.step, *args, position=position, seq=body.seq
-            )
-        else:
-            # Measured: a step that cannot replan is a few microseconds of bounded work, and
-            # the trip to a worker thread and back costs 0.1-1 ms; it runs here.
-            result = session.step(*args, position=position, seq=body.seq)
+        # Here when it cannot search, else on the steps' own workers (see Engine.step).
+        result = await engine.step(session, obstacles, position=position, seq=body.seq)
         if replayed:  # the robot did not move again: nothing to write, no event to send
             return Update(StepView(result, frame, obstacles, replayed=True))
         stored = session.state.as_dict()

@@ -3,7 +3,8 @@
 It is used from the event loop (:meth:`ByteLRU.get_or_compute`, whose waiters wait without
 holding a worker) and from worker threads (:meth:`ByteLRU.get_or_compute_sync`, so that a
 planner call running in the pool can fetch what it needs as it goes); both share one table of
-entries and one table of computations under way.
+entries and one table of computations under way. A value that grows in place (a resumable goal
+wave) is measured again when it says so (:meth:`ByteLRU.recharge`).
 """
 
 from __future__ import annotations
@@ -41,8 +42,16 @@ class ByteLRU:
     (False, 10, True)
     """
 
-    def __init__(self, max_bytes: int, *, shares: int = 1) -> None:
+    def __init__(
+        self,
+        max_bytes: int,
+        *,
+        shares: int = 1,
+        on_evict: Callable[[Hashable, Any], None] | None = None,
+    ) -> None:
         self.max_bytes = max_bytes
+        self.on_evict = on_evict
+        """Called with each evicted key and value, holding the cache's lock: keep it short."""
         self.share = max_bytes // max(1, shares)
         self.bytes = 0
         self.hits = self.misses = self.evictions = 0
@@ -64,6 +73,49 @@ class ByteLRU:
             self._entries.move_to_end(key)
             self.hits += 1
             return entry[0]
+
+    def touch(self, *keys: Hashable) -> None:
+        """Count a use of the entries of ``keys`` that the caller found elsewhere (a memo of
+        what is built over them): each one present is a hit, now the most recently used."""
+        with self._lock:
+            for key in keys:
+                if key in self._entries:
+                    self._entries.move_to_end(key)
+                    self.hits += 1
+
+    def recharge(self, key: Hashable, value: Sized) -> None:
+        """Measure ``value`` again if it is still the entry of ``key``: a value that grew (or
+        shrank) in place is charged what it holds now, and least recently used entries make
+        room as on insert (the value itself goes when it no longer fits its tenant's share).
+
+        >>> import numpy as np
+        >>> cache = ByteLRU(max_bytes=100)
+        >>> grows = np.zeros(10, dtype=np.uint8)
+        >>> _ = cache.get_or_compute_sync("a", lambda: grows)
+        >>> grows.resize(60, refcheck=False); cache.recharge("a", grows); cache.bytes
+        60
+        """
+        with self._lock:
+            entry = self._entries.get(key)
+            if entry is None or entry[0] is not value:
+                return
+            _, size, tenant = entry
+            new = int(value.nbytes)
+            if new == size:
+                return
+            self._entries[key] = (value, new, tenant)
+            self.bytes += new - size
+            self._held[tenant] += new - size
+            if new > self.share:
+                self._evict(key)
+                return
+            if self._held[tenant] > self.share:
+                for old in [k for k, e in self._entries.items() if e[2] == tenant and k != key]:
+                    self._evict(old)
+                    if self._held[tenant] <= self.share:
+                        break
+            while self.bytes > self.max_bytes:
+                self._evict(next(iter(self._entries)))
 
     async def get_or_compute(
         self, key: Hashable, compute: Callable[[], Awaitable[T]]
@@ -158,7 +210,9 @@ class ByteLRU:
             self._evict(next(iter(self._entries)))
 
     def _evict(self, key: Hashable) -> None:
-        _, size, tenant = self._entries.pop(key)
+        value, size, tenant = self._entries.pop(key)
         self.bytes -= size
         self._held[tenant] -= size
         self.evictions += 1
+        if self.on_evict is not None:
+            self.on_evict(key, value)

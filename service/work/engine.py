@@ -3,13 +3,23 @@ from cached analyses and goal waves.
 
 The resource modules (``maps``, ``plans``, ``simulation``) do their work through an
 :class:`Engine`. A plan is built once, in the pool (:meth:`Engine.build_plan`); its record keeps
-the resolved parameters and whether it took the narrow fallback, so a step finds the plan's
-analysis and wave again by key (:meth:`Engine.plan_of`) without resolving or rebuilding anything.
+the resolved parameters and whether it took the narrow fallback, so a step finds the plan again
+(:meth:`Engine.plan_of`: one look-up in a small memo of plans when warm, else the analysis and
+wave by key) without resolving or rebuilding anything.
+
+Goal waves are resumable (:class:`planner.ResumableWave`): settled from the goal only as far as
+the robots sharing it have needed, so a plan costs what the region it explores costs, not the
+map. The cache charges a wave again whenever it grows; an evicted wave is rebuilt on demand, and
+its plans with it. A step runs on the event loop only when it cannot search and reads only
+settled cells (:meth:`Engine.step`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import threading
+import weakref
 from collections import OrderedDict
 from collections.abc import Hashable, Mapping
 from dataclasses import dataclass, field
@@ -18,12 +28,13 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner._errors import quote
+from planner import quote
 from planner.analysis.fields import params_key
+from planner.analysis.search import Unsettled
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
-from service.edge.tenants import scoped
+from service.edge.tenants import TENANT, scoped
 from service.errors import NotFound, TooLarge
 from service.stores import PlanRecord, Store
 from service.work.cache import ByteLRU
@@ -37,6 +48,7 @@ __all__ = [
     "cell_size",
     "frame_map",
     "overrides",
+    "plan_key",
     "wave_key",
     "where",
 ]
@@ -66,6 +78,21 @@ def wave_key(
     unsealed grid)."""
     key = params_key(params, plain=plain)
     return ("wave", scoped(map_id), *key, tuple(goal), params.diagonal_cost, narrow)
+
+
+PLAN_MEMO = 1024
+"""Plans the engine keeps built (their arrays are the cache's: a plan adds its path and a few
+numbers), so that a warm step finds its plan with one look-up."""
+
+
+def plan_key(record: PlanRecord) -> Hashable:
+    """What a stored plan's arrays depend on: the tenant, map, start, goal, preset, parameters,
+    narrow fallback and plainness of its record."""
+    return (
+        TENANT.get(), record["map_id"], tuple(record["start"]), tuple(record["goal"]),
+        record["preset"], tuple(record["params"].items()), record["narrow_fallback"],
+        record.get("plain", True),
+    )  # fmt: skip
 
 
 def where(value: list[int] | Point) -> Any:
@@ -129,6 +156,43 @@ class Engine:
     cache: ByteLRU
     pool: Pool
     _plain: OrderedDict[str, bool] = field(default_factory=OrderedDict)
+    # A plan, and the cache keys of its analysis and wave (touched on every use).
+    _plans: OrderedDict[Hashable, tuple[planner.Plan, tuple[Hashable, Hashable]]] = field(
+        default_factory=OrderedDict
+    )
+    _plans_lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def __post_init__(self) -> None:
+        self.cache.on_evict = self._forget
+
+    def _forget(self, key: Hashable, value: Any) -> None:
+        """An analysis or wave left the cache: so do the memo's plans over it (rebuilt on their
+        next step over the cache's new one), which would otherwise keep it alive."""
+        whole = value.handed_over if isinstance(value, planner.ResumableWave) else None
+        with self._plans_lock:
+            stale = [
+                k
+                for k, (p, _) in self._plans.items()
+                if p.wave is value or p.analysis is value or (whole is not None and p.wave is whole)
+            ]
+            for k in stale:
+                del self._plans[k]
+
+    def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
+        wave = plan.wave
+        if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
+            # Its steps read the whole-map wave directly: no lock, nothing left to settle.
+            plan = dataclasses.replace(plan, wave=wave.handed_over)
+        p, plain = plan.params, plan.analysis.plain
+        keys = (
+            analysis_key(map_id, p, plain=plain),
+            wave_key(map_id, p, plan.goal, plan.narrow_fallback, plain=plain),
+        )
+        with self._plans_lock:
+            self._plans[key] = (plan, keys)
+            self._plans.move_to_end(key)
+            while len(self._plans) > PLAN_MEMO:
+                self._plans.popitem(last=False)
 
     async def warm(self) -> None:
         """Compile (or load) every kernel now, so that no request pays for it."""
@@ -178,6 +242,12 @@ class Engine:
         params = planner.resolve_params(preset, **overrides)
         analysis, hit = await self.analysis(map_id, params)
         plan = await self.pool.run(self._plan, map_id, start, goal, preset, params, analysis)
+        record = {
+            "map_id": map_id, "start": plan.start, "goal": plan.goal, "preset": plan.preset,
+            "params": plan.params.as_dict(), "narrow_fallback": plan.narrow_fallback,
+            "plain": analysis.plain,
+        }  # fmt: skip
+        self._remember_plan(plan_key(record), map_id, plan)
         return plan, hit
 
     def _plan(
@@ -209,23 +279,56 @@ class Engine:
         goal: Any,
         narrow: bool,
     ) -> planner.Wave:
-        """The goal wave from the cache, computed in the calling worker on a miss."""
+        """The goal wave from the cache; on a miss a new resumable one (nothing settled yet:
+        microseconds), which the cache charges again whenever it grows."""
         key = wave_key(map_id, params, goal, narrow, plain=analysis.plain)
-        compute = lambda: _goal_wave(analysis, goal, params, narrow)  # noqa: E731
+
+        def compute() -> planner.ResumableWave:
+            wave = planner.resumable_wave(
+                analysis, goal, diagonal_cost=params.diagonal_cost, narrow=narrow
+            )
+            # A weak reference: the wave must not keep itself alive through its own hook.
+            ref = weakref.ref(wave)
+
+            def resized() -> None:
+                grown = ref()
+                if grown is not None:
+                    self.cache.recharge(key, grown)
+
+            wave.on_resize = resized
+            return wave
+
         return self.cache.get_or_compute_sync(key, compute)[0]
 
-    async def plan_of(self, record: PlanRecord) -> planner.Plan:
-        """The stored plan's arrays: two cache look-ups when warm, else rebuilt from the map."""
+    async def plan_of(self, record: PlanRecord, *, preview: bool = False) -> planner.Plan:
+        """The stored plan: one look-up in the memo of plans when warm, else rebuilt over the
+        cached analysis and wave (either recomputed if evicted). With ``preview``, its path and
+        figures are computed (in the pool, if not yet): a response is built from them."""
+        key = plan_key(record)
+        with self._plans_lock:
+            memo = self._plans.get(key)
+            if memo is not None:
+                self._plans.move_to_end(key)
+        if memo is not None:
+            plan, keys = memo
+            self.cache.touch(*keys)  # its analysis and wave, in use: the last to evict
+        else:
+            plan = await self._rebuild(record)
+            self._remember_plan(key, record["map_id"], plan)
+        if preview and "path" not in vars(plan):
+            # The walk down the wave may resume its searches: off the event loop.
+            await self.pool.run(plan.summary)
+        return plan
+
+    async def _rebuild(self, record: PlanRecord) -> planner.Plan:
         params = planner.Params(**record["params"])
         map_id, goal, narrow = record["map_id"], record["goal"], record["narrow_fallback"]
         plain = record.get("plain", True)  # a record from before maps had frames: a plain map
         analysis = self.cache.peek(analysis_key(map_id, params, plain=plain))
-        wave = self.cache.peek(wave_key(map_id, params, goal, narrow, plain=plain))
-        if analysis is None or wave is None:
+        if analysis is None:
             analysis, _ = await self.analysis(map_id, params)
-            wave = await self.pool.run(self._wave, map_id, params, analysis, goal, narrow)
         assert isinstance(analysis, planner.Analysis)
-        assert isinstance(wave, planner.Wave)
+        wave = self._wave(map_id, params, analysis, goal, narrow)
         return planner.Plan(
             start=(record["start"][0], record["start"][1]),
             goal=(goal[0], goal[1]),
@@ -237,14 +340,44 @@ class Engine:
             elapsed_ms=0.0,
         )
 
+    async def step(
+        self, session: planner.Session, obstacles: Any, *, position: Any, seq: int | None
+    ) -> planner.Step:
+        """The session's step (its state is then the step's). On the event loop when it is a
+        bounded look around the robot (microseconds; the trip to a worker and back costs
+        0.1-1 ms): it cannot replan, and it reads only what its wave has settled, the wave held
+        meanwhile so that no other thread grows it. Any other step runs on a step worker
+        (never queued behind analyses): it may search (A*, up to the whole map), or wait for
+        the thread growing its wave."""
+        wave = session.plan.wave
+        if not isinstance(wave, planner.ResumableWave):
+            if session.may_replan_at(position):
+                return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
+            return session.step(obstacles, position=position, seq=seq)
+        if wave.hold():
+            try:
+                # Tried on a copy: a step that finds its cells unsettled is abandoned midway
+                # (a whole-map wave has every cell settled: no copy needed).
+                trial = session
+                if wave.resumable:
+                    trial = planner.Session(session.plan, _copy(session.state))
+                if not trial.may_replan_at(position):
+                    step = trial.step(obstacles, position=position, seq=seq)
+                    session.state = trial.state
+                    return step
+            except Unsettled:
+                pass
+            finally:
+                wave.release()
+        return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
+
+
+def _copy(state: planner.SessionState) -> planner.SessionState:
+    """The state, with lists of its own (a step changes them in place)."""
+    return dataclasses.replace(state, detour=list(state.detour), trajectory=list(state.trajectory))
+
 
 def _analyse(robot_map: planner.RobotMap, p: planner.Params) -> planner.Analysis:
     analysis = planner.analyse_map(robot_map, p)
     analysis.clearance  # noqa: B018 - computed now, in the pool, so that nbytes is final
     return analysis
-
-
-def _goal_wave(
-    analysis: planner.Analysis, goal: Any, p: planner.Params, narrow: bool
-) -> planner.Wave:
-    return planner.goal_wave(analysis, goal, diagonal_cost=p.diagonal_cost, narrow=narrow)

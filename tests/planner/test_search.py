@@ -4,6 +4,7 @@ naive Dijkstra: exact values wherever a decision reads, the same plans and the s
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -75,6 +76,38 @@ def test_settled_values_are_the_naive_wave(
     # The whole-map fields, on demand, are the whole-map wave's.
     np.testing.assert_allclose(w.k, k, rtol=1e-12)
     np.testing.assert_allclose(w.kw, kw, rtol=1e-9)
+
+
+def _settled(w: ResumableWave) -> tuple[np.ndarray, np.ndarray]:
+    """The flat cells both searches have settled, and their ``k`` and ``kw`` there."""
+    H, W = w.shape
+    cells = np.arange(H * W, dtype=np.int64)
+    k, kw = w._k_search.values(cells), w._kw_search.values(cells)
+    return k, kw
+
+
+@pytest.mark.parametrize("name", ["depot", "tb3_sandbox"])
+def test_settled_values_are_the_whole_map_waves_to_the_bit(ros: Path, name: str) -> None:
+    """On a robot map (metric wall term: costs that tie only up to rounding), whatever robots
+    the search was aimed at, in whatever order: the very floats of the whole-map wave, so a
+    shared wave's decisions never depend on its history."""
+    m = planner.read_ros_map(ros / f"{name}.yaml")
+    p = planner.resolve_params("wide", robot_radius=0.22)
+    a = planner.analyse_map(m, p)
+    free = np.argwhere(a.state == K.FREE)
+    rng = np.random.default_rng(5)
+    for goal in free[rng.integers(len(free), size=4)]:
+        whole = planner.goal_wave(a, goal, diagonal_cost=p.diagonal_cost)
+        w = resumable_wave(a, goal, diagonal_cost=p.diagonal_cost)
+        w.budget = a.state.size  # searched to anywhere, never handed over
+        for r, c in free[rng.integers(len(free), size=6)]:
+            w.ensure(int(r), int(c))
+        assert w.resumable
+        k, kw = _settled(w)
+        assert np.isfinite(kw).sum() > 100
+        for got, want in ((k, whole.k.ravel()), (kw, whole.kw.ravel())):
+            seen = np.isfinite(got)
+            np.testing.assert_array_equal(got[seen], want[seen])
 
 
 def _tie(plan: planner.Plan, cell: np.ndarray, a: np.ndarray, b: np.ndarray) -> bool:
@@ -281,3 +314,45 @@ def _wide_cost(a: planner.Analysis, cells: list[Any]) -> float:
     rc = np.array(cells)
     steps = np.abs(np.diff(rc, axis=0)).sum(axis=1)
     return float((np.where(steps == 2, SQRT2, 1.0) + a.clean[rc[1:, 0], rc[1:, 1]]).sum())
+
+
+def test_robot_map_plans_are_resumable_and_follow_the_whole_map_waves_path(ros: Path) -> None:
+    m = planner.read_ros_map(ros / "depot.yaml")
+    p = planner.resolve_params("wide", robot_radius=0.22)
+    a = planner.analyse_map(m, p)
+    free = np.argwhere(a.state == K.FREE)
+    rng = np.random.default_rng(2)
+    planned = 0
+    for _ in range(12):
+        start, goal = (tuple(int(v) for v in x) for x in free[rng.integers(len(free), size=2)])
+        try:
+            whole = planner.plan(None, start, goal, analysis=a, whole=True, robot_radius=0.22)
+        except planner.NoValidPath:
+            continue
+        lazy = planner.plan(m, start, goal, analysis=a, robot_radius=0.22)
+        assert isinstance(lazy.wave, ResumableWave)
+        assert lazy.path.tolist() == whole.path.tolist()
+        assert lazy.arc_cost == whole.arc_cost
+        planned += 1
+    assert planned >= 6
+
+
+def test_the_narrow_fallback_and_detour_keep_the_wave_resumable() -> None:
+    grid = np.zeros((100, 100), dtype=np.uint8)
+    grid[10, :] = 1
+    grid[10, 50] = 0  # a tight tunnel, sealed: the rows above are a pocket of the plan's grid
+    p = planner.plan(grid, (70, 20), (90, 80), dynamic_margin=0)
+    assert isinstance(p.wave, ResumableWave)
+    assert not p.narrow_fallback
+    assert p.analysis.state[10, 50] == K.TUNNEL
+    session = planner.Session(p)
+    step = session.step([], position=(5, 50))  # in the pocket: searched out at once
+    assert step.status == "replanned"
+    assert step.narrow_fallback
+    assert 10 * 100 + 50 in session.state.detour
+    way = planner.detour(p, (5, 50), [[6, 50]], margin=0, narrow=True)
+    assert way[-1].tolist() == [90, 80]
+    assert [10, 50] in way.tolist()
+    wide = planner.detour(p, (70, 20), [[71, 21]], margin=0)
+    assert wide[-1].tolist() == [90, 80]
+    assert p.wave.resumable

@@ -325,7 +325,9 @@ def test_a_replica_killed_mid_step_leaves_nothing_held(
             target=lambda: _quietly(b.post, f"/maps/{big}/simulate", json=episode),
             daemon=True,
         ).start()
-        time.sleep(0.3)
+        # Past the episode's analysis and plan (a step's analysis queued before the episode
+        # would run first: its goal wave is made without the pool).
+        time.sleep(2.0)
         # ...so a step there, needing the plan's analysis, is mid-step while it waits.
         stepping = threading.Thread(
             target=lambda: _quietly(b.post, f"/plan/{plan_id}/step", json={}), daemon=True
