@@ -41,3 +41,10 @@ function request()
    end
    return wrk.format("POST", path, nil, body)
 end
+
+-- An answer that is not 2xx is a failed run: say which (status and the start of its body).
+function response(status, headers, body)
+   if status >= 300 then
+      io.stderr:write(string.format("wrk: %d %s\n", status, string.sub(body or "", 1, 300)))
+   end
+end

@@ -111,11 +111,14 @@ def serpentine_map(seed: int = 0) -> tuple[list[str], list[int], list[int]]:
 
 
 def wrk(url: str, connections: int, seconds: int, ids: Path, mode: str) -> dict[str, float]:
-    out = subprocess.run(
+    run = subprocess.run(
         ["wrk", "-t", str(connections), "-c", str(connections), "-d", f"{seconds}s",
          "--latency", "-s", str(LUA), url, "--", str(ids), mode],
         capture_output=True, text=True, check=True,
-    ).stdout  # fmt: skip
+    )  # fmt: skip
+    for line in run.stderr.splitlines()[:5]:  # the first failed answers, if any
+        print(f"  {line}", file=sys.stderr)
+    out = run.stdout
     scale = {"us": 1e-3, "ms": 1.0, "s": 1e3}
     result = {"errors": 0.0, "requests": 0.0}
     for line in out.splitlines():

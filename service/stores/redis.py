@@ -23,17 +23,20 @@ not answered.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import secrets
 from collections import OrderedDict
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from typing import Any
 
 import orjson
 from redis import exceptions as rx
 from redis.asyncio import Redis
 from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
+from redis.commands.core import AsyncScript
 
 from planner import RobotMap, quote
 from service.edge.tenants import scoped
@@ -111,6 +114,9 @@ class RedisStore(Store):
     doubled, nothing is ever held in Redis (a replica killed mid-step leaves nothing behind),
     and no step waits on another replica.
 
+    Under load, the writes of steps on many plans that pile up while one is in flight go out
+    together in one pipeline (:class:`_Batched`): a round trip shared by all of them.
+
     Within a replica, steps on one plan are served one at a time, in arrival order (a
     :class:`~service.stores.base.PlanLocks` lock, in this process): so they never race each
     other, and under load on one plan each waits behind the steps queued before it, no longer.
@@ -135,7 +141,7 @@ class RedisStore(Store):
         self.address = kw.get("path") or f"{kw.get('host', 'localhost')}:{kw.get('port', 6379)}"
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
-        self._step = self._redis.register_script(_STEP)
+        self._step = _Batched(self._redis, self._redis.register_script(_STEP))
         self._put = self._redis.register_script(_PUT)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record as JSON), least recently used first.
@@ -260,7 +266,7 @@ class RedisStore(Store):
                 message,
             ]  # fmt: skip
         async with self._reaching():
-            answer: list[bytes | int] = await self._step(keys=keys, args=args)
+            answer: list[bytes | int] = await self._step(keys, args)
         if answer[0] == 1 and update.record is not None:
             self._remember(key, version + 1, json)
         return answer
@@ -331,6 +337,122 @@ def _split(value: bytes) -> tuple[int, bytes]:
         return 0, value
     version, _, json = value.partition(b" ")
     return int(version), json
+
+
+class _Batched:
+    """A script's calls, sent in one pipeline when they pile up.
+
+    Under load, steps on many plans reach their write at once; each would pay its own round
+    trip (a socket write and read, the client's bookkeeping). Here a call goes out at once
+    when no other is in flight; calls made meanwhile wait, and when the call in flight is
+    answered, the first of them sends them all in one pipeline, and gives each its answer (or
+    its error). A lone call costs what it costs alone; at any moment one round trip at most
+    is in flight.
+    """
+
+    def __init__(self, redis: Redis, script: AsyncScript) -> None:
+        self._redis = redis
+        self._script = script
+        self._busy = False
+        self._waiting: list[_Call] = []
+        self._orphans: set[asyncio.Future[None]] = set()  # leads sent for a cancelled call
+        self.pipelines = 0
+        """Pipelines sent (for tests: calls that shared a round trip)."""
+
+    async def __call__(self, keys: list[str], args: list[Any]) -> Any:
+        if not self._busy:
+            self._busy = True
+            try:
+                return await self._script(keys=keys, args=args)
+            finally:
+                self._hand_over()
+        call = _Call(keys, args, asyncio.get_running_loop().create_future())
+        self._waiting.append(call)
+        try:
+            lead = await call.answer
+        except asyncio.CancelledError:
+            if call.answer.done() and not call.answer.cancelled():
+                # Handed the lead as it was cancelled: the others' calls still go out.
+                batch = call.answer.result()
+                if isinstance(batch, _Lead):
+                    task = asyncio.ensure_future(self._lead(batch.calls))
+                    self._orphans.add(task)
+                    task.add_done_callback(self._forget)
+            raise
+        if not isinstance(lead, _Lead):
+            return lead
+        await self._lead(lead.calls)
+        return await call.answer_of_lead
+
+    def _forget(self, task: asyncio.Future[None]) -> None:
+        self._orphans.discard(task)
+        if not task.cancelled():
+            task.exception()  # its calls were told; nothing else to report
+
+    async def _lead(self, calls: list[_Call]) -> None:
+        """Send ``calls`` (this one's first) in one pipeline and answer each."""
+        try:
+            answers = await self._send(calls)
+        except BaseException as exc:
+            # The others get the error (this one raises it); a cancelled send, a lost connection.
+            failed = exc if isinstance(exc, Exception) else rx.ConnectionError("call cancelled")
+            for call in calls[1:]:
+                call.settle(failed)
+            raise
+        else:
+            for call, answer in zip(calls, answers, strict=True):
+                call.settle(answer)
+        finally:
+            self._hand_over()
+
+    def _hand_over(self) -> None:
+        """The calls waiting, to the first of them that still waits; else nothing in flight."""
+        calls = [c for c in self._waiting if not c.answer.done()]
+        self._waiting = []
+        if not calls:
+            self._busy = False
+            return
+        calls[0].answer.set_result(_Lead(calls))
+
+    async def _send(self, calls: list[_Call]) -> list[Any]:
+        self.pipelines += 1
+        async with self._redis.pipeline(transaction=False) as pipe:
+            for call in calls:
+                pipe.execute_command(
+                    "EVALSHA", self._script.sha, len(call.keys), *call.keys, *call.args
+                )
+            answers: list[Any] = await pipe.execute(raise_on_error=False)
+        # A script Redis does not hold yet (after a restart of Redis): loaded by calling it on
+        # its own.
+        for i, answer in enumerate(answers):
+            if isinstance(answer, rx.NoScriptError):
+                answers[i] = await self._script(keys=calls[i].keys, args=calls[i].args)
+        return answers
+
+
+class _Call:
+    """A call waiting to be sent: its answer, or the lead of the next pipeline."""
+
+    def __init__(self, keys: list[str], args: list[Any], answer: asyncio.Future[Any]) -> None:
+        self.keys, self.args, self.answer = keys, args, answer
+        self.answer_of_lead: asyncio.Future[Any] = answer.get_loop().create_future()
+
+    def settle(self, answer: Any) -> None:
+        """Give the call its answer (an exception is raised to it)."""
+        target = self.answer if not self.answer.done() else self.answer_of_lead
+        if target.done():
+            return
+        if isinstance(answer, BaseException):
+            target.set_exception(answer)
+        else:
+            target.set_result(answer)
+
+
+class _Lead:
+    """What a waiting call is given when it is to send the next pipeline."""
+
+    def __init__(self, calls: list[_Call]) -> None:
+        self.calls = calls
 
 
 def _why(exc: rx.RedisError) -> str:

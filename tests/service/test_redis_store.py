@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import redis
 from pydantic import ValidationError
 
 import planner
@@ -223,6 +224,47 @@ async def test_a_steady_step_is_one_round_trip(
     finally:
         await a.close()
         await b.close()
+
+
+@pytest.mark.anyio
+async def test_steps_on_many_plans_at_once_share_round_trips(store: RedisStore) -> None:
+    """Steps made while another's write is in flight go out together, in one pipeline, and
+    each gets its own answer: no move lost, doubled or given to another plan."""
+    plans = [f"p{i}" for i in range(12)]
+    for i, plan_id in enumerate(plans):
+        await store.put_plan(plan_id, {"n": 100 * i}, append=[(100 * i, 0)])
+    for step in range(1, 6):
+        done = await asyncio.gather(*(store.update_plan(p, _count()) for p in plans))
+        assert [None if u is None else u.answer for u in done] == [
+            100 * i + step for i in range(12)
+        ]
+    for i, plan_id in enumerate(plans):
+        assert await store.get_plan(plan_id) == {"n": 100 * i + 5}
+        assert await store.get_trajectory(plan_id) == [(100 * i + k, 0) for k in range(6)]
+    assert 0 < store._step.pipelines < 5 * 12  # some shared a round trip
+
+
+@pytest.mark.anyio
+async def test_a_failed_pipeline_fails_each_of_its_steps(
+    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    plans = [f"p{i}" for i in range(6)]
+    for plan_id in plans:
+        await store.put_plan(plan_id, {"n": 0})
+
+    async def down(*args: Any, **kwargs: Any) -> Any:
+        raise redis.exceptions.ConnectionError("gone")
+
+    monkeypatch.setattr(store._step, "_send", down)
+    results = await asyncio.gather(
+        *(store.update_plan(p, _count()) for p in plans), return_exceptions=True
+    )
+    # The first went alone (and was written); the ones that piled up behind it all failed.
+    assert isinstance(results[0], Update)
+    assert all(isinstance(r, StoreUnavailable) for r in results[1:]), results
+    assert not store._step._busy  # nothing left in flight: the next step goes at once
+    monkeypatch.undo()
+    assert (await store.update_plan("p1", _count())) is not None
 
 
 @pytest.mark.anyio
