@@ -8,12 +8,14 @@ from typing import Annotated, Any, cast
 import numpy as np
 import orjson
 from fastapi import Depends, Query, Request, Response
+from fastapi.dependencies.models import Dependant
 from fastapi.routing import APIRoute
 from starlette.datastructures import UploadFile
 from starlette.exceptions import HTTPException
 from starlette.formparsers import MultiPartException
 
 import planner
+from planner import quote
 from service.config import Settings
 from service.edge.guards import check_depth
 from service.errors import TooLarge
@@ -26,6 +28,7 @@ __all__ = [
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
+    "check_query",
     "get_engine",
 ]
 
@@ -61,13 +64,36 @@ class _OrjsonRequest(Request):
         return self._json
 
 
+def check_query(request: Request, allowed: frozenset[str]) -> None:
+    """``InvalidInput`` (422) naming the first query parameter the route does not take: as for
+    a body's fields, nothing unknown is ignored (a mistyped ``?cel=4`` would draw silently at
+    the default size)."""
+    for name in request.query_params:
+        if name not in allowed:
+            takes = ", ".join(sorted(allowed)) or "none"
+            msg = f"{quote(name)}: unknown query parameter (this route takes: {takes})"
+            raise planner.InvalidInput(msg, field=name[:100])
+
+
+def _query_names(dependant: Dependant) -> frozenset[str]:
+    """The query parameters an endpoint takes, its dependencies' included."""
+    names = {p.alias for p in dependant.query_params}
+    for sub in dependant.dependencies:
+        names |= _query_names(sub)
+    return frozenset(names)
+
+
 class OrjsonRoute(APIRoute):
-    """Decodes request bodies with orjson: several times faster than ``json`` on big maps."""
+    """Decodes request bodies with orjson: several times faster than ``json`` on big maps; and
+    refuses query parameters the route does not take."""
 
     def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
         handler = super().get_route_handler()
+        allowed = _query_names(self.dependant)
 
         async def route_handler(request: Request) -> Response:
+            if request.scope.get("query_string"):
+                check_query(request, allowed)
             request = _OrjsonRequest(request.scope, request.receive)
             # JSON is checked for depth before anything parses it; a multipart upload's parts
             # are bytes (an image) and JSON fields the route parses with orjson's own limit.

@@ -21,6 +21,7 @@ from fastapi.routing import APIRoute, APIRouter
 from pydantic import BaseModel, ValidationError
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from service.api.deps import check_query
 from service.edge.guards import check_depth
 
 __all__ = ["HotPath", "HotRoute"]
@@ -35,7 +36,7 @@ class HotRoute(APIRoute):
     ``Request``, and gets them without dependency solving. The body is read as FastAPI reads a
     JSON body model, with the same errors: 422 for a body that is missing, not JSON, not
     declared ``application/json``, nested too deep (:func:`~service.edge.guards.check_depth`)
-    or invalid (errors located under ``body``)."""
+    or invalid (errors located under ``body``), and for any query parameter."""
 
     def get_route_handler(self) -> Handler:
         bodies = self.dependant.body_params
@@ -48,6 +49,8 @@ class HotRoute(APIRoute):
         endpoint = cast(Callable[..., Coroutine[Any, Any, Response]], self.endpoint)
 
         async def handler(request: Request) -> Response:
+            if request.scope.get("query_string"):
+                check_query(request, frozenset())
             raw = await request.body()
             try:
                 body = model.model_validate(_json_body(raw, request.headers.get("content-type")))

@@ -108,6 +108,12 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("obstacle of strings", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [["1", "1"]]}, 422, ["dynamic_obstacles[0][0]", "'1'"]),
     ("grid of booleans", "POST", "/maps", {"grid": [[True, False]]}, 422, ["grid[0][0]", "True"]),
     ("dynamic_count float", "POST", "/maps/{map}/simulate", {**OK, "dynamic_count": 2.0}, 422, ["dynamic_count", "2.0"]),
+    # Unknown query parameters are refused too, on every API route (probes aside).
+    ("unknown query on a picture", "GET", "/maps/{map}/render.png?cel=4", None, 422, ["'cel'", "unknown query parameter", "cell"]),
+    ("unknown query on a plan picture", "GET", "/plan/{plan}/render.png?feild=kw", None, 422, ["'feild'", "field"]),
+    ("unknown query on a step", "POST", "/plan/{plan}/step?seq=1", {}, 422, ["'seq'", "takes: none"]),
+    ("unknown query on a plan", "POST", "/plan?preset=wide", {"map_id": "{map}", **OK}, 422, ["'preset'", "unknown query parameter"]),
+    ("unknown query on a read", "GET", "/plan/{plan}?verbose=1", None, 422, ["'verbose'"]),
     ("allow_narrow integer", "POST", "/plan", {"map_id": "{map}", **OK, "allow_narrow": 1}, 422, ["allow_narrow", "1"]),
     ("preset not text", "POST", "/plan", {"map_id": "{map}", **OK, "preset": 1}, 422, ["preset", "1"]),
     # Robot maps (API.md "Robot maps in meters"); bad YAML + image uploads: test_robot_maps.py.
