@@ -370,6 +370,13 @@ def _pose(pose: Any, field: str) -> tuple[float, float, float]:
         if not isinstance(value, Mapping):
             msg = f"{field}.{part} must be an object; got {quote(value)}"
             raise InvalidInput(msg, field=f"{field}.{part}")
+        # A part left out is a ROS message's default (0, the identity rotation); a key that is
+        # no part (a mistyped "X") is refused rather than read as that default.
+        names = ("x", "y", "z", "w") if part == "orientation" else ("x", "y", "z")
+        unknown = sorted(str(k) for k in value if k not in names)
+        if unknown:
+            msg = f"{field}.{part} has no field {quote(unknown[0])} (it takes {', '.join(names)})"
+            raise InvalidInput(msg, field=f"{field}.{part}.{unknown[0][:100]}")
     x = _number(position.get("x", 0.0), f"{field}.position.x")
     y = _number(position.get("y", 0.0), f"{field}.position.y")
     qx, qy, qz, qw = (

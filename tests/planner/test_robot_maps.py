@@ -217,6 +217,25 @@ def grid_message(**change: object) -> dict[str, object]:
             "got 0",
         ),
         ([1, 2], "occupancy_grid", "[1, 2]"),
+        (
+            grid_message(
+                info={"width": 3, "height": 2, "resolution": 1, "origin": {"position": {"X": 1.0}}}
+            ),
+            "occupancy_grid.info.origin.position.X",
+            "no field 'X' (it takes x, y, z)",
+        ),
+        (
+            grid_message(
+                info={
+                    "width": 3,
+                    "height": 2,
+                    "resolution": 1,
+                    "origin": {"position": {}, "orientation": {"yaw": 1}},
+                }
+            ),
+            "occupancy_grid.info.origin.orientation.yaw",
+            "no field 'yaw' (it takes x, y, z, w)",
+        ),
     ],
 )
 def test_bad_occupancy_grids(message: object, field: str, quoted: str) -> None:
