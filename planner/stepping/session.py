@@ -67,7 +67,11 @@ class Step:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Step:
-        return cls(**{**d, "previous": tuple(d["previous"]), "position": tuple(d["position"])})
+        (pr, pc), (r, c) = d["previous"], d["position"]
+        return cls(
+            d["seq"], (pr, pc), (r, c), d["move"], d["status"], d["iteration"],
+            d["path_length"], d["arc_cost"], d["remaining"], d.get("narrow_fallback", False),
+        )  # fmt: skip
 
 
 @dataclass(slots=True)
@@ -113,15 +117,32 @@ class SessionState:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SessionState:
         last = d.get("last_step")
+        r, c = d["position"]
+        get = d.get  # a key left out (a record from an older version): the field's default
         return cls(
-            **{
-                **d,
-                "position": tuple(d["position"]),
-                "detour": list(d["detour"]),
-                "trajectory": list(map(tuple, d["trajectory"])),
-                "last_step": None if last is None else Step.from_dict(last),
-            }
+            position=(r, c),
+            status=get("status", "ready"),
+            iteration=get("iteration", 0),
+            path_length=get("path_length", 0.0),
+            arc_cost=get("arc_cost", 0.0),
+            held_up=get("held_up", 0),
+            replan_at=get("replan_at", 0),
+            waits=get("waits", 0),
+            replans=get("replans", 0),
+            detour=list(get("detour", ())),
+            narrow_fallback=get("narrow_fallback", False),
+            trajectory=[(r, c) for r, c in get("trajectory", ())],
+            last_seq=get("last_seq"),
+            last_step=None if last is None else Step.from_dict(last),
         )
+
+    def copy(self) -> SessionState:
+        """A copy with lists of its own (a step changes them in place; a step is immutable)."""
+        return SessionState(
+            self.position, self.status, self.iteration, self.path_length, self.arc_cost,
+            self.held_up, self.replan_at, self.waits, self.replans, list(self.detour),
+            self.narrow_fallback, list(self.trajectory), self.last_seq, self.last_step,
+        )  # fmt: skip
 
 
 class Session:

@@ -17,7 +17,6 @@ import contextlib
 import logging
 import threading
 from asyncio import Task
-from collections.abc import Iterator
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -212,19 +211,13 @@ class Deadlines:
         self._due: dict[Task[object], tuple[float, list[bool]]] = {}
         self._reaper: Task[None] | None = None
 
-    @contextlib.contextmanager
-    def until(self, task: Task[object], seconds: float) -> Iterator[list[bool]]:
+    def until(self, task: Task[object], seconds: float) -> _Deadline:
         """Cancel ``task`` after ``seconds`` unless the block ends first; the list it yields
         is true (``[True]``) once that happened."""
         loop = asyncio.get_running_loop()
         if self._reaper is None or self._reaper.done():
             self._reaper = loop.create_task(self._reap())
-        expired: list[bool] = []
-        self._due[task] = (loop.time() + seconds, expired)
-        try:
-            yield expired
-        finally:
-            self._due.pop(task, None)
+        return _Deadline(self._due, task, loop.time() + seconds)
 
     async def _reap(self) -> None:
         loop = asyncio.get_running_loop()
@@ -236,6 +229,26 @@ class Deadlines:
                     del self._due[task]
                     expired.append(True)
                     task.cancel()
+
+
+class _Deadline:
+    """A task's entry in :class:`Deadlines` for the length of a ``with`` block (a class, not a
+    generator: it is entered twice a request)."""
+
+    __slots__ = ("_due", "_entry", "_task")
+
+    def __init__(
+        self, due: dict[Task[object], tuple[float, list[bool]]], task: Task[object], at: float
+    ) -> None:
+        expired: list[bool] = []
+        self._due, self._task, self._entry = due, task, (at, expired)
+
+    def __enter__(self) -> list[bool]:
+        self._due[self._task] = self._entry
+        return self._entry[1]
+
+    def __exit__(self, *exc: object) -> None:
+        self._due.pop(self._task, None)
 
 
 def _too_large(size: str, setting: str, limit: int) -> TooLarge:

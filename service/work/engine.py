@@ -360,7 +360,7 @@ class Engine:
                 # (a whole-map wave has every cell settled: no copy needed).
                 trial = session
                 if wave.resumable:
-                    trial = planner.Session(session.plan, _copy(session.state))
+                    trial = planner.Session(session.plan, session.state.copy())
                 if not trial.may_replan_at(position):
                     step = trial.step(obstacles, position=position, seq=seq)
                     session.state = trial.state
@@ -370,11 +370,6 @@ class Engine:
             finally:
                 wave.release()
         return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
-
-
-def _copy(state: planner.SessionState) -> planner.SessionState:
-    """The state, with lists of its own (a step changes them in place)."""
-    return dataclasses.replace(state, detour=list(state.detour), trajectory=list(state.trajectory))
 
 
 def _analyse(robot_map: planner.RobotMap, p: planner.Params) -> planner.Analysis:
