@@ -345,17 +345,18 @@ class _Batched:
     Under load, steps on many plans reach their write at once; each would pay its own round
     trip (a socket write and read, the client's bookkeeping). Here a call goes out at once
     when no other is in flight; calls made meanwhile wait, and when the call in flight is
-    answered, the first of them sends them all in one pipeline, and gives each its answer (or
-    its error). A lone call costs what it costs alone; at any moment one round trip at most
-    is in flight.
+    answered they all go out in one pipeline, sent by a task of its own (a caller cancelled
+    meanwhile, by its request's timeout, cancels nothing of the others': it is dropped if its
+    call has not gone out yet). A lone call costs what it costs alone; at any moment one round
+    trip at most is in flight.
     """
 
     def __init__(self, redis: Redis, script: AsyncScript) -> None:
         self._redis = redis
         self._script = script
         self._busy = False
-        self._waiting: list[_Call] = []
-        self._orphans: set[asyncio.Future[None]] = set()  # leads sent for a cancelled call
+        self._waiting: list[tuple[list[str], list[Any], asyncio.Future[Any]]] = []
+        self._sending: set[asyncio.Future[None]] = set()
         self.pipelines = 0
         """Pipelines sent (for tests: calls that shared a round trip)."""
 
@@ -365,94 +366,58 @@ class _Batched:
             try:
                 return await self._script(keys=keys, args=args)
             finally:
-                self._hand_over()
-        call = _Call(keys, args, asyncio.get_running_loop().create_future())
-        self._waiting.append(call)
-        try:
-            lead = await call.answer
-        except asyncio.CancelledError:
-            if call.answer.done() and not call.answer.cancelled():
-                # Handed the lead as it was cancelled: the others' calls still go out.
-                batch = call.answer.result()
-                if isinstance(batch, _Lead):
-                    task = asyncio.ensure_future(self._lead(batch.calls))
-                    self._orphans.add(task)
-                    task.add_done_callback(self._forget)
-            raise
-        if not isinstance(lead, _Lead):
-            return lead
-        await self._lead(lead.calls)
-        return await call.answer_of_lead
+                self._next()
+        answer: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        self._waiting.append((keys, args, answer))
+        return await answer
 
-    def _forget(self, task: asyncio.Future[None]) -> None:
-        self._orphans.discard(task)
-        if not task.cancelled():
-            task.exception()  # its calls were told; nothing else to report
-
-    async def _lead(self, calls: list[_Call]) -> None:
-        """Send ``calls`` (this one's first) in one pipeline and answer each."""
-        try:
-            answers = await self._send(calls)
-        except BaseException as exc:
-            # The others get the error (this one raises it); a cancelled send, a lost connection.
-            failed = exc if isinstance(exc, Exception) else rx.ConnectionError("call cancelled")
-            for call in calls[1:]:
-                call.settle(failed)
-            raise
-        else:
-            for call, answer in zip(calls, answers, strict=True):
-                call.settle(answer)
-        finally:
-            self._hand_over()
-
-    def _hand_over(self) -> None:
-        """The calls waiting, to the first of them that still waits; else nothing in flight."""
-        calls = [c for c in self._waiting if not c.answer.done()]
+    def _next(self) -> None:
+        """The call in flight was answered: the calls waiting (those still waiting) go out."""
+        calls = [call for call in self._waiting if not call[2].done()]
         self._waiting = []
         if not calls:
             self._busy = False
             return
-        calls[0].answer.set_result(_Lead(calls))
+        task = asyncio.ensure_future(self._send_all(calls))
+        self._sending.add(task)
+        task.add_done_callback(self._sending.discard)
 
-    async def _send(self, calls: list[_Call]) -> list[Any]:
+    async def _send_all(
+        self, calls: list[tuple[list[str], list[Any], asyncio.Future[Any]]]
+    ) -> None:
+        answers: list[Any]
+        try:
+            answers = await self._send([(keys, args) for keys, args, _ in calls])
+        except Exception as exc:  # a lost connection: each call raises it
+            answers = [exc] * len(calls)
+        except BaseException:  # cancelled (the service stopping): so is each call
+            answers = [rx.ConnectionError("the store is closing")] * len(calls)
+            raise
+        finally:
+            for (*_, answer), value in zip(calls, answers, strict=True):
+                if answer.done():  # its caller gave up: nothing to tell
+                    continue
+                if isinstance(value, BaseException):
+                    answer.set_exception(value)
+                else:
+                    answer.set_result(value)
+            self._next()
+
+    async def _send(self, calls: list[tuple[list[str], list[Any]]]) -> list[Any]:
         self.pipelines += 1
         async with self._redis.pipeline(transaction=False) as pipe:
-            for call in calls:
-                pipe.execute_command(
-                    "EVALSHA", self._script.sha, len(call.keys), *call.keys, *call.args
-                )
+            for keys, args in calls:
+                pipe.execute_command("EVALSHA", self._script.sha, len(keys), *keys, *args)
             answers: list[Any] = await pipe.execute(raise_on_error=False)
         # A script Redis does not hold yet (after a restart of Redis): loaded by calling it on
-        # its own.
+        # its own; each call keeps its own answer or error.
         for i, answer in enumerate(answers):
             if isinstance(answer, rx.NoScriptError):
-                answers[i] = await self._script(keys=calls[i].keys, args=calls[i].args)
+                try:
+                    answers[i] = await self._script(keys=calls[i][0], args=calls[i][1])
+                except rx.RedisError as exc:
+                    answers[i] = exc
         return answers
-
-
-class _Call:
-    """A call waiting to be sent: its answer, or the lead of the next pipeline."""
-
-    def __init__(self, keys: list[str], args: list[Any], answer: asyncio.Future[Any]) -> None:
-        self.keys, self.args, self.answer = keys, args, answer
-        self.answer_of_lead: asyncio.Future[Any] = answer.get_loop().create_future()
-
-    def settle(self, answer: Any) -> None:
-        """Give the call its answer (an exception is raised to it)."""
-        target = self.answer if not self.answer.done() else self.answer_of_lead
-        if target.done():
-            return
-        if isinstance(answer, BaseException):
-            target.set_exception(answer)
-        else:
-            target.set_result(answer)
-
-
-class _Lead:
-    """What a waiting call is given when it is to send the next pipeline."""
-
-    def __init__(self, calls: list[_Call]) -> None:
-        self.calls = calls
 
 
 def _why(exc: rx.RedisError) -> str:

@@ -180,14 +180,18 @@ class Engine:
 
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
         wave = plan.wave
-        if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
-            # Its steps read the whole-map wave directly: no lock, nothing left to settle.
-            plan = dataclasses.replace(plan, wave=wave.handed_over)
         p, plain = plan.params, plan.analysis.plain
         keys = (
             analysis_key(map_id, p, plain=plain),
             wave_key(map_id, p, plan.goal, plan.narrow_fallback, plain=plain),
         )
+        if self.cache.peek(keys[0]) is not plan.analysis or self.cache.peek(keys[1]) is not wave:
+            # Evicted while the plan was built (a growing wave may even evict itself): not kept,
+            # or the memo would hold arrays the cache no longer counts.
+            return
+        if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
+            # Its steps read the whole-map wave directly: no lock, nothing left to settle.
+            plan = dataclasses.replace(plan, wave=wave.handed_over)
         with self._plans_lock:
             self._plans[key] = (plan, keys)
             self._plans.move_to_end(key)

@@ -268,6 +268,30 @@ async def test_a_failed_pipeline_fails_each_of_its_steps(
 
 
 @pytest.mark.anyio
+async def test_a_step_cancelled_while_waiting_cancels_none_of_the_others(
+    store: RedisStore,
+) -> None:
+    """A caller that gives up (its request timed out) while its write waits behind one in
+    flight is dropped; the others' writes go out and each gets its answer."""
+    plans = [f"p{i}" for i in range(6)]
+    for plan_id in plans:
+        await store.put_plan(plan_id, {"n": 0}, append=[(0, 0)])
+    steps = [asyncio.ensure_future(store.update_plan(p, _count())) for p in plans]
+    await asyncio.sleep(0)  # each has decided and waits for its write
+    steps[2].cancel()
+    done = await asyncio.gather(*steps, return_exceptions=True)
+    assert isinstance(done[2], asyncio.CancelledError)
+    for i, plan_id in enumerate(plans):
+        if i == 2:
+            continue
+        update = done[i]
+        assert isinstance(update, Update)
+        assert update.answer == 1
+        assert await store.get_plan(plan_id) == {"n": 1}
+    assert not store._step._busy
+
+
+@pytest.mark.anyio
 async def test_a_step_that_keeps_losing_the_race_gets_503(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
