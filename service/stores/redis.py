@@ -112,7 +112,10 @@ class RedisStore(Store):
     only checked (nothing written), and a step refused on this replica's copy (a ``seq`` out
     of order) is decided again on a fresh read before it is refused. No move is lost or
     doubled, nothing is ever held in Redis (a replica killed mid-step leaves nothing behind),
-    and no step waits on another replica.
+    and no step waits on another replica. One exception: when the client resends a write
+    whose answer was lost (it retries once on a lost connection or a timeout) and the first
+    send had been executed, the step finds its own write, takes it for another's and steps
+    again; with ``seq`` that is a replay, without it a second move.
 
     Under load, the writes of steps on many plans that pile up while one is in flight go out
     together in one pipeline (:class:`_Batched`): a round trip shared by all of them.
