@@ -6,8 +6,8 @@ Keys, all under ``planner:``:
   header with shape, resolution and origin, then the occupancy, one byte a cell); expires
   ``PLANNER_MAP_TTL_SECONDS`` after its last use (an upload, a read, a step of a plan on it).
 - ``planner:plan:{plan_id}``: the plan's version, a space, then its record as JSON
-  (``b"8841 {...}"``); expires ``PLANNER_PLAN_TTL_SECONDS`` after its last write. Each step's
-  write adds 1 to the version; a new plan's starts at random. A record written before versions
+  (``b"8841 {...}"``); expires ``PLANNER_PLAN_TTL_SECONDS`` after its last write. Each write
+  (a new plan, a step) gets a new random version. A record written before versions
   (plain JSON) is read as version 0 and stepped on (its prefix is its ``{``).
 - ``planner:path:{plan_id}``: the robot's trajectory, packed cells appended with ``APPEND``;
   expires with the record.
@@ -74,10 +74,13 @@ UNAVAILABLE = "store unavailable; retry later"
 # version prefix the step decided on, the new value ('' for none: a replay, only checked), the
 # plan's TTL, the cells to append, the map's TTL, the viewer's channel and message ('': none).
 # Returns {1} (written, or checked), {0} (no such plan: nothing written), {2, value} (another
-# step wrote first: the plan's value now, to decide again on).
+# step wrote first: the plan's value now, to decide again on). Every write has a version of its
+# own (random), so a value already there exactly as this call would write it is this call's
+# own write: the same call sent again (the client resends once when an answer is lost) is {1}.
 _STEP = """
 local now = redis.call('GET', KEYS[1])
 if not now then return {0} end
+if ARGV[2] ~= '' and now == ARGV[2] then return {1} end
 if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
 if ARGV[2] == '' then return {1} end
 redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
@@ -112,10 +115,9 @@ class RedisStore(Store):
     only checked (nothing written), and a step refused on this replica's copy (a ``seq`` out
     of order) is decided again on a fresh read before it is refused. No move is lost or
     doubled, nothing is ever held in Redis (a replica killed mid-step leaves nothing behind),
-    and no step waits on another replica. One exception: when the client resends a write
-    whose answer was lost (it retries once on a lost connection or a timeout) and the first
-    send had been executed, the step finds its own write, takes it for another's and steps
-    again; with ``seq`` that is a replay, without it a second move.
+    and no step waits on another replica: each write has a version of its own (random), so a
+    write the client sends again after its answer was lost (it resends once on a lost
+    connection or a timeout) finds itself and counts as written, not as another's.
 
     Under load, the writes of steps on many plans that pile up while one is in flight go out
     together in one pipeline (:class:`_Batched`): a round trip shared by all of them.
@@ -261,7 +263,8 @@ class RedisStore(Store):
             keys, args = [f"planner:plan:{key}"], [expect, b""]
         else:
             json = orjson.dumps(update.record)
-            value = b"%d %b" % (version + 1, json)
+            written = secrets.randbits(62) + 1  # a version of its own: see _STEP
+            value = b"%d %b" % (written, json)
             channel, message = update.event or ("", b"")
             keys = self._keys(key, update.record)
             args = [
@@ -271,7 +274,7 @@ class RedisStore(Store):
         async with self._reaching():
             answer: list[bytes | int] = await self._step(keys, args)
         if answer[0] == 1 and update.record is not None:
-            self._remember(key, version + 1, json)
+            self._remember(key, written, json)
         return answer
 
     async def _read(self, key: str) -> tuple[int, bytes] | None:

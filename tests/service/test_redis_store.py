@@ -292,6 +292,30 @@ async def test_a_step_cancelled_while_waiting_cancels_none_of_the_others(
 
 
 @pytest.mark.anyio
+async def test_a_write_sent_again_finds_itself_and_moves_once(store: RedisStore) -> None:
+    """The client resends a call whose answer was lost (one retry): the script finds the very
+    value it would write (every write's version is its own), answers written, and the step
+    does not decide and move again."""
+    await store.put_plan("p", {"n": 0}, append=[(0, 0)])
+    run = store._step._script
+    calls = 0
+
+    async def answer_lost_once(*, keys: Any, args: Any) -> Any:
+        nonlocal calls
+        calls += 1
+        first = await run(keys=keys, args=args)
+        return await run(keys=keys, args=args) if calls == 1 else first  # sent twice
+
+    store._step._script = answer_lost_once  # type: ignore[assignment]
+    update = await store.update_plan("p", _count())
+    assert update is not None
+    assert update.answer == 1
+    assert calls == 1
+    assert await store.get_plan("p") == {"n": 1}
+    assert await store.get_trajectory("p") == [(0, 0), (1, 0)]
+
+
+@pytest.mark.anyio
 async def test_a_step_that_keeps_losing_the_race_gets_503(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -362,7 +386,10 @@ async def test_records_written_before_versions_are_stepped_on(store: RedisStore)
     update = await store.update_plan("p", _count())
     assert update is not None
     assert update.answer == 4
-    assert await store._redis.get("planner:plan:p") == b'1 {"n":4}'
+    stored = await store._redis.get("planner:plan:p")
+    assert isinstance(stored, bytes)
+    version, _, json = stored.partition(b" ")
+    assert (int(version) > 0, json) == (True, b'{"n":4}')  # versioned from now on
 
 
 @pytest.mark.anyio
