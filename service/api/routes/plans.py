@@ -31,17 +31,22 @@ async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
     state = request.app.state
     engine: Engine = state.engine
     bus: EventBus = state.bus
+    made: list[tuple[plans.StepView, dict[str, Any]]] = []  # the answer, built once
+
+    def event(view: plans.StepView) -> tuple[str, bytes]:
+        made.append((view, present.step_answer(view)))
+        return channel(plan_id), orjson.dumps(_event(made[-1][1], view))
+
     if isinstance(bus, RedisBus) and engine.store.publishes:
-        # Redis: the step's write publishes its event in the same round trip.
-        view = await plans.step(
-            engine, plan_id, body, event=lambda v: (channel(plan_id), orjson.dumps(_event(v)))
-        )
-        answer = present.step_answer(view)
+        # Redis: the step's write publishes its event in the same round trip (a step decided
+        # again, when another replica wrote first, makes its event again).
+        view = await plans.step(engine, plan_id, body, event=event)
+        answer = made[-1][1] if made and made[-1][0] is view else present.step_answer(view)
     else:
         view = await plans.step(engine, plan_id, body)
         answer = present.step_answer(view)
         if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
-            await bus.publish(plan_id, {**answer, "dynamic_obstacles": view.obstacles})
+            await bus.publish(plan_id, _event(answer, view))
     # Built and encoded directly (the hot path): `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
@@ -59,10 +64,10 @@ router.add_api_route(
 )
 
 
-def _event(view: plans.StepView) -> dict[str, Any]:
-    """What the live viewer gets of a step: the answer, and the cells the obstacles blocked
+def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
+    """What the live viewer gets of a step: its answer, and the cells the obstacles blocked
     (it draws cells: circles go out as the cells they blocked)."""
-    return {**present.step_answer(view), "dynamic_obstacles": view.obstacles}
+    return {**answer, "dynamic_obstacles": view.obstacles}
 
 
 @router.post(
