@@ -15,7 +15,7 @@ from service.config import Settings
 from service.edge.auth import ApiKeys
 from service.edge.middleware import BodyLimit
 from service.ops import docs
-from service.ops.logs import LOG
+from service.ops.logs import LOG, REQUEST_LINES
 from service.ops.metrics import Metrics
 from service.ops.observe import Observe
 from service.stores import Store, open_store
@@ -72,6 +72,7 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         app.state.metrics.engine = engine
         yield
     finally:
+        REQUEST_LINES.flush()  # the request lines still buffered
         app.state.metrics.engine = None
         pool.close()
         await bus.close()

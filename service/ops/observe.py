@@ -14,7 +14,7 @@ import time
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from service.ops.logs import ACCESS, REQUEST_ID
+from service.ops.logs import ACCESS, REQUEST_ID, REQUEST_LINES
 from service.ops.metrics import UNMATCHED, Metrics
 
 __all__ = ["HEADER", "Observe", "route_of"]
@@ -53,14 +53,15 @@ class Observe:
             route = route_of(scope)
             self.metrics.observe(scope["method"], route, status, seconds)
             if ACCESS.isEnabledFor(logging.INFO):
-                fields = {
-                    "request_id": request_id.decode(),
-                    "method": scope["method"],
-                    "route": route,
-                    "status": status,
-                    "duration_ms": round(seconds * 1000, 3),
-                }
-                ACCESS.info("request", extra={"fields": fields})
+                REQUEST_LINES.write(
+                    {
+                        "request_id": request_id.decode(),
+                        "method": scope["method"],
+                        "route": route,
+                        "status": status,
+                        "duration_ms": round(seconds * 1000, 3),
+                    }
+                )
             REQUEST_ID.reset(token)
 
 

@@ -19,9 +19,9 @@ in arrival order (:class:`PlanLocks`); a plan deleted while a step was in flight
 from __future__ import annotations
 
 import asyncio
+import struct
 from abc import ABC, abstractmethod
-from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
-from contextlib import asynccontextmanager
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
@@ -72,34 +72,57 @@ networked store whose write found another replica's step first), so it changes n
 
 class PlanLocks:
     """One FIFO ``asyncio.Lock`` a plan, made when a step comes and dropped when none holds or
-    waits for it: steps on one plan in this process are served one at a time, in arrival order."""
+    waits for it: steps on one plan in this process are served one at a time, in arrival order.
+    ``async with locks.hold(key):`` (a class, not a generator: it is entered on every step)."""
 
     def __init__(self) -> None:
         self._locks: dict[str, tuple[asyncio.Lock, int]] = {}  # lock, steps holding or waiting
 
-    @asynccontextmanager
-    async def hold(self, key: str) -> AsyncIterator[None]:
-        lock, users = self._locks.get(key, (None, 0))
-        if lock is None:
-            lock = asyncio.Lock()
-        self._locks[key] = (lock, users + 1)
-        try:
-            async with lock:
-                yield
-        finally:
-            lock, users = self._locks[key]
-            if users == 1:
-                del self._locks[key]
-            else:
-                self._locks[key] = (lock, users - 1)
+    def hold(self, key: str) -> _Held:
+        return _Held(self._locks, key)
 
     def __len__(self) -> int:
         return len(self._locks)
 
 
+class _Held:
+    """A step's turn on its plan's lock (:meth:`PlanLocks.hold`)."""
+
+    __slots__ = ("_key", "_lock", "_locks")
+
+    def __init__(self, locks: dict[str, tuple[asyncio.Lock, int]], key: str) -> None:
+        self._locks, self._key = locks, key
+
+    async def __aenter__(self) -> None:
+        lock, users = self._locks.get(self._key, (None, 0))
+        if lock is None:
+            lock = asyncio.Lock()
+        self._locks[self._key] = (lock, users + 1)
+        self._lock = lock
+        try:
+            await lock.acquire()
+        except BaseException:  # cancelled while waiting: no longer a user
+            self._leave()
+            raise
+
+    async def __aexit__(self, *exc: object) -> None:
+        self._lock.release()
+        self._leave()
+
+    def _leave(self) -> None:
+        lock, users = self._locks[self._key]
+        if users == 1:
+            del self._locks[self._key]
+        else:
+            self._locks[self._key] = (lock, users - 1)
+
+
 def pack(cells: Cells) -> bytes:
     """Cells as little-endian int32 pairs: the trajectory log's format, in every store."""
-    return np.asarray(cells, dtype="<i4").reshape(-1, 2).tobytes()
+    flat = [v for cell in cells for v in cell]
+    if len(flat) != 2 * len(cells):
+        raise ValueError(f"cells must be [row, col] pairs; got {len(flat)} values")
+    return struct.pack(f"<{len(flat)}i", *flat)
 
 
 def unpack(data: bytes) -> list[tuple[int, int]]:

@@ -81,13 +81,12 @@ class MemoryStore(Store):
             return None  # no lock is made for a plan that does not exist
         async with self._locks.hold(key):
             # Read under the lock: the previous holder's write, or its delete, is seen.
-            record = await self.get_plan(plan_id)
-            if record is None:
+            entry = self._plans.get(key)
+            if entry is None:
                 return None
-            update = await decide(record)
+            update = await decide(orjson.loads(entry[1]))
             if update.record is not None:
-                self._expire()
-                if key not in self._plans:
+                if key not in self._plans or self._plans[key][0] <= self._clock():
                     return None  # deleted (or expired) while the step decided: it stays so
                 self._write(key, update.record, update.append)
             return update

@@ -16,7 +16,7 @@ from prometheus_client.samples import Sample
 import planner
 from service.config import Settings
 from service.main import create_app
-from service.ops.metrics import UNMATCHED
+from service.ops.metrics import UNMATCHED, Metrics
 from service.stores import RedisStore
 from tests.service.conftest import RedisServer, random_map
 
@@ -174,3 +174,31 @@ async def test_metrics_answer_and_say_so_while_redis_is_down(tmp_path: Path) -> 
                 assert "planner_plans" not in samples
     finally:
         server.stop()
+
+
+async def test_durations_fall_in_the_buckets_prometheus_would_put_them_in() -> None:
+    """A request as long as a bucket's bound counts in it (``le`` is inclusive), one longer
+    than every bound only in ``+Inf``; buckets are cumulative, ``_count`` and the counter are
+    the requests, ``_sum`` their seconds."""
+    metrics = Metrics()
+    for seconds in (0.0, 0.001, 0.0011, 2.5, 60.0, 61.0):
+        metrics.observe("POST", STEP, 200, seconds)
+    metrics.observe("GET", STEP, 404, 0.3)
+    samples = {
+        f.name: list(f.samples)
+        for f in text_string_to_metric_families((await metrics.render()).decode())
+    }
+    labels = {"method": "POST", "route": STEP, "status": "200"}
+    durations = samples["planner_http_request_duration_seconds"]
+    bucket = "planner_http_request_duration_seconds_bucket"
+    expected = {"0.001": 2, "0.0025": 3, "1.0": 3, "2.5": 4, "30.0": 4, "60.0": 5, "+Inf": 6}
+    for le, count in expected.items():
+        assert value(durations, bucket, **labels, le=le) == count
+    assert value(durations, "planner_http_request_duration_seconds_count", **labels) == 6
+    assert value(durations, "planner_http_request_duration_seconds_sum", **labels) == (
+        pytest.approx(0.001 + 0.0011 + 2.5 + 60.0 + 61.0)
+    )
+    assert value(samples["planner_http_requests"], "planner_http_requests_total", **labels) == 6
+    other = {"method": "GET", "route": STEP, "status": "404"}
+    assert value(durations, bucket, **other, le="0.25") == 0
+    assert value(durations, bucket, **other, le="0.5") == 1

@@ -3,6 +3,7 @@ start-up lines before and after the warm-up, and never the store's password."""
 
 from __future__ import annotations
 
+import asyncio
 import os
 import re
 import signal
@@ -17,6 +18,7 @@ import orjson
 import pytest
 import redis
 
+from service.ops.logs import RequestLines
 from tests.service.conftest import ROOT, RedisServer, free_port
 
 pytestmark = pytest.mark.anyio
@@ -154,3 +156,56 @@ def test_python_m_service_logs_json_lines_and_never_the_password(tmp_path: Path)
     assert started["store"] == f"redis 127.0.0.1:{server.port}"
     (warmup,) = [key for key in started if "warmup" in key]
     assert started[warmup] >= 0
+
+
+def test_request_lines_are_the_json_lines_logging_would_write_buffered(
+    capsysbinary: pytest.CaptureFixture[bytes],
+) -> None:
+    """A request line has the fields of the service's other lines (time, level, logger,
+    message) and its own, in that order; lines wait until ``max_bytes`` are pending or a flush,
+    and without an event loop go out at once."""
+    lines = RequestLines(max_bytes=400)
+    fields = {"request_id": "r1", "method": "POST", "route": "/x", "status": 200}
+
+    async def two_lines() -> None:
+        lines.write({**fields, "duration_ms": 0.5})
+        lines.write({**fields, "request_id": "r2", "duration_ms": 1.25})
+
+    asyncio.run(two_lines())  # the loop ends before the timer: flushed by hand below
+    assert capsysbinary.readouterr().out == b""
+    lines.flush()
+    out = [orjson.loads(line) for line in capsysbinary.readouterr().out.splitlines()]
+    assert [list(line) for line in out] == [
+        ["time", "level", "logger", "message", "request_id", "method", "route", "status",
+         "duration_ms"]
+    ] * 2  # fmt: skip
+    assert out[0]["level"] == "info"
+    assert out[0]["logger"] == "service.access"
+    assert out[0]["message"] == "request"
+    assert [line["request_id"] for line in out] == ["r1", "r2"]
+    assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", out[0]["time"])
+
+    async def many() -> None:  # 400 bytes pending: out without waiting for the timer
+        for i in range(6):
+            lines.write({**fields, "request_id": f"m{i}"})
+
+    asyncio.run(many())
+    assert len(capsysbinary.readouterr().out.splitlines()) >= 3
+    lines.flush()
+    capsysbinary.readouterr()
+    lines.write(fields)  # no event loop: at once
+    assert len(capsysbinary.readouterr().out.splitlines()) == 1
+
+
+def test_request_lines_pending_go_out_within_the_flush_interval(
+    capsysbinary: pytest.CaptureFixture[bytes],
+) -> None:
+    lines = RequestLines(flush_seconds=0.05)
+
+    async def one_then_wait() -> bytes:
+        lines.write({"request_id": "r"})
+        assert capsysbinary.readouterr().out == b""
+        await asyncio.sleep(0.2)
+        return capsysbinary.readouterr().out
+
+    assert orjson.loads(asyncio.run(one_then_wait()))["request_id"] == "r"

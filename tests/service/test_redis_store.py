@@ -5,6 +5,7 @@ records, and Redis out of reach."""
 from __future__ import annotations
 
 import asyncio
+import time
 from collections.abc import AsyncIterator
 from typing import Any
 
@@ -194,6 +195,13 @@ async def test_a_steady_step_is_one_round_trip(
             return await run(*args, **options)
 
         monkeypatch.setattr(store._redis, "execute_command", counted)
+        send = store._step._send  # the steps' own connection
+
+        async def script(command: bytes, send: Any = send) -> Any:
+            sent.append(command.split(b"\r\n")[2].decode())
+            return await send(command)
+
+        monkeypatch.setattr(store._step, "_send", script)
     try:
         await a.put_plan("p", {"n": 0})
         await a.update_plan("p", _count())  # the first also loads the script into Redis
@@ -245,26 +253,93 @@ async def test_steps_on_many_plans_at_once_share_round_trips(store: RedisStore) 
 
 
 @pytest.mark.anyio
-async def test_a_failed_pipeline_fails_each_of_its_steps(
+async def test_steps_whose_answers_are_lost_are_sent_once_more_and_move_once(
+    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The connection drops with a pipeline's answers unread: each call is sent once more on a
+    new connection, finds its own write (every write's version is its own), and no plan moves
+    twice or not at all."""
+    plans = [f"p{i}" for i in range(6)]
+    for plan_id in plans:
+        await store.put_plan(plan_id, {"n": 0}, append=[(0, 0)])
+    await store.update_plan(plans[0], _count())  # connected
+    link = store._step._link
+    assert link is not None
+    drops = 0
+
+    def drop(data: bytes) -> None:  # Redis wrote; its answers never arrive
+        nonlocal drops
+        drops += 1
+        link.transport.abort()
+
+    monkeypatch.setattr(link, "data_received", drop)
+    done = await asyncio.gather(*(store.update_plan(p, _count()) for p in plans))
+    assert drops == 1
+    assert [u.answer for u in done if u is not None] == [2, 1, 1, 1, 1, 1]
+    assert store._step._link is not link  # a new connection
+    for i, plan_id in enumerate(plans):
+        n = 2 if i == 0 else 1
+        assert await store.get_plan(plan_id) == {"n": n}
+        assert await store.get_trajectory(plan_id) == [(k, 0) for k in range(n + 1)]
+
+
+@pytest.mark.anyio
+async def test_steps_fail_as_unavailable_when_redis_cannot_be_reached_then_recover(
     store: RedisStore, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     plans = [f"p{i}" for i in range(6)]
     for plan_id in plans:
         await store.put_plan(plan_id, {"n": 0})
+    store._step.close()
+    refused = 0
 
-    async def down(*args: Any, **kwargs: Any) -> Any:
-        raise redis.exceptions.ConnectionError("gone")
+    async def refuse(self: Any) -> Any:
+        nonlocal refused
+        refused += 1
+        raise redis.exceptions.ConnectionError("refused")
 
-    monkeypatch.setattr(store._step, "_send", down)
+    monkeypatch.setattr(type(store._step), "_connect", refuse)
     results = await asyncio.gather(
         *(store.update_plan(p, _count()) for p in plans), return_exceptions=True
     )
-    # The first went alone (and was written); the ones that piled up behind it all failed.
-    assert isinstance(results[0], Update)
-    assert all(isinstance(r, StoreUnavailable) for r in results[1:]), results
-    assert not store._step._busy  # nothing left in flight: the next step goes at once
+    assert all(isinstance(r, StoreUnavailable) for r in results), results
+    assert refused == 2 * len(plans)  # each tried twice
+    assert not store._step._corked  # nothing left waiting
     monkeypatch.undo()
-    assert (await store.update_plan("p1", _count())) is not None
+    update = await store.update_plan("p1", _count())
+    assert update is not None
+    assert update.answer == 1
+
+
+@pytest.mark.anyio
+async def test_a_script_redis_lost_is_loaded_again(store: RedisStore) -> None:
+    """Redis restarted (here: its scripts flushed): the step's script is loaded again and the
+    step recorded once."""
+    await store.put_plan("p", {"n": 0})
+    await store.update_plan("p", _count())
+    await store._redis.script_flush()
+    update = await store.update_plan("p", _count())
+    assert update is not None
+    assert update.answer == 2
+    assert await store.get_plan("p") == {"n": 2}
+
+
+@pytest.mark.anyio
+async def test_a_silent_redis_times_out_as_unavailable(
+    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An answer that never comes fails the step within the socket timeout (tried twice), and
+    the connection is not reused."""
+    monkeypatch.setattr(redis_store, "SOCKET_TIMEOUT", 0.2)
+    await store.put_plan("p", {"n": 0})
+    await store.update_plan("p", _count())
+    monkeypatch.setattr(redis_store._Link, "data_received", lambda self, data: None)
+    began = time.monotonic()
+    with pytest.raises(StoreUnavailable):
+        await store.update_plan("p", _count())
+    assert time.monotonic() - began < 2.0
+    monkeypatch.undo()
+    assert (await store.update_plan("p", _count())) is not None
 
 
 @pytest.mark.anyio
@@ -288,7 +363,10 @@ async def test_a_step_cancelled_while_waiting_cancels_none_of_the_others(
         assert isinstance(update, Update)
         assert update.answer == 1
         assert await store.get_plan(plan_id) == {"n": 1}
-    assert not store._step._busy
+    assert not store._step._corked
+    link = store._step._link
+    assert link is not None
+    assert not link.waiting
 
 
 @pytest.mark.anyio
@@ -297,16 +375,17 @@ async def test_a_write_sent_again_finds_itself_and_moves_once(store: RedisStore)
     value it would write (every write's version is its own), answers written, and the step
     does not decide and move again."""
     await store.put_plan("p", {"n": 0}, append=[(0, 0)])
-    run = store._step._script
+    await store._redis.script_load(redis_store._STEP)  # no NOSCRIPT resend to count
+    send = store._step._send
     calls = 0
 
-    async def answer_lost_once(*, keys: Any, args: Any) -> Any:
+    async def answer_lost_once(command: bytes) -> Any:
         nonlocal calls
         calls += 1
-        first = await run(keys=keys, args=args)
-        return await run(keys=keys, args=args) if calls == 1 else first  # sent twice
+        first = await send(command)
+        return await send(command) if calls == 1 else first  # sent twice
 
-    store._step._script = answer_lost_once  # type: ignore[assignment]
+    store._step._send = answer_lost_once  # type: ignore[method-assign]
     update = await store.update_plan("p", _count())
     assert update is not None
     assert update.answer == 1
