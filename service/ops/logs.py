@@ -68,15 +68,17 @@ class JsonFormatter(logging.Formatter):
         return orjson.dumps(line, default=str).decode()
 
 
-_second = [-1, ""]  # the second last written, and its date and time
+_stamp: tuple[int, str] = (-1, "")
+"""The second last written and its date and time (one tuple: threads read it whole)."""
 
 
 def _time(created: float) -> str:
     """``created`` (seconds since the epoch) as UTC ISO 8601 to the millisecond, ``Z``."""
-    second = int(created)
-    if second != _second[0]:  # the date and time to the second change once a second
-        _second[:] = second, time.strftime("%Y-%m-%dT%H:%M:%S.", time.gmtime(second))
-    return f"{_second[1]}{int((created - second) * 1000):03d}Z"
+    global _stamp
+    second, stamp = int(created), _stamp
+    if stamp[0] != second:  # the date and time to the second change once a second
+        stamp = _stamp = (second, time.strftime("%Y-%m-%dT%H:%M:%S.", time.gmtime(second)))
+    return f"{stamp[1]}{int((created - second) * 1000):03d}Z"
 
 
 class RequestLines:
