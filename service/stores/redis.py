@@ -381,20 +381,16 @@ class _Pipelined:
         if not self._direct:
             return await self._script(keys=keys, args=args)
         command = _command(b"EVALSHA", self._script.sha, len(keys), *keys, *args)
-        for retry in (False, True):
-            try:
-                answer = await self._send(command)
-            except (rx.ConnectionError, rx.TimeoutError):
-                if retry:
-                    raise
-                continue
-            if isinstance(answer, rx.NoScriptError):
-                await self._redis.script_load(_STEP)
-                answer = await self._send(command)
-            if isinstance(answer, rx.ResponseError):
-                raise answer
-            return answer
-        raise AssertionError("unreachable")
+        try:
+            answer = await self._send(command)
+        except (rx.ConnectionError, rx.TimeoutError):
+            answer = await self._send(command)  # once more, on a new connection
+        if isinstance(answer, rx.NoScriptError):
+            await self._redis.script_load(_STEP)
+            answer = await self._send(command)
+        if isinstance(answer, rx.ResponseError):
+            raise answer
+        return answer
 
     async def _send(self, command: bytes) -> Any:
         link = self._link
