@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
 __all__ = [
+    "COORDINATE_MAX",
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
     "PRESET_NAMES",
@@ -36,7 +37,8 @@ STRICT = ConfigDict(extra="forbid", strict=True)
 ``dynamic_obstacles`` must not pass silently), and no value is coerced: integers and cells are
 JSON integers, never booleans, strings or floats."""
 
-Coordinate = Annotated[int, Field(ge=0, le=2**31 - 1)]
+COORDINATE_MAX = 2**31 - 1
+Coordinate = Annotated[int, Field(ge=0, le=COORDINATE_MAX)]
 Cell = Annotated[list[Coordinate], Field(min_length=2, max_length=2, examples=[[0, 9]])]
 """A ``[row, col]`` cell, row 0 at the top."""
 

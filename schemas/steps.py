@@ -2,15 +2,35 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
-from schemas.plans import STRICT, XY, Cell, CellOrPoint, Obstacle, Status
+from schemas.plans import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Status
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
 Move = Literal["N", "NE", "E", "SE", "S", "SW", "W", "NW", "WAIT"]
+
+
+def _cells_at_once(value: Any, validate: ValidatorFunctionWrapHandler) -> Any:
+    """A list of nothing but valid ``[row, col]`` cells (a step's usual obstacles) as it is,
+    checked here in one pass; anything else validated item by item, with the same errors."""
+    if type(value) is list:
+        for cell in value:
+            if type(cell) is not list or len(cell) != 2:
+                break
+            r, c = cell
+            if type(r) is not int or type(c) is not int:  # not bool: strict refuses them
+                break
+            if not (0 <= r <= COORDINATE_MAX and 0 <= c <= COORDINATE_MAX):
+                break
+        else:
+            return value
+    return validate(value)
+
+
+Obstacles = Annotated[list[Obstacle], WrapValidator(_cells_at_once)]
 
 
 class StepCreate(BaseModel):
@@ -32,7 +52,7 @@ class StepCreate(BaseModel):
         le=2**62,
         description="The last step's `seq` + 1 for a new step; the last `seq` again for a retry.",
     )
-    dynamic_obstacles: list[Obstacle] = Field(
+    dynamic_obstacles: Obstacles = Field(
         default_factory=list,
         description="Dynamic obstacles this step: cells `[r, c]`, and circles `{x, y, radius}` "
         "in meters, each blocking every cell whose center is within `radius + robot_radius`.",

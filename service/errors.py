@@ -27,6 +27,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.types import Message, Scope, Send
 
 import planner
 from planner import QUOTE_LIMIT
@@ -207,6 +208,16 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
     if status == 408:
         headers["Connection"] = "close"
     return JSONResponse(body.model_dump(), status_code=status, headers=headers or None)
+
+
+async def send_problem(scope: Scope, send: Send, error: ServiceError) -> None:
+    """Answer ``error`` from outside the app's handlers (a middleware, before the app)."""
+    response = problem(error.status, error.message, field=error.field, code=error.code)
+
+    async def nothing() -> Message:
+        return {"type": "http.disconnect"}
+
+    await response(scope, nothing, send)
 
 
 async def _planner_error(request: Request, exc: Exception) -> JSONResponse:

@@ -104,8 +104,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.metrics = Metrics()
     errors.install(app)
     docs.install(app)
-    # Innermost: steps served straight from here, the body already bounded and read.
-    app.add_middleware(HotPath, routers=routers, handlers=app.exception_handlers)
     app.add_middleware(
         BodyLimit,
         max_bytes=settings.max_body_bytes,
@@ -114,8 +112,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         request_timeout=settings.request_timeout_seconds,
     )
     app.add_middleware(ApiKeys, keys=settings.keys)  # no key, nothing is read
-    # Outermost: times, counts and logs every answer, the 401s and 413s included.
+    # Times, counts and logs every answer, the 401s and 413s included.
     app.add_middleware(Observe, metrics=app.state.metrics)
+    # Outermost: steps served straight from here, by the three above's own methods in turn.
+    app.add_middleware(HotPath, routers=routers, handlers=app.exception_handlers)
     for router in routers:  # each directly: one level of route matching
         app.include_router(router)
     return app

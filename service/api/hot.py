@@ -1,18 +1,22 @@
 """The hot path: a route served without the framework's per-request machinery.
 
-A step is the request a fleet sends many times a second, and FastAPI's machinery around an
-endpoint (exception and exit-stack middlewares, route matching over every route, dependency
-solving, the request-response wrapper) costs more than the memory store's whole step. A
-:class:`HotRoute` is declared like any route (``/docs`` documents it from its signature), and
-:class:`HotPath`, the innermost middleware, serves requests that match one straight from there:
-the same handler, the same errors (the app's exception handlers), the same answers. Any other
-request, or a hot route's path with another method, goes on to the router as usual.
+A step is the request a fleet sends many times a second, and the machinery around an endpoint
+(a middleware's closures and wrapped ``send``, exception and exit-stack middlewares, route
+matching over every route, dependency solving, the request-response wrapper) costs more than the
+memory store's whole step. A :class:`HotRoute` is declared like any route (``/docs`` documents it
+from its signature), and :class:`HotPath`, the outermost of the service's middlewares, serves
+requests that match one in one function: what :class:`~service.ops.observe.Observe`,
+:class:`~service.edge.auth.ApiKeys` and :class:`~service.edge.middleware.BodyLimit` do to every
+request, done by their own methods in turn, then the same handler, the same errors (the app's
+exception handlers), the same answers. Any other request, or a hot route's path with another
+method, goes on through the middlewares to the router as usual.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Coroutine, Iterable, Mapping
-from typing import Any, cast
+from typing import Any, TypeVar, cast
 
 import orjson
 from fastapi import Request, Response
@@ -22,21 +26,28 @@ from pydantic import BaseModel, ValidationError
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from service.api.deps import check_query
+from service.edge.auth import ApiKeys
 from service.edge.guards import check_depth
+from service.edge.middleware import BodyLimit
+from service.edge.tenants import TENANT
+from service.ops.logs import REQUEST_ID
+from service.ops.observe import HEADER, Observe, request_id_of
 
-__all__ = ["HotPath", "HotRoute"]
+__all__ = ["HotPath", "HotRoute", "JSONBytes"]
 
 Handler = Callable[[Request], Coroutine[Any, Any, Response]]
 ExceptionHandler = Callable[[Request, Any], Any]
 """An exception handler as Starlette keeps them (``app.exception_handlers``)."""
+Middleware = TypeVar("Middleware")
 
 
 class HotRoute(APIRoute):
     """A route whose endpoint takes its path parameters (strings), one body model and the
-    ``Request``, and gets them without dependency solving. The body is read as FastAPI reads a
-    JSON body model, with the same errors: 422 for a body that is missing, not JSON, not
-    declared ``application/json``, nested too deep (:func:`~service.edge.guards.check_depth`)
-    or invalid (errors located under ``body``), and for any query parameter."""
+    ``Request``, gets them without dependency solving, and answers with a plain ``Response``.
+    The body is read as FastAPI reads a JSON body model, with the same errors: 422 for a body
+    that is missing, not JSON, not declared ``application/json``, nested too deep
+    (:func:`~service.edge.guards.check_depth`) or invalid (errors located under ``body``), and
+    for any query parameter."""
 
     def get_route_handler(self) -> Handler:
         bodies = self.dependant.body_params
@@ -44,28 +55,49 @@ class HotRoute(APIRoute):
         assert not self.dependant.dependencies, "no dependencies"
         assert not self.dependant.query_params, "no query parameters"
         assert not self.dependant.header_params, "no header parameters"
-        model = cast(type[BaseModel], bodies[0].field_info.annotation)
-        name = bodies[0].name
-        endpoint = cast(Callable[..., Coroutine[Any, Any, Response]], self.endpoint)
+        self._model = cast(type[BaseModel], bodies[0].field_info.annotation)
+        self._name = bodies[0].name
+        self._endpoint = cast(Callable[..., Coroutine[Any, Any, Response]], self.endpoint)
 
-        async def handler(request: Request) -> Response:
-            if request.scope.get("query_string"):
-                check_query(request, frozenset())
-            raw = await request.body()
-            try:
-                body = model.model_validate(_json_body(raw, request.headers.get("content-type")))
-            except ValidationError as exc:
-                errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
-                raise RequestValidationError(errors) from None
-            return await endpoint(**request.path_params, **{name: body}, request=request)
+        async def handler(request: Request) -> Response:  # served by the router
+            return await self.answer(request, await request.body())
 
         return handler
+
+    async def answer(self, request: Request, raw: bytes) -> Response:
+        """The endpoint's answer to the request whose whole body is ``raw``."""
+        if request.scope.get("query_string"):
+            check_query(request, frozenset())
+        try:
+            body = self._model.model_validate(_json_body(raw, _content_type(request.scope)))
+        except ValidationError as exc:
+            errors = [{**e, "loc": ("body", *e["loc"])} for e in exc.errors(include_url=False)]
+            raise RequestValidationError(errors) from None
+        return await self._endpoint(**request.path_params, **{self._name: body}, request=request)
+
+
+class JSONBytes(Response):
+    """A 200 answer of JSON already encoded, its two headers made directly (Starlette's
+    ``Response`` works them out from its arguments)."""
+
+    media_type = "application/json"
+
+    def __init__(self, body: bytes) -> None:
+        self.status_code = 200
+        self.background = None
+        self.body = body
+        self.raw_headers = [
+            (b"content-length", b"%d" % len(body)),
+            (b"content-type", b"application/json"),
+        ]
 
 
 class HotPath:
     """ASGI middleware serving the ``POST`` :class:`HotRoute` routes of ``routers`` (included
     in the app without a prefix) directly; errors go to the app's exception ``handlers`` (the
-    ones ``service.errors.install`` registers)."""
+    ones ``service.errors.install`` registers). It wraps the service's other middlewares, and
+    does what they do with their methods: ``app`` must hold an :class:`Observe`, an
+    :class:`ApiKeys` and a :class:`BodyLimit`."""
 
     def __init__(
         self,
@@ -76,40 +108,87 @@ class HotPath:
     ) -> None:
         self.app = app
         self._hot = [
-            (route, route.get_route_handler())
+            route
             for router in routers
             for route in router.routes
             if isinstance(route, HotRoute) and route.methods == {"POST"}
         ]
         self._handlers = handlers
+        self._observe = _within(app, Observe)
+        self._keys = _within(app, ApiKeys)
+        self._limits = _within(app, BodyLimit)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] == "http" and scope["method"] == "POST":
-            for route, handler in self._hot:
+            for route in self._hot:
                 match = route.path_regex.match(scope["path"])
                 if match is not None:
                     scope["route"] = route  # what the router leaves for metrics and logs
                     scope["endpoint"] = route.endpoint
                     scope["path_params"] = match.groupdict()
-                    await self._serve(handler, Request(scope, receive), send)
+                    await self._serve(route, Request(scope, receive), send)
                     return
         await self.app(scope, receive, send)
 
-    async def _serve(self, handler: Handler, request: Request, send: Send) -> None:
+    async def _serve(self, route: HotRoute, request: Request, send: Send) -> None:
+        """Observe's part: the request id, then the answer, counted and logged."""
+        began = time.perf_counter()
+        request_id = request_id_of(request.scope)
+        token = REQUEST_ID.set(request_id.decode())
+        status = 500  # unless an answer starts
         try:
-            response = await handler(request)
+            response = await self._answer(route, request)
+            if response is not None:
+                assert response.background is None, "a hot route answers a plain Response"
+                status = response.status_code
+                headers = [*response.raw_headers, (HEADER, request_id)]
+                await send({"type": "http.response.start", "status": status, "headers": headers})
+                await send({"type": "http.response.body", "body": response.body})
+        finally:
+            self._observe.record(request.scope, status, began, request_id)
+            REQUEST_ID.reset(token)
+
+    async def _answer(self, route: HotRoute, request: Request) -> Response | None:
+        """ApiKeys', BodyLimit's and the route's parts: the answer, an error's included, or
+        ``None`` when the client went away before its body came."""
+        try:
+            tenant = self._keys.admit(request.scope)
+            raw = await self._limits.read(request.scope, request.receive)
+            if raw is None:
+                return None
+            token = TENANT.set(tenant)
+            try:
+                with self._limits.deadline():
+                    return await route.answer(request, raw)
+                raise self._limits.timed_out()  # only when the deadline stopped the block
+            finally:
+                TENANT.reset(token)
         except Exception as exc:
-            answer = self._handler_for(exc)
-            if answer is None:
+            handler = self._handler_for(exc)
+            if handler is None:
                 raise
-            response = cast(Response, await answer(request, exc))
-        await response(request.scope, request.receive, send)
+            return cast(Response, await handler(request, exc))
 
     def _handler_for(self, exc: Exception) -> ExceptionHandler | None:
         for kind in type(exc).__mro__:
             if kind in self._handlers:
                 return self._handlers[kind]
         return None
+
+
+def _within(app: ASGIApp, kind: type[Middleware]) -> Middleware:
+    """The middleware of type ``kind`` in the chain ``app`` leads (each holds the next as
+    ``.app``)."""
+    while not isinstance(app, kind):
+        app = getattr(app, "app")  # noqa: B009 (an AttributeError names what is missing)
+    return app
+
+
+def _content_type(scope: Scope) -> str | None:
+    for name, value in scope["headers"]:
+        if name == b"content-type":
+            return bytes(value).decode("latin-1")
+    return None
 
 
 def _json_body(raw: bytes, content_type: str | None) -> Any:

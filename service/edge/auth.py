@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import hmac
 
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.types import ASGIApp, Receive, Scope, Send
 
 from service.edge.tenants import TENANT, tenant_of
-from service.errors import Unauthorized, problem
+from service.errors import Unauthorized, send_problem
 
 __all__ = ["OPEN_PATHS", "ApiKeys"]
 
@@ -31,21 +31,16 @@ class ApiKeys:
         self._keys = [(k.encode(), tenant_of(k)) for k in keys]
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or not self._keys or scope["path"] in OPEN_PATHS:
+        if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        tenant = self._tenant(_presented(scope))
-        if tenant is None:
-            error = Unauthorized(
-                "an API key is required: send Authorization: Bearer <key> or X-API-Key: <key>",
-                field="authorization",
-            )
-            response = problem(error.status, error.message, field=error.field, code=error.code)
-
-            async def nothing() -> Message:
-                return {"type": "http.disconnect"}
-
-            await response(scope, nothing, send)
+        try:
+            tenant = self.admit(scope)
+        except Unauthorized as error:
+            await send_problem(scope, send, error)
+            return
+        if not tenant:
+            await self.app(scope, receive, send)
             return
         token = TENANT.set(tenant)
         try:
@@ -53,13 +48,22 @@ class ApiKeys:
         finally:
             TENANT.reset(token)
 
-    def _tenant(self, presented: bytes | None) -> str | None:
-        if presented is None:
-            return None
+    def admit(self, scope: Scope) -> str:
+        """The tenant the request acts for (``""`` without keys, and on an open path);
+        :class:`Unauthorized` when it carries no configured key."""
+        if not self._keys or scope["path"] in OPEN_PATHS:
+            return ""
+        presented = _presented(scope)
         found = None
-        for key, tenant in self._keys:  # every key compared: the time says nothing of which
-            if hmac.compare_digest(presented, key):
-                found = tenant
+        if presented is not None:
+            for key, tenant in self._keys:  # every key compared: the time says nothing of which
+                if hmac.compare_digest(presented, key):
+                    found = tenant
+        if found is None:
+            raise Unauthorized(
+                "an API key is required: send Authorization: Bearer <key> or X-API-Key: <key>",
+                field="authorization",
+            )
         return found
 
 

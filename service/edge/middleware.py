@@ -21,7 +21,7 @@ from asyncio import Task
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from service.edge.cancel import CANCEL
-from service.errors import BodyTimeout, ServiceError, TimedOut, TooLarge, problem
+from service.errors import BodyTimeout, ServiceError, TimedOut, TooLarge, send_problem
 
 __all__ = ["BodyLimit"]
 
@@ -60,53 +60,14 @@ class BodyLimit:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
-        step = _is_step(scope)
-        limit, setting = (
-            (self.max_step_bytes, "PLANNER_MAX_STEP_BODY_BYTES")
-            if step
-            else (self.max_bytes, "PLANNER_MAX_BODY_BYTES")
-        )
-        length = dict(scope["headers"]).get(b"content-length")
-        if length is not None:
-            size = int(length) if length.isdigit() and len(length) < 20 else 0
-            if size > limit:
-                await _answer(scope, send, _too_large(f"{size} bytes", setting, limit))
-                return
-        # The whole body now, bounded in bytes and in time: nothing downstream waits on a
-        # trickling client, and a body over the limit is refused once that much has arrived.
-        chunks: list[Message] = []
-        total = 0
-        task = asyncio.current_task()
-        assert task is not None
-        with self._deadlines.until(task, self.body_timeout) as expired:
-            try:
-                while True:
-                    message = await receive()
-                    if message["type"] == "http.disconnect":
-                        log.warning(
-                            "client gone during its request %s %s after %d body bytes",
-                            scope["method"], scope["path"][:100], total,
-                        )  # fmt: skip
-                        return
-                    chunks.append(message)
-                    total += len(message.get("body", b""))
-                    if total > limit:
-                        await _answer(
-                            scope, send, _too_large(f"more than {limit} bytes", setting, limit)
-                        )
-                        return
-                    if not message.get("more_body", False):
-                        break
-            except asyncio.CancelledError:
-                if not expired:
-                    raise
-                task.uncancel()
-                msg = (
-                    f"the request body did not arrive within {self.body_timeout:g} s "
-                    f"(PLANNER_BODY_TIMEOUT_SECONDS; {total} bytes came)"
-                )
-                await _answer(scope, send, BodyTimeout(msg, field="body"))
-                return
+        try:
+            body = await self.read(scope, receive)
+        except ServiceError as error:
+            await send_problem(scope, send, error)
+            return
+        if body is None:
+            return
+        chunks: list[Message] = [{"type": "http.request", "body": body, "more_body": False}]
         if _is_heavy(scope):
             flag = threading.Event()
             token = CANCEL.set(flag)
@@ -115,10 +76,56 @@ class BodyLimit:
             finally:
                 CANCEL.reset(token)
         else:
-            await self._timed(scope, receive, send, chunks, task)
+            await self._timed(scope, receive, send, chunks)
+
+    async def read(self, scope: Scope, receive: Receive) -> bytes | None:
+        """The whole body now, bounded in bytes and in time (nothing downstream waits on a
+        trickling client): :class:`TooLarge` over the limit, by its ``Content-Length`` or once
+        that much has arrived, :class:`BodyTimeout` when it has not all come in time, ``None``
+        when the client went away (logged)."""
+        limit, setting = (
+            (self.max_step_bytes, "PLANNER_MAX_STEP_BODY_BYTES")
+            if _is_step(scope)
+            else (self.max_bytes, "PLANNER_MAX_BODY_BYTES")
+        )
+        for name, length in scope["headers"]:
+            if name == b"content-length":
+                size = int(length) if length.isdigit() and len(length) < 20 else 0
+                if size > limit:
+                    raise _too_large(f"{size} bytes", setting, limit)
+                break
+        chunks: list[bytes] = []
+        total = 0
+        with self._deadlines.until(self.body_timeout) as expired:
+            while True:
+                message = await receive()
+                if message["type"] == "http.disconnect":
+                    log.warning(
+                        "client gone during its request %s %s after %d body bytes",
+                        scope["method"], scope["path"][:100], total,
+                    )  # fmt: skip
+                    return None
+                chunk = message.get("body", b"")
+                chunks.append(chunk)
+                total += len(chunk)
+                if total > limit:
+                    raise _too_large(f"more than {limit} bytes", setting, limit)
+                if not message.get("more_body", False):
+                    return chunks[0] if len(chunks) == 1 else b"".join(chunks)
+        assert expired
+        msg = (
+            f"the request body did not arrive within {self.body_timeout:g} s "
+            f"(PLANNER_BODY_TIMEOUT_SECONDS; {total} bytes came)"
+        )
+        raise BodyTimeout(msg, field="body")
+
+    def deadline(self) -> _Deadline:
+        """``PLANNER_REQUEST_TIMEOUT_SECONDS`` for a light request (a step, a read) run in this
+        task: see :meth:`Deadlines.until` (answer :meth:`timed_out` when it expired)."""
+        return self._deadlines.until(self.request_timeout)
 
     async def _timed(
-        self, scope: Scope, receive: Receive, send: Send, chunks: list[Message], task: Task[object]
+        self, scope: Scope, receive: Receive, send: Send, chunks: list[Message]
     ) -> None:
         """A light request (a step, a read): run here, under the request timeout."""
         started = False
@@ -131,15 +138,10 @@ class BodyLimit:
             started = started or message["type"] == "http.response.start"
             await send(message)
 
-        with self._deadlines.until(task, self.request_timeout) as expired:
-            try:
-                await self.app(scope, replay, sending)
-            except asyncio.CancelledError:
-                if not expired:
-                    raise
-                task.uncancel()
-                if not started:
-                    await _answer(scope, send, self._timed_out())
+        with self.deadline() as expired:
+            await self.app(scope, replay, sending)
+        if expired and not started:
+            await send_problem(scope, send, self.timed_out())
 
     async def _watched(
         self,
@@ -188,9 +190,10 @@ class BodyLimit:
             log.warning("client gone: %s %s cancelled", scope["method"], scope["path"][:100])
             return
         if not started:
-            await _answer(scope, send, self._timed_out())
+            await send_problem(scope, send, self.timed_out())
 
-    def _timed_out(self) -> TimedOut:
+    def timed_out(self) -> TimedOut:
+        """The error of a request stopped by its timeout."""
         msg = (
             f"the request ran over {self.request_timeout:g} s (PLANNER_REQUEST_TIMEOUT_SECONDS) "
             "and was stopped; try a smaller map, fewer steps or a smaller picture"
@@ -211,12 +214,15 @@ class Deadlines:
         self._due: dict[Task[object], tuple[float, list[bool]]] = {}
         self._reaper: Task[None] | None = None
 
-    def until(self, task: Task[object], seconds: float) -> _Deadline:
-        """Cancel ``task`` after ``seconds`` unless the block ends first; the list it yields
-        is true (``[True]``) once that happened."""
+    def until(self, seconds: float) -> _Deadline:
+        """A ``with`` block cancelled after ``seconds`` unless it ends first (the task running
+        it is cancelled, and the block ends there without raising): the list it yields is true
+        (``[True]``) once that happened."""
         loop = asyncio.get_running_loop()
         if self._reaper is None or self._reaper.done():
             self._reaper = loop.create_task(self._reap())
+        task = asyncio.current_task()
+        assert task is not None
         return _Deadline(self._due, task, loop.time() + seconds)
 
     async def _reap(self) -> None:
@@ -247,18 +253,15 @@ class _Deadline:
         self._due[self._task] = self._entry
         return self._entry[1]
 
-    def __exit__(self, *exc: object) -> None:
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, trace: object
+    ) -> bool:
         self._due.pop(self._task, None)
+        if kind is asyncio.CancelledError and self._entry[1]:  # our cancel, not another's
+            self._task.uncancel()
+            return True
+        return False
 
 
 def _too_large(size: str, setting: str, limit: int) -> TooLarge:
     return TooLarge(f"the request body has {size}; {setting} is {limit}", field="body")
-
-
-async def _answer(scope: Scope, send: Send, error: ServiceError) -> None:
-    response = problem(error.status, error.message, field=error.field, code=error.code)
-
-    async def nothing() -> Message:
-        return {"type": "http.disconnect"}
-
-    await response(scope, nothing, send)

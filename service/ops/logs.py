@@ -85,40 +85,28 @@ class RequestLines:
     """The request lines of the ``service.access`` logger, as :class:`JsonFormatter` writes a
     record of it (``time``, ``level``, ``logger``, ``message``, then the fields), written to
     ``sys.stdout`` without a ``LogRecord`` and buffered, as nginx's ``access_log ... buffer=
-    flush=`` does: out when ``max_bytes`` are pending, ``flush_seconds`` after the first line
-    pending (on the running event loop; at once without one), and at exit. A request line costs
-    ~15 us less than through ``logging``; the logger's level still decides whether it is
-    written (``PLANNER_LOG_LEVEL``)."""
+    flush=`` does: out when ``max_lines`` are pending, ``flush_seconds`` after the first line
+    pending (on the running event loop; at once without one), and at exit. A request costs the
+    keeping of its time and fields: the lines are made together when they go out (~15 us a
+    request less than through ``logging``, ~4 less than made one at a time). The logger's level
+    still decides whether they are written (``PLANNER_LOG_LEVEL``)."""
 
-    def __init__(self, *, max_bytes: int = 65536, flush_seconds: float = 1.0) -> None:
-        self.max_bytes = max_bytes
+    def __init__(self, *, max_lines: int = 256, flush_seconds: float = 1.0) -> None:
+        self.max_lines = max_lines
         self.flush_seconds = flush_seconds
-        self._pending: list[bytes] = []
-        self._size = 0
+        self._pending: list[tuple[float, dict[str, Any]]] = []
         atexit.register(self.flush)
 
     def write(self, fields: dict[str, Any]) -> None:
         """Write one request line with ``fields`` (``request_id`` first among them)."""
-        line = orjson.dumps(
-            {
-                "time": _time(time.time()),
-                "level": "info",
-                "logger": ACCESS.name,
-                "message": "request",
-                **fields,
-            },
-            default=str,
-        )
-        if not self._pending:
+        pending = self._pending
+        pending.append((time.time(), fields))
+        if len(pending) == 1:
             try:
                 asyncio.get_running_loop().call_later(self.flush_seconds, self.flush)
             except RuntimeError:  # no event loop: nothing would flush it later
-                self._pending.append(line)
                 self.flush()
-                return
-        self._pending.append(line)
-        self._size += len(line) + 1
-        if self._size >= self.max_bytes:
+        elif len(pending) >= self.max_lines:
             self.flush()
 
     def flush(self) -> None:
@@ -126,8 +114,12 @@ class RequestLines:
         ``logging.StreamHandler`` would, without failing the request)."""
         if not self._pending:
             return
-        data = b"\n".join(self._pending) + b"\n"
-        self._pending, self._size = [], 0
+        pending, self._pending = self._pending, []
+        head = {"level": "info", "logger": ACCESS.name, "message": "request"}
+        data = b"".join(
+            orjson.dumps({"time": _time(at), **head, **fields}, default=str) + b"\n"
+            for at, fields in pending
+        )
         try:
             sys.stdout.flush()  # logging's lines written before these go out first
             out = getattr(sys.stdout, "buffer", None)

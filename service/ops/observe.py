@@ -17,7 +17,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from service.ops.logs import ACCESS, REQUEST_ID, REQUEST_LINES
 from service.ops.metrics import UNMATCHED, Metrics
 
-__all__ = ["HEADER", "Observe", "route_of"]
+__all__ = ["HEADER", "Observe", "request_id_of", "route_of"]
 
 HEADER = b"x-request-id"
 _TOKEN = re.compile(rb"[A-Za-z0-9._:\-]{1,128}")
@@ -35,7 +35,7 @@ class Observe:
             await self.app(scope, receive, send)
             return
         began = time.perf_counter()
-        request_id = _request_id(scope)
+        request_id = request_id_of(scope)
         status = 500  # unless an answer starts
 
         async def send_with_id(message: Message) -> None:
@@ -49,20 +49,25 @@ class Observe:
         try:
             await self.app(scope, receive, send_with_id)
         finally:
-            seconds = time.perf_counter() - began
-            route = route_of(scope)
-            self.metrics.observe(scope["method"], route, status, seconds)
-            if ACCESS.isEnabledFor(logging.INFO):
-                REQUEST_LINES.write(
-                    {
-                        "request_id": request_id.decode(),
-                        "method": scope["method"],
-                        "route": route,
-                        "status": status,
-                        "duration_ms": round(seconds * 1000, 3),
-                    }
-                )
+            self.record(scope, status, began, request_id)
             REQUEST_ID.reset(token)
+
+    def record(self, scope: Scope, status: int, began: float, request_id: bytes) -> None:
+        """Count and log a request answered with ``status`` (500 when no answer started)
+        that began at ``began`` (``time.perf_counter()``)."""
+        seconds = time.perf_counter() - began
+        route = route_of(scope)
+        self.metrics.observe(scope["method"], route, status, seconds)
+        if ACCESS.isEnabledFor(logging.INFO):
+            REQUEST_LINES.write(
+                {
+                    "request_id": request_id.decode(),
+                    "method": scope["method"],
+                    "route": route,
+                    "status": status,
+                    "duration_ms": round(seconds * 1000, 3),
+                }
+            )
 
 
 def route_of(scope: Scope) -> str:
@@ -72,7 +77,8 @@ def route_of(scope: Scope) -> str:
     return path if isinstance(path, str) and path else UNMATCHED
 
 
-def _request_id(scope: Scope) -> bytes:
+def request_id_of(scope: Scope) -> bytes:
+    """The request's ``X-Request-ID`` when it is a plain token, else a new random one."""
     for name, value in scope["headers"]:
         if name == HEADER and _TOKEN.fullmatch(value):
             return bytes(value)

@@ -16,7 +16,7 @@ import numpy as np
 
 import planner
 from planner import quote
-from schemas import Circle, PlanCreate, Point, StepCreate
+from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
 from service.stores.base import Event, Update
@@ -114,11 +114,12 @@ async def step(
         plan = await engine.plan_of(record)
         # The trajectory log is read only for the paper's tabu list: the wide decision needs
         # none of it, and its step then costs the same at any length of episode.
+        state = planner.SessionState.from_dict(record["state"])  # stored without trajectory
         if plan.params.decision == "paper":
-            trajectory = await engine.store.get_trajectory(plan_id)
+            state.trajectory = await engine.store.get_trajectory(plan_id)
         else:
-            trajectory = [tuple(record["state"]["position"])]
-        state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
+            state.trajectory = [state.position]
+        known = len(state.trajectory)
         session = planner.Session(plan, state)
         frame = plan.analysis.frame
         # A point goes as sent: a refusal quotes it.
@@ -132,7 +133,7 @@ async def step(
         if replayed:  # the robot did not move again: nothing to write, no event to send
             return Update(StepView(result, frame, obstacles, replayed=True))
         stored = session.state.as_dict()
-        moved = stored.pop("trajectory")[len(trajectory) :]
+        moved = stored.pop("trajectory")[known:]
         view = StepView(result, frame, obstacles)
         message = None if event is None else event(view)
         return Update(view, {**record, "state": stored}, moved, message)
@@ -147,8 +148,13 @@ async def step(
 def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:
     """The cells the step's obstacles block: cells as given, circles as the cells whose
     centers are within ``radius + robot_radius`` of theirs."""
-    cells: list[list[int]] = [o for o in given if not isinstance(o, Circle)]
-    circles = [o.model_dump() for o in given if isinstance(o, Circle)]
+    cells: list[list[int]] = []
+    circles = []
+    for obstacle in given:
+        if type(obstacle) is list:
+            cells.append(obstacle)
+        else:
+            circles.append(obstacle.model_dump())
     if circles:
         covered = planner.circle_cells(
             frame_map(plan.analysis.frame), circles, robot_radius=plan.params.robot_radius

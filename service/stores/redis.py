@@ -25,10 +25,8 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import secrets
+import random
 from collections import OrderedDict, deque
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from typing import Any, cast
 
 import hiredis
@@ -146,6 +144,7 @@ class RedisStore(Store):
         kw = self._redis.connection_pool.connection_kwargs
         # For the log only: never the password, never in an answer.
         self.address = kw.get("path") or f"{kw.get('host', 'localhost')}:{kw.get('port', 6379)}"
+        self._reaching = _Reaching(self.address)
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
         self._step = _Pipelined(self._redis, self._redis.register_script(_STEP))
@@ -157,7 +156,7 @@ class RedisStore(Store):
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"
         value = encode_map(robot_map)
-        async with self._reaching():
+        with self._reaching:
             if self._map_ttl_ms:
                 async with self._redis.pipeline(transaction=True) as pipe:
                     pipe.set(key, value, nx=True, px=self._map_ttl_ms)
@@ -169,7 +168,7 @@ class RedisStore(Store):
 
     async def get_map(self, map_id: str) -> RobotMap | None:
         key = f"planner:map:{scoped(map_id)}"
-        async with self._reaching():
+        with self._reaching:
             if self._map_ttl_ms:
                 value = await self._redis.getex(key, px=self._map_ttl_ms)
             else:
@@ -183,8 +182,8 @@ class RedisStore(Store):
         key = scoped(plan_id)
         # A new plan's version starts at random: a record cached of a plan replaced under the
         # same id is never taken for the new one.
-        version, json = secrets.randbits(62) + 1, orjson.dumps(record)
-        async with self._reaching():
+        version, json = random.getrandbits(62) + 1, orjson.dumps(record)
+        with self._reaching:
             await self._put(
                 keys=self._keys(key, record),
                 args=[b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms],
@@ -240,7 +239,7 @@ class RedisStore(Store):
 
     async def delete_plan(self, plan_id: str) -> bool:
         key = scoped(plan_id)
-        async with self._reaching():
+        with self._reaching:
             gone = await self._redis.delete(f"planner:plan:{key}", f"planner:path:{key}")
         self._plans.pop(key, None)
         return bool(gone)
@@ -265,7 +264,7 @@ class RedisStore(Store):
             keys, args = [f"planner:plan:{key}"], [expect, b""]
         else:
             json = orjson.dumps(update.record)
-            written = secrets.randbits(62) + 1  # a version of its own: see _STEP
+            written = random.getrandbits(62) + 1  # a version of its own: see _STEP
             value = b"%d %b" % (written, json)
             channel, message = update.event or ("", b"")
             keys = self._keys(key, update.record)
@@ -273,7 +272,7 @@ class RedisStore(Store):
                 expect, value, self._ttl_ms, pack(update.append), self._map_ttl_ms, channel,
                 message,
             ]  # fmt: skip
-        async with self._reaching():
+        with self._reaching:
             answer: list[bytes | int] = await self._step(keys, args)
         if answer[0] == 1 and update.record is not None:
             self._remember(key, written, json)
@@ -297,7 +296,7 @@ class RedisStore(Store):
 
     async def counts(self) -> tuple[int, int]:
         # SCAN, not KEYS: it never blocks Redis for long. Expired plans are not listed.
-        async with self._reaching():
+        with self._reaching:
             found = [
                 sum([1 async for _ in self._redis.scan_iter(match=f"planner:{kind}:*", count=1000)])
                 for kind in ("map", "plan")
@@ -306,7 +305,7 @@ class RedisStore(Store):
 
     async def check(self) -> str | None:
         try:
-            async with self._reaching():
+            with self._reaching:
                 await self._redis.ping()
         except StoreUnavailable as exc:
             return exc.message
@@ -317,21 +316,32 @@ class RedisStore(Store):
         await self._redis.aclose()
 
     async def _get(self, key: str) -> bytes | None:
-        async with self._reaching():
+        with self._reaching:
             value = await self._redis.get(key)
         assert value is None or isinstance(value, bytes)  # no decode_responses
         return value
 
-    @asynccontextmanager
-    async def _reaching(self) -> AsyncIterator[None]:
-        """Translate the client's "Redis cannot answer" errors into StoreUnavailable (and "out of
-        memory" into InsufficientStorage); the reason is logged, the client told nothing more."""
-        try:
-            yield
-        except (rx.ConnectionError, rx.TimeoutError) as exc:
+
+class _Reaching:
+    """A ``with`` block in which the client's "Redis cannot answer" errors become
+    StoreUnavailable (and "out of memory" InsufficientStorage); the reason is logged, the
+    client told nothing more."""
+
+    __slots__ = ("address",)
+
+    def __init__(self, address: str) -> None:
+        self.address = address
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, trace: object
+    ) -> None:
+        if isinstance(exc, rx.ConnectionError | rx.TimeoutError):
             log.warning("redis at %s %s", self.address, _why(exc))
             raise StoreUnavailable(UNAVAILABLE) from exc
-        except rx.ResponseError as exc:
+        if isinstance(exc, rx.ResponseError):
             if str(exc).startswith("OOM"):
                 log.warning("redis at %s is at its maxmemory: %s", self.address, exc)
                 msg = "the store is full (Redis maxmemory); retry when plans or maps expire"
@@ -354,11 +364,12 @@ class _Pipelined:
     A step is one call, and redis-py's client costs a call ~50 us of CPU and ~35 us of latency
     over the round trip itself (its pool's checks, its timeout contexts; measured with uvloop).
     Here the calls go over one asyncio connection in RESP, their answers parsed by hiredis
-    (redis-py's own parser): the calls made in one turn of the event loop go out in one write
-    (a pipeline: under load, steps on many plans share a round trip), and the answers come back
-    in order. An answer not back within ``SOCKET_TIMEOUT``, or the connection lost, fails every
-    call in flight on it; each is sent once more on a new connection (as redis-py's one retry
-    does: the script finds its own write), then raises redis-py's ``TimeoutError`` or
+    (redis-py's own parser): a call made while none is in flight goes out at once, and the
+    calls made in one turn of the event loop while some are go out in one write (a pipeline:
+    under load, steps on many plans share a round trip); the answers come back in order. An
+    answer not back within ``SOCKET_TIMEOUT``, or the connection lost, fails every call in
+    flight on it; each is sent once more on a new connection (as redis-py's one retry does: the
+    script finds its own write), then raises redis-py's ``TimeoutError`` or
     ``ConnectionError``. A script Redis does not hold (NOSCRIPT, after a restart of Redis) is
     loaded through the client, and its call sent again. A caller cancelled before its call
     went out is dropped; after, its answer is dropped. TLS (``rediss://``) goes through the
@@ -398,9 +409,12 @@ class _Pipelined:
             link = await self._connect()
         loop = asyncio.get_running_loop()
         answer: asyncio.Future[Any] = loop.create_future()
-        if not self._corked:
-            loop.call_soon(self._flush, link)
         self._corked.append((command, answer))
+        if len(self._corked) == 1:
+            if link.waiting:  # calls in flight: the others of this turn go with this one
+                loop.call_soon(self._flush, link)
+            else:  # none: out now, no turn of the loop waited for company
+                self._flush(link)
         timer = loop.call_later(SOCKET_TIMEOUT, link.timed_out)
         try:
             return await answer
@@ -518,14 +532,11 @@ def _command(*parts: bytes | str | int) -> bytes:
     """A command in RESP: an array of bulk strings."""
     out = [b"*%d\r\n" % len(parts)]
     for part in parts:
-        data = (
-            part.encode()
-            if isinstance(part, str)
-            else b"%d" % part
-            if isinstance(part, int)
-            else part
-        )
-        out.append(b"$%d\r\n%b\r\n" % (len(data), data))
+        if isinstance(part, str):
+            data = part.encode()
+        else:
+            data = b"%d" % part if isinstance(part, int) else part
+        out += (b"$%d\r\n" % len(data), data, b"\r\n")
     return b"".join(out)
 
 

@@ -162,9 +162,9 @@ def test_request_lines_are_the_json_lines_logging_would_write_buffered(
     capsysbinary: pytest.CaptureFixture[bytes],
 ) -> None:
     """A request line has the fields of the service's other lines (time, level, logger,
-    message) and its own, in that order; lines wait until ``max_bytes`` are pending or a flush,
+    message) and its own, in that order; lines wait until ``max_lines`` are pending or a flush,
     and without an event loop go out at once."""
-    lines = RequestLines(max_bytes=400)
+    lines = RequestLines(max_lines=3)
     fields = {"request_id": "r1", "method": "POST", "route": "/x", "status": 200}
 
     async def two_lines() -> None:
@@ -185,12 +185,12 @@ def test_request_lines_are_the_json_lines_logging_would_write_buffered(
     assert [line["request_id"] for line in out] == ["r1", "r2"]
     assert re.fullmatch(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z", out[0]["time"])
 
-    async def many() -> None:  # 400 bytes pending: out without waiting for the timer
-        for i in range(6):
+    async def many() -> None:  # 3 lines pending: out without waiting for the timer
+        for i in range(7):
             lines.write({**fields, "request_id": f"m{i}"})
 
     asyncio.run(many())
-    assert len(capsysbinary.readouterr().out.splitlines()) >= 3
+    assert len(capsysbinary.readouterr().out.splitlines()) == 6
     lines.flush()
     capsysbinary.readouterr()
     lines.write(fields)  # no event loop: at once

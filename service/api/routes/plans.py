@@ -10,7 +10,7 @@ from fastapi import APIRouter, Query, Request, Response, status
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
-from service.api.hot import HotRoute
+from service.api.hot import HotRoute, JSONBytes
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
@@ -49,7 +49,7 @@ async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
             await bus.publish(plan_id, _event(answer, view))
     # Built and encoded directly (the hot path): `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
-    return Response(orjson.dumps(answer), media_type="application/json")
+    return JSONBytes(orjson.dumps(answer))
 
 
 # The hot path: served by service.api.hot.HotPath, before the router (and first in it).
