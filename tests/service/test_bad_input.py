@@ -7,7 +7,10 @@ from typing import Any
 
 import httpx
 import pytest
+from pydantic import BaseModel, ConfigDict, ValidationError
 
+from schemas import StepCreate
+from schemas.plans import STRICT, Obstacle
 from service.main import create_app
 from tests.service.conftest import SMALL
 
@@ -332,3 +335,42 @@ async def test_a_bad_multipart_form_is_a_422(
     assert r.status_code == 422, r.text
     assert r.json()["field"] == "body"
     assert "multipart" in r.json()["detail"]
+
+
+OBSTACLES: list[Any] = [
+    [],
+    [[0, 0], [2**31 - 1, 7]],
+    [[0, 0], [2**31, 7]],
+    [[-1, 0]],
+    [[1, True]],
+    [[1.0, 2]],
+    [[1, 2, 3]],
+    [[1]],
+    [(1, 2)],
+    [[1, 2], {"x": 0.5, "y": 0.5, "radius": 0.1}],
+    [{"x": 0.5, "y": 0.5}],
+    [[1, 2], "3,4"],
+    "[[1, 2]]",
+    None,
+]
+
+
+class _ItemByItem(BaseModel):
+    model_config = ConfigDict(**STRICT)
+    dynamic_obstacles: list[Obstacle]
+
+
+@pytest.mark.parametrize("given", OBSTACLES)
+def test_obstacles_checked_at_once_validate_as_item_by_item(given: Any) -> None:
+    """``StepCreate``'s one-pass check of cells answers what pydantic's own validation of
+    ``list[Obstacle]`` answers: the same value, or the same errors."""
+
+    def outcome(model: type[BaseModel]) -> Any:
+        try:
+            return model.model_validate({"dynamic_obstacles": given}).model_dump()[
+                "dynamic_obstacles"
+            ]
+        except ValidationError as exc:
+            return exc.errors(include_url=False)
+
+    assert outcome(StepCreate) == outcome(_ItemByItem)

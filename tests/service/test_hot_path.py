@@ -5,17 +5,24 @@ handling keeps FastAPI's answers: ``test_bad_input.py`` and ``test_hardening.py`
 
 from __future__ import annotations
 
+import asyncio
+import json
+from collections.abc import AsyncIterator
 from typing import Any
 
 import httpx
 import pytest
 from fastapi import FastAPI
+from pydantic import SecretStr
 
 from service.api.hot import HotPath
 from service.main import create_app
+from service.work.engine import Engine
 from tests.service.conftest import SMALL
 
 pytestmark = pytest.mark.anyio
+
+JSON = {"content-type": "application/json"}
 
 ROWS = [".........", ".........", "..@@@@@..", ".........", "........."]
 
@@ -77,8 +84,108 @@ async def test_the_hot_path_answers_what_the_router_answers() -> None:
     assert hot == routed
 
 
+async def _guarded_answers(
+    app: FastAPI,
+) -> tuple[list[tuple[int, Any, str | None, str | None]], str]:
+    """Steps refused before their body is read (no key, a wrong key, too long by
+    Content-Length) or while it is (too long as it streams), served with the plan's key, and
+    unknown with another."""
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
+            keyed = {"X-API-Key": "k1"}
+            map_id = (await client.post("/maps", json={"rows": ROWS}, headers=keyed)).json()
+            body = {"map_id": map_id["map_id"], "start": [0, 0], "goal": [4, 8]}
+            plan_id = (await client.post("/plan", json=body, headers=keyed)).json()["plan_id"]
+            url = f"/plan/{plan_id}/step"
+            big = b'{"seq": 0, "dynamic_obstacles": [' + b"[1, 1], " * 40 + b"[1, 1]]}"
+
+            async def streamed() -> AsyncIterator[bytes]:
+                yield big[:100]
+                yield big[100:]
+
+            tries: list[tuple[dict[str, str], Any]] = [
+                ({}, b'{"seq": 0}'),
+                ({"Authorization": "Bearer nope"}, b'{"seq": 0}'),
+                ({**keyed, "X-Request-ID": "trace-7"}, big),
+                ({**keyed, "X-Request-ID": "trace-8"}, streamed()),
+                ({"Authorization": "Bearer k1", "X-Request-ID": "trace-9"}, b'{"seq": 0}'),
+                ({"Authorization": "Bearer k2"}, b'{"seq": 1}'),  # another tenant's plan
+            ]
+            out = []
+            for headers, content in tries:
+                headers = {"content-type": "application/json", **headers}
+                r = await client.post(url, content=content, headers=headers)
+                answer = json.loads(r.text.replace(plan_id, "P"))  # ids differ run to run
+                out.append(
+                    (r.status_code, answer, r.headers.get("www-authenticate"),
+                     r.headers.get("x-request-id") if "X-Request-ID" in headers else None)
+                )  # fmt: skip
+            metrics = (await client.get("/metrics")).text
+    return out, metrics
+
+
+async def test_the_hot_path_guards_a_step_as_the_middlewares_do() -> None:
+    """API keys, body limits and request ids: the hot path's answers are the middlewares'."""
+    settings = SMALL.model_copy(update={"api_keys": SecretStr("k1,k2"), "max_step_body_bytes": 200})
+    hot, metrics = await _guarded_answers(create_app(settings))
+    routed, _ = await _guarded_answers(_without_hot_path(create_app(settings)))
+    assert [a[0] for a in hot] == [401, 401, 413, 413, 200, 404]
+    assert [a[3] for a in hot] == [None, None, "trace-7", "trace-8", "trace-9", None]
+    assert hot == routed
+    # Counted under the step's route, its refusals too (the middlewares, before any route
+    # matched, count theirs as "unmatched").
+    for status in (401, 413, 200, 404):
+        assert f'route="/plan/{{plan_id}}/step",status="{status}"' in metrics
+
+
 def test_the_app_serves_steps_by_the_hot_path() -> None:
     assert any(
         getattr(m.cls, "__name__", None) == HotPath.__name__
         for m in create_app(SMALL).user_middleware
     )
+
+
+async def _timed_answers(
+    app: FastAPI, monkeypatch: pytest.MonkeyPatch
+) -> list[tuple[int, Any, str | None]]:
+    """A body that stalls (408, the connection closed) and a step that runs long (504)."""
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
+            map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+            body = {"map_id": map_id, "start": [0, 0], "goal": [4, 8]}
+            plan_id = (await client.post("/plan", json=body)).json()["plan_id"]
+            url = f"/plan/{plan_id}/step"
+
+            async def stalling() -> AsyncIterator[bytes]:
+                yield b'{"seq": '
+                await asyncio.sleep(1)
+                yield b"0}"
+
+            out = []
+            r = await client.post(url, content=stalling(), headers=JSON)
+            out.append((r.status_code, r.json()["code"], r.headers.get("connection")))
+
+            async def slow(*args: Any, **kwargs: Any) -> Any:
+                await asyncio.sleep(1)
+
+            with monkeypatch.context() as patched:
+                patched.setattr(Engine, "step", slow)
+                r = await client.post(url, json={"seq": 0})
+            out.append((r.status_code, r.json()["code"], r.headers.get("connection")))
+            r = await client.post(url, json={"seq": 0})  # the stopped step moved nothing
+            out.append((r.status_code, r.json()["seq"], None))
+    return out
+
+
+async def test_the_hot_path_times_a_step_as_the_middlewares_do(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    settings = SMALL.model_copy(
+        update={"body_timeout_seconds": 0.2, "request_timeout_seconds": 0.2}
+    )
+    hot = await _timed_answers(create_app(settings), monkeypatch)
+    routed = await _timed_answers(_without_hot_path(create_app(settings)), monkeypatch)
+    assert hot == [(408, "BODY_TIMEOUT", "close"), (504, "TIMED_OUT", None), (200, 0, None)]
+    assert hot == routed
