@@ -492,7 +492,7 @@ def main() -> None:
     out(f"In-process `Session.step` on a 1024 x 1024 map with 10 dynamic obstacles, {steps}")
     out(f"steps: median **{s['median_us']:.1f} us**, p99 {s['p99_us']:.1f} us.")
     out()
-    measured["http"] = http_section(out, wrk_seconds, 1 if quick else 2)
+    measured["http"] = http_section(out, wrk_seconds, 1 if quick else 3)
     out("## 4. Memory")
     out()
     m = bench_memory()

@@ -10,7 +10,7 @@ from fastapi import FastAPI
 
 from service import errors
 from service.api import routers
-from service.api.hot import HotPath
+from service.api.hot import HotApp, HotPath
 from service.config import Settings
 from service.edge.auth import ApiKeys
 from service.edge.middleware import BodyLimit
@@ -88,7 +88,7 @@ def store_name(store: Store) -> str:
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The service configured by ``settings`` (default: from the ``PLANNER_*`` environment)."""
     settings = settings if settings is not None else Settings()
-    app = FastAPI(
+    app = HotApp(
         title="Wide-free-space path planner",
         version="1.0.0",
         description=DESCRIPTION,

@@ -119,22 +119,13 @@ class SessionState:
         last = d.get("last_step")
         r, c = d["position"]
         get = d.get  # a key left out (a record from an older version): the field's default
-        return cls(
-            position=(r, c),
-            status=get("status", "ready"),
-            iteration=get("iteration", 0),
-            path_length=get("path_length", 0.0),
-            arc_cost=get("arc_cost", 0.0),
-            held_up=get("held_up", 0),
-            replan_at=get("replan_at", 0),
-            waits=get("waits", 0),
-            replans=get("replans", 0),
-            detour=list(get("detour", ())),
-            narrow_fallback=get("narrow_fallback", False),
-            trajectory=[(r, c) for r, c in get("trajectory", ())],
-            last_seq=get("last_seq"),
-            last_step=None if last is None else Step.from_dict(last),
-        )
+        return cls(  # the fields in order (a step reads its state back every time)
+            (r, c), get("status", "ready"), get("iteration", 0), get("path_length", 0.0),
+            get("arc_cost", 0.0), get("held_up", 0), get("replan_at", 0), get("waits", 0),
+            get("replans", 0), list(get("detour", ())), get("narrow_fallback", False),
+            [(r, c) for r, c in get("trajectory", ())], get("last_seq"),
+            None if last is None else Step.from_dict(last),
+        )  # fmt: skip
 
     def copy(self) -> SessionState:
         """A copy with lists of its own (a step changes them in place; a step is immutable)."""

@@ -4,12 +4,13 @@ A step is the request a fleet sends many times a second, and the machinery aroun
 (a middleware's closures and wrapped ``send``, exception and exit-stack middlewares, route
 matching over every route, dependency solving, the request-response wrapper) costs more than the
 memory store's whole step. A :class:`HotRoute` is declared like any route (``/docs`` documents it
-from its signature), and :class:`HotPath`, the outermost of the service's middlewares, serves
-requests that match one in one function: what :class:`~service.ops.observe.Observe`,
-:class:`~service.edge.auth.ApiKeys` and :class:`~service.edge.middleware.BodyLimit` do to every
-request, done by their own methods in turn, then the same handler, the same errors (the app's
-exception handlers), the same answers. Any other request, or a hot route's path with another
-method, goes on through the middlewares to the router as usual.
+from its signature), and :class:`HotPath`, the outermost of the service's middlewares (to which
+:class:`HotApp`, the app, hands such a request at once), serves requests that match one in one
+function: what :class:`~service.ops.observe.Observe`, :class:`~service.edge.auth.ApiKeys` and
+:class:`~service.edge.middleware.BodyLimit` do to every request, done by their own methods in
+turn, then the same handler, the same errors (the app's exception handlers), the same answers.
+Any other request, or a hot route's path with another method, goes on through the middlewares
+to the router as usual.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from collections.abc import Callable, Coroutine, Iterable, Mapping
 from typing import Any, TypeVar, cast
 
 import orjson
-from fastapi import Request, Response
+from fastapi import FastAPI, Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute, APIRouter
 from pydantic import BaseModel, ValidationError
@@ -33,7 +34,7 @@ from service.edge.tenants import TENANT
 from service.ops.logs import REQUEST_ID
 from service.ops.observe import HEADER, Observe, request_id_of
 
-__all__ = ["HotPath", "HotRoute", "JSONBytes"]
+__all__ = ["HotApp", "HotPath", "HotRoute", "JSONBytes"]
 
 Handler = Callable[[Request], Coroutine[Any, Any, Response]]
 ExceptionHandler = Callable[[Request, Any], Any]
@@ -76,6 +77,33 @@ class HotRoute(APIRoute):
         return await self._endpoint(**request.path_params, **{self._name: body}, request=request)
 
 
+class HotApp(FastAPI):
+    """The FastAPI app, but a request for a hot route goes to its :class:`HotPath` at once: the
+    framework's own outer layers (its telemetry and body-size wrappers, Starlette's 500
+    middleware) do nothing for a step. An error no exception handler maps propagates to the
+    server, which answers 500 and logs it, as it does past Starlette's middleware."""
+
+    _hot: HotPath | None = None
+
+    def build_middleware_stack(self) -> ASGIApp:
+        stack = super().build_middleware_stack()
+        self._hot = _within(stack, HotPath)
+        return stack
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if self.middleware_stack is None:
+            self.middleware_stack = self.build_middleware_stack()
+        hot = self._hot
+        route = None if hot is None else hot.match(scope)
+        if hot is None or route is None:
+            await super().__call__(scope, receive, send)
+            return
+        scope["app"] = self
+        if self.root_path:
+            scope["root_path"] = self.root_path
+        await hot.serve(route, Request(scope, receive), send)
+
+
 class JSONBytes(Response):
     """A 200 answer of JSON already encoded, its two headers made directly (Starlette's
     ``Response`` works them out from its arguments)."""
@@ -114,24 +142,33 @@ class HotPath:
             if isinstance(route, HotRoute) and route.methods == {"POST"}
         ]
         self._handlers = handlers
-        self._observe = _within(app, Observe)
-        self._keys = _within(app, ApiKeys)
-        self._limits = _within(app, BodyLimit)
+        self._observe = _needed(app, Observe)
+        self._keys = _needed(app, ApiKeys)
+        self._limits = _needed(app, BodyLimit)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        route = self.match(scope)
+        if route is None:
+            await self.app(scope, receive, send)
+        else:
+            await self.serve(route, Request(scope, receive), send)
+
+    def match(self, scope: Scope) -> HotRoute | None:
+        """The hot route that serves the request, its path parameters put in the scope (with
+        the route, as the router leaves them for metrics and logs), or None."""
         if scope["type"] == "http" and scope["method"] == "POST":
             for route in self._hot:
                 match = route.path_regex.match(scope["path"])
                 if match is not None:
-                    scope["route"] = route  # what the router leaves for metrics and logs
+                    scope["route"] = route
                     scope["endpoint"] = route.endpoint
                     scope["path_params"] = match.groupdict()
-                    await self._serve(route, Request(scope, receive), send)
-                    return
-        await self.app(scope, receive, send)
+                    return route
+        return None
 
-    async def _serve(self, route: HotRoute, request: Request, send: Send) -> None:
-        """Observe's part: the request id, then the answer, counted and logged."""
+    async def serve(self, route: HotRoute, request: Request, send: Send) -> None:
+        """Serve a request ``route`` matched. Observe's part: the request id, then the answer,
+        counted and logged."""
         began = time.perf_counter()
         request_id = request_id_of(request.scope)
         token = REQUEST_ID.set(request_id.decode())
@@ -176,12 +213,22 @@ class HotPath:
         return None
 
 
-def _within(app: ASGIApp, kind: type[Middleware]) -> Middleware:
+def _within(app: ASGIApp, kind: type[Middleware]) -> Middleware | None:
     """The middleware of type ``kind`` in the chain ``app`` leads (each holds the next as
-    ``.app``)."""
-    while not isinstance(app, kind):
-        app = getattr(app, "app")  # noqa: B009 (an AttributeError names what is missing)
-    return app
+    ``.app``), if any."""
+    inner: Any = app
+    while not isinstance(inner, kind):
+        inner = getattr(inner, "app", None)
+        if inner is None:
+            return None
+    return inner
+
+
+def _needed(app: ASGIApp, kind: type[Middleware]) -> Middleware:
+    found = _within(app, kind)
+    if found is None:
+        raise TypeError(f"HotPath wraps a {kind.__name__}: none in the middlewares it wraps")
+    return found
 
 
 def _content_type(scope: Scope) -> str | None:

@@ -8,7 +8,7 @@ The request id is the client's ``X-Request-ID`` when it is a plain token (letter
 from __future__ import annotations
 
 import logging
-import os
+import random
 import re
 import time
 
@@ -82,4 +82,4 @@ def request_id_of(scope: Scope) -> bytes:
     for name, value in scope["headers"]:
         if name == HEADER and _TOKEN.fullmatch(value):
             return bytes(value)
-    return os.urandom(16).hex().encode()  # 128 random bits, as a UUID4's hex but cheaper
+    return b"%032x" % random.getrandbits(128)  # as a UUID4's hex but cheaper (not a secret)

@@ -188,7 +188,8 @@ class Store(ABC):
         that :attr:`publishes`), all at once, restarting the plan's TTL and its map's. Steps on
         one plan never interleave: none loses or doubles a move. None when the plan does not
         exist or was deleted before the write (then nothing is written or published); errors of
-        ``decide`` propagate, with nothing written."""
+        ``decide`` propagate, with nothing written. ``decide`` reads the record it is given and
+        changes nothing in it (a store may hand it the record it keeps)."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:

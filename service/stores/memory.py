@@ -15,6 +15,8 @@ from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, 
 
 __all__ = ["MemoryStore"]
 
+_Entry = tuple[float, bytes, bytearray, str | None, PlanRecord]
+
 
 class MemoryStore(Store):
     """Everything in this process: for one uvicorn worker.
@@ -43,8 +45,9 @@ class MemoryStore(Store):
         self._maps: OrderedDict[str, RobotMap] = OrderedDict()  # least recently used first
         self._plans_on: dict[str, int] = {}  # live plans per stored map key
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
-        # An entry: (expiry, the record as JSON, the trajectory log, its map's key).
-        self._plans: OrderedDict[str, tuple[float, bytes, bytearray, str | None]] = OrderedDict()
+        # An entry: (expiry, the record as JSON, the trajectory log, its map's key, the record
+        # itself: read-only, what a step decides on).
+        self._plans: OrderedDict[str, _Entry] = OrderedDict()
         self._locks = PlanLocks()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
@@ -72,7 +75,7 @@ class MemoryStore(Store):
 
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         self._expire()
-        self._write(scoped(plan_id), record, append)
+        self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)  # its own copy
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
         key = scoped(plan_id)
@@ -84,7 +87,7 @@ class MemoryStore(Store):
             entry = self._plans.get(key)
             if entry is None:
                 return None
-            update = await decide(orjson.loads(entry[1]))
+            update = await decide(entry[4])
             if update.record is not None:
                 if key not in self._plans or self._plans[key][0] <= self._clock():
                     return None  # deleted (or expired) while the step decided: it stays so
@@ -101,8 +104,9 @@ class MemoryStore(Store):
         else:
             log, map_key = entry[2], entry[3]
         log += pack(append)  # in place: appending costs what it appends
-        # Serialised like a networked store would, so a record never shares state with a caller.
-        self._plans[key] = (self._clock() + self._ttl, orjson.dumps(record), log, map_key)
+        # Serialised like a networked store would (a record that is not JSON fails here); a
+        # record is handed out as a copy (get_plan) or read-only (update_plan).
+        self._plans[key] = (self._clock() + self._ttl, orjson.dumps(record), log, map_key, record)
         self._plans.move_to_end(key)
         if map_key is not None and map_key in self._maps:
             self._maps.move_to_end(map_key)

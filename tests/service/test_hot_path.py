@@ -189,3 +189,29 @@ async def test_the_hot_path_times_a_step_as_the_middlewares_do(
     routed = await _timed_answers(_without_hot_path(create_app(settings)), monkeypatch)
     assert hot == [(408, "BODY_TIMEOUT", "close"), (504, "TIMED_OUT", None), (200, 0, None)]
     assert hot == routed
+
+
+async def test_an_unexpected_error_in_a_step_is_a_500_counted_under_its_route(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """An error no handler maps: the server answers 500 (the app sent nothing) and the step
+    is counted and logged as a 500, whichever road served it."""
+
+    async def broken(*args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError("a bug")
+
+    for app in (create_app(SMALL), _without_hot_path(create_app(SMALL))):
+        async with app.router.lifespan_context(app):
+            transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
+            async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
+                map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+                body = {"map_id": map_id, "start": [0, 0], "goal": [4, 8]}
+                plan_id = (await client.post("/plan", json=body)).json()["plan_id"]
+                with monkeypatch.context() as patched:
+                    patched.setattr(Engine, "step", broken)
+                    r = await client.post(f"/plan/{plan_id}/step", json={"seq": 0})
+                assert r.status_code == 500
+                metrics = (await client.get("/metrics")).text
+                assert 'route="/plan/{plan_id}/step",status="500"' in metrics
+                r = await client.post(f"/plan/{plan_id}/step", json={"seq": 0})
+                assert r.status_code == 200  # nothing was recorded: seq 0 is still next
