@@ -88,7 +88,7 @@ class RequestLines:
     flush=`` does: out when ``max_lines`` are pending, ``flush_seconds`` after the first line
     pending (on the running event loop; at once without one), and at exit. A request costs the
     keeping of its time and fields: the lines are made together when they go out (~15 us a
-    request less than through ``logging``, ~4 less than made one at a time). The logger's level
+    request less than through ``logging``, a few less than made one at a time). The logger's level
     still decides whether they are written (``PLANNER_LOG_LEVEL``)."""
 
     def __init__(self, *, max_lines: int = 256, flush_seconds: float = 1.0) -> None:
