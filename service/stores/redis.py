@@ -68,10 +68,10 @@ STEP_TRIES = 16
 """Times a step decides before answering 503 when other replicas' steps on the same plan keep
 writing first (each lost try means another step was recorded)."""
 UNAVAILABLE = "store unavailable; retry later"
-_Cached = tuple[int, bytes, PlanRecord]
-"""A plan as this replica last read or wrote it: its version, its record as JSON and the record
-itself (read-only: what a step decides on)."""
 """What a client is told when Redis cannot answer (the reason goes to the log)."""
+_Cached = tuple[int, PlanRecord]
+"""A plan as this replica last read or wrote it: its version and its record (read-only: what a
+step decides on)."""
 
 # A step's one round trip: KEYS the plan, its path (and its map, when maps expire); ARGV the
 # version prefix the step decided on, the new value ('' for none: a replay, only checked), the
@@ -153,8 +153,7 @@ class RedisStore(Store):
         self._step = _Pipelined(self._redis, self._redis.register_script(_STEP))
         self._put = self._redis.register_script(_PUT)
         self._locks = PlanLocks()
-        # Scoped plan key -> (version, record as JSON, the record itself: read-only), least
-        # recently used first.
+        # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
@@ -192,7 +191,7 @@ class RedisStore(Store):
                 keys=self._keys(key, record),
                 args=[b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms],
             )
-        self._remember(key, version, json, orjson.loads(json))  # its own copy
+        self._remember(key, version, orjson.loads(json))  # a copy of its own
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
         key = scoped(plan_id)
@@ -204,7 +203,7 @@ class RedisStore(Store):
                 if cached is None:
                     return None
             for _ in range(STEP_TRIES):
-                version, record = cached[0], cached[2]
+                version, record = cached
                 try:
                     update = await decide(record)
                 except Exception:
@@ -279,7 +278,7 @@ class RedisStore(Store):
         with self._reaching:
             answer: list[bytes | int] = await self._step(keys, args)
         if answer[0] == 1 and update.record is not None:
-            self._remember(key, written, json, update.record)
+            self._remember(key, written, update.record)
         return answer
 
     async def _read(self, key: str) -> _Cached | None:
@@ -289,10 +288,10 @@ class RedisStore(Store):
     def _parse(self, key: str, value: object) -> _Cached:
         assert isinstance(value, bytes)  # no decode_responses
         version, json = _split(value)
-        return self._remember(key, version, json, orjson.loads(json))
+        return self._remember(key, version, orjson.loads(json))
 
-    def _remember(self, key: str, version: int, json: bytes, record: PlanRecord) -> _Cached:
-        entry = self._plans[key] = (version, json, record)
+    def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached:
+        entry = self._plans[key] = (version, record)
         self._plans.move_to_end(key)
         if len(self._plans) > CACHED_PLANS:
             self._plans.popitem(last=False)
