@@ -408,9 +408,9 @@ class _Pipelined:
 
     async def _send(self, command: bytes) -> Any:
         link = self._link
-        if link is None or link.lost is not None:
+        if link is None or link.lost is not None or not link.loop.is_running():
             link = await self._connect()
-        loop = asyncio.get_running_loop()
+        loop = link.loop  # not asyncio.get_running_loop(): a getpid system call each time
         answer: asyncio.Future[Any] = loop.create_future()
         self._corked.append((command, answer))
         if len(self._corked) == 1:
@@ -445,8 +445,9 @@ class _Pipelined:
         if self._connecting is None:
             self._connecting = asyncio.Lock()
         async with self._connecting:
-            if self._link is not None and self._link.lost is None:
-                return self._link
+            link = self._link
+            if link is not None and link.lost is None and link.loop.is_running():
+                return link
             kw = self._kwargs
             loop = asyncio.get_running_loop()
             try:
@@ -488,12 +489,14 @@ class _Link(asyncio.Protocol):
 
     def __init__(self) -> None:
         self.transport: asyncio.Transport
+        self.loop: asyncio.AbstractEventLoop
         self.waiting: deque[asyncio.Future[Any]] = deque()
         self.lost: rx.RedisError | None = None
         self._reader = hiredis.Reader(protocolError=rx.InvalidResponse, replyError=_reply_error)
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = cast(asyncio.Transport, transport)  # uvloop's is not a subclass
+        self.loop = asyncio.get_running_loop()
 
     def data_received(self, data: bytes) -> None:
         self._reader.feed(data)
