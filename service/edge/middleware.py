@@ -220,7 +220,7 @@ class Deadlines:
         it is cancelled, and the block ends there without raising): the list it yields is true
         (``[True]``) once that happened. The loop is the reaper's while that runs: asking
         asyncio for the running loop costs a ``getpid`` system call each time (CPython checks
-        for a fork), ~2 us a call on a virtual machine, where a step is ~150 us."""
+        for a fork), which a step on a virtual machine feels."""
         reaper = self._reaper
         if reaper is None or reaper.done() or not reaper.get_loop().is_running():
             reaper = self._reaper = asyncio.get_running_loop().create_task(self._reap())
