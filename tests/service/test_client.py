@@ -250,17 +250,17 @@ def test_a_store_out_of_reach_raises_unavailable_with_its_retry_after() -> None:
 
 
 def test_the_readme_example_runs(live_url: str, tmp_path: Path, monkeypatch: Any) -> None:
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    readme = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
     section = readme.split("## The Python client", 1)[1]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
     assert 'PlannerClient("http://127.0.0.1:8000")' in code
     monkeypatch.chdir(tmp_path)
-    exec(compile(code.replace("http://127.0.0.1:8000", live_url), "README.md", "exec"), {})
+    exec(compile(code.replace("http://127.0.0.1:8000", live_url), "docs/api.md", "exec"), {})
     assert (tmp_path / "plan.png").read_bytes().startswith(b"\x89PNG")
 
 
 def test_the_readme_example_type_checks(tmp_path: Path) -> None:
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    readme = (ROOT / "docs" / "api.md").read_text(encoding="utf-8")
     code = readme.split("## The Python client", 1)[1].split("```python\n", 1)[1].split("```")[0]
     (tmp_path / "readme_client.py").write_text(code)
     mypy = [sys.executable, "-m", "mypy", "--strict", str(tmp_path / "readme_client.py")]

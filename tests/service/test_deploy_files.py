@@ -1,8 +1,8 @@
-"""The deployment files agree with each other and with the README's "Deploying" and
+"""The deployment files agree with each other and with docs/deploying.md's "Deploying" and
 "Configuration" sections.
 
 Docker cannot run here, so this reads them: the compose file (YAML), ``docker/nginx.conf``, the
-``Dockerfile`` and ``.dockerignore``, and from the README the services table, the settings table
+``Dockerfile`` and ``.dockerignore``, and from docs/deploying.md the services table, the settings table
 and the ``docker compose`` commands.
 """
 
@@ -20,7 +20,7 @@ import yaml
 from service.config import Settings
 from tests.service.conftest import ROOT
 
-README = ROOT / "README.md"
+README = ROOT / "docs" / "deploying.md"
 COMPOSE = ROOT / "docker" / "docker-compose.yml"
 
 

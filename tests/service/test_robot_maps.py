@@ -416,12 +416,13 @@ async def test_multipart_needs_both_parts_and_known_fields(small: httpx.AsyncCli
 def test_the_readme_walkthrough_runs_as_written(live_url: str, ros: Path, tmp_path: Path) -> None:
     if shutil.which("curl") is None:
         pytest.skip("curl is not installed")
-    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
-    section = readme.split("## A real robot map, step by step", 1)[1]
+    page = (Path(__file__).resolve().parents[2] / "docs" / "robot-maps.md").read_text("utf-8")
+    section = page.split("## A real robot map, step by step", 1)[1]
     script = section.split("```sh\n", 1)[1].split("```", 1)[0]
-    assert "R=examples/maps" in script
+    assert 'R=$PWD/examples/maps\ncd "$(mktemp -d)"' in script
     root = Path(__file__).resolve().parents[2]
-    script = script.replace("R=examples/maps", f"R={root / 'examples' / 'maps'}")
+    script = script.replace("R=$PWD/examples/maps", f"R={root / 'examples' / 'maps'}")
+    script = script.replace('cd "$(mktemp -d)"', f"cd {tmp_path}")
     script = script.replace("localhost:8000", live_url.removeprefix("http://"))
     run = subprocess.run(
         ["bash", "-euo", "pipefail", "-c", script],
