@@ -43,8 +43,9 @@ typecheck: $(STAMP)
 unit: $(STAMP)
 	$(PY) -m pytest
 
-scen-all: $(STAMP)  ## every line of every Moving AI scenario file in ../shared (slow: minutes)
-	for f in ../shared/maps/movingai/*.scen; do $(PY) -m planner scen "$$f" || exit 1; done
+scen-all: $(STAMP)  ## every line of every Moving AI scenario file in MOVINGAI=folder (slow: minutes)
+	@test -n "$(MOVINGAI)" || { echo "usage: make scen-all MOVINGAI=folder-of-movingai-map-and-scen-files"; exit 2; }
+	for f in $(MOVINGAI)/*.scen; do $(PY) -m planner scen "$$f" || exit 1; done
 
 # The bench extra's pinned versions (requirements-bench.lock, constrained by the dev lock).
 $(BENCH_STAMP): $(STAMP) requirements-bench.lock

@@ -1,7 +1,7 @@
 """Wide-free-space path planning on 2D occupancy grids.
 
 The improved MAX-MIN Ant System planner of Hasan, Abdullah & Saleh (2023), read precisely as
-``ALGORITHM.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
+``docs/algorithm.md`` says: map analysis (gates, tight tunnels, the ``clean`` penalty), a goal wave
 (cost-to-go fields ``k`` and ``kw``, over the whole map or settled on demand), the paper's move
 decision (Eq. 3) and the loop-free ``wide`` decision, stepping among dynamic obstacles, the
 paper's simulated experiment on its six environments, and pictures like its figures. Robot maps

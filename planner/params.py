@@ -1,4 +1,4 @@
-"""Planner parameters and the named presets (ALGORITHM.md §3).
+"""Planner parameters and the named presets (docs/algorithm.md, "Presets").
 
 >>> resolve_params("mmas").seal_tunnels
 False

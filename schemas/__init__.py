@@ -1,4 +1,4 @@
-"""The HTTP contract's request and response models (``shared/API.md``), one class per direction.
+"""The HTTP contract's request and response models (``docs/api.md``), one class per direction.
 
 Pure pydantic: nothing here imports the planner, so clients can reuse these models as they are.
 """

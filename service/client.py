@@ -1,4 +1,4 @@
-"""A typed Python client of the planner's HTTP API (``shared/API.md``), on httpx.
+"""A typed Python client of the planner's HTTP API (``docs/api.md``), on httpx.
 
 >>> from service.client import PlannerClient
 >>> with PlannerClient("http://127.0.0.1:8000") as planner:  # doctest: +SKIP

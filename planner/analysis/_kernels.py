@@ -55,7 +55,7 @@ def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int
 
 
 # --------------------------------------------------------------------------------------------
-# Map analysis (ALGORITHM.md §1): gates, tight tunnels, the clean field.
+# Map analysis (docs/algorithm.md, "World model"): gates, tight tunnels, the clean field.
 
 
 @njit(cache=True, nogil=True)
@@ -324,7 +324,7 @@ def _pop(keys: np.ndarray, items: np.ndarray, pos: np.ndarray, size: int) -> tup
 
 
 # --------------------------------------------------------------------------------------------
-# The goal wave (ALGORITHM.md §2): Dijkstra from the goal, best entry expanded first.
+# The goal wave (docs/algorithm.md, "Analysis"): Dijkstra from the goal, best entry expanded first.
 
 
 @njit(cache=True, nogil=True)
@@ -474,7 +474,7 @@ def _wave(
 
 
 # --------------------------------------------------------------------------------------------
-# Deciding the next move (ALGORITHM.md §3-4).
+# Deciding the next move (docs/algorithm.md, "Deciding the next move").
 
 
 @njit(cache=True, nogil=True)
@@ -567,7 +567,7 @@ def _decide_core(
 
     A detour's next cell is taken when no dynamic obstacle blocks the move (the detour itself
     is statically legal: it may cross cells the decision's grid seals). The paper decision
-    waits when the neighbour it prefers with no dynamic obstacles is blocked (ALGORITHM.md §4);
+    waits when the neighbour it prefers with no dynamic obstacles is blocked (docs/algorithm.md);
     the wide one takes the best feasible neighbour that is closer, else waits.
     """
     W = passable.shape[1]
@@ -846,7 +846,7 @@ def _detour(
 
 
 # --------------------------------------------------------------------------------------------
-# The paper's simulated dynamic obstacles (ALGORITHM.md §5).
+# The paper's simulated dynamic obstacles (docs/algorithm.md).
 
 
 @njit(cache=True, nogil=True)

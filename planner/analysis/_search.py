@@ -425,7 +425,7 @@ def _detour(
     margin: int,
     limit: int,
 ) -> tuple[np.ndarray, bool]:
-    """The replan of ALGORITHM.md §4 over a resumable wave: A* from ``start`` to ``goal`` with
+    """The replan of docs/algorithm.md over a resumable wave: A* from ``start`` to ``goal`` with
     every cell within Chebyshev ``margin`` of a dynamic obstacle blocked, at the wide costs
     (move + clean of the cell entered).
 

@@ -1,4 +1,4 @@
-"""The paper's "robot environment analysis" stage and its goal wave (ALGORITHM.md §1-2).
+"""The paper's "robot environment analysis" stage and its goal wave (docs/algorithm.md).
 
 Two layers, each cacheable on its own: :func:`analyse` (per map and analysis parameters) finds
 gates and tight tunnels and computes the ``clean`` field; :func:`goal_wave` (per analysis, goal
@@ -280,7 +280,7 @@ class Wave:
         clean: npt.NDArray[np.float32],
         margin: int = 0,
     ) -> npt.NDArray[np.int64]:
-        """The replan of ALGORITHM.md §4 from ``start`` (a flat index) over the wave's grid with
+        """The replan of docs/algorithm.md from ``start`` (a flat index) over the wave's grid with
         every cell within Chebyshev ``margin`` of a dynamic obstacle blocked: the cells after
         ``start`` up to the goal, empty when cut off."""
         W = self.shape[1]

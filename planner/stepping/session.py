@@ -1,4 +1,4 @@
-"""Stepping among dynamic obstacles (ALGORITHM.md §4): one decision per reported step.
+"""Stepping among dynamic obstacles (docs/algorithm.md): one decision per reported step.
 
 A :class:`Session` pairs a :class:`~planner.analysis.planning.Plan` (heavy, cacheable arrays) with a
 :class:`SessionState` (small, plain data that a store can keep as JSON), so a session can be

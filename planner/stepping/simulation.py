@@ -1,4 +1,4 @@
-"""The paper's simulated experiment (ALGORITHM.md §5): one episode among random dynamic obstacles.
+"""The paper's simulated experiment (docs/algorithm.md): one episode among random dynamic obstacles.
 
 Each obstacle starts on a random free cell (not the start, not the goal) and every tick moves to
 a random legal neighbouring cell or stays (never onto another obstacle or the robot's cell). Two

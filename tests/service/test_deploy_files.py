@@ -2,8 +2,8 @@
 "Configuration" sections.
 
 Docker cannot run here, so this reads them: the compose file (YAML), ``docker/nginx.conf``, the
-``Dockerfile`` and ``.dockerignore``, and from docs/deploying.md the services table, the settings table
-and the ``docker compose`` commands.
+``Dockerfile`` and ``.dockerignore``, and from docs/deploying.md the services table, the settings
+table and the ``docker compose`` commands.
 """
 
 from __future__ import annotations
