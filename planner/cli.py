@@ -355,7 +355,7 @@ def _claims(s: dict[str, Any], n: int) -> None:
     if most is not None and fewest is not None:
         print(f"    {'environment 1 has the most tunnels':<40} {most}/{n} seeds")
         print(f"    {'environment 6 has the fewest tunnels':<40} {fewest}/{n} seeds")
-    print("    (baseline [8], D* + PSO, is not implemented; time is not compared: see README)")
+    print("    (baseline [8], D* + PSO, is not implemented; time is not compared: see docs/experiment.md)")
 
 
 def _seeds(seeds: list[int]) -> str:
@@ -428,7 +428,7 @@ def _demo(args: argparse.Namespace) -> int:
         "`shortest` slips through the one-cell corridor;\n`wide` seals it and crosses the open "
         f"room instead, {wide.length / short.length - 1:.0%} longer, keeping away from walls."
     )
-    print("\nTry: python -m planner plan MAP --start R C --goal R C (see README.md).")
+    print("\nTry: python -m planner plan MAP --start R C --goal R C (see docs/python.md).")
     return 0
 
 
