@@ -355,7 +355,8 @@ def _claims(s: dict[str, Any], n: int) -> None:
     if most is not None and fewest is not None:
         print(f"    {'environment 1 has the most tunnels':<40} {most}/{n} seeds")
         print(f"    {'environment 6 has the fewest tunnels':<40} {fewest}/{n} seeds")
-    print("    (baseline [8], D* + PSO, is not implemented; time is not compared: see docs/experiment.md)")
+    print("    (baseline [8], D* + PSO, is not implemented; time is not compared:")
+    print("    see docs/experiment.md)")
 
 
 def _seeds(seeds: list[int]) -> str:
