@@ -391,6 +391,10 @@ class _Collector:
         for task in list(self._sending):
             task.cancel()
         await asyncio.gather(*self._sending, return_exceptions=True)
+        for *_, answer in self._calls:  # their task was cancelled before it began
+            if not answer.done():
+                answer.set_exception(rx.ConnectionError("the store is closing"))
+        self._calls = []
 
 
 def _why(exc: rx.RedisError) -> str:

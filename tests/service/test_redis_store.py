@@ -420,6 +420,17 @@ async def test_a_step_cancelled_while_waiting_cancels_none_of_the_others(
 
 
 @pytest.mark.anyio
+async def test_steps_waiting_when_the_store_closes_fail_as_unavailable(store: RedisStore) -> None:
+    for plan_id in ("p", "q"):
+        await store.put_plan(plan_id, {"n": 0})
+    steps = [asyncio.ensure_future(store.update_plan(p, _count())) for p in ("p", "q")]
+    await asyncio.sleep(0)  # each waits for its write, which has not gone out
+    await store.close()
+    done = await asyncio.wait_for(asyncio.gather(*steps, return_exceptions=True), 5)
+    assert all(isinstance(r, StoreUnavailable) for r in done), done
+
+
+@pytest.mark.anyio
 async def test_a_write_sent_again_finds_itself_and_moves_once(relay: Relay) -> None:
     """redis-py resends a call whose answer was lost (one retry): the script finds the very
     value it would write (every write's version is its own), answers written, and the step
