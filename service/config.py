@@ -8,7 +8,7 @@ from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 from redis.asyncio.connection import parse_url
 
-from service.work.cgroup import available_cpus
+from service.cgroup import available_cpus
 
 __all__ = ["Settings"]
 

@@ -1,20 +1,6 @@
-"""The ``Store`` interface that every store of maps and plans implements, and its data formats.
-
-A plan is kept as plain JSON data (its inputs and ``SessionState.as_dict()`` less the
-trajectory), never as arrays, so a networked store (``service/stores/redis.py``) can hold it; the
-arrays are rebuilt from the cached analysis and wave. The trajectory, which grows with every
-move, is kept beside the record as an append-only log of packed cells: a step rewrites a record
-of constant size and appends a cell, whatever the length of the episode.
-
-Ids are kept per tenant (:func:`service.edge.tenants.scoped`): every store prefixes the map and plan
-ids it is given with the current request's tenant, so tenants never see each other's data.
-
-A step is one :meth:`Store.update_plan`: the store hands the plan's current record to the step's
-``decide``, which answers an :class:`Update` (the new record, the cells to append, the viewer's
-event; or nothing to write, for a retried ``seq``), and the store writes it only if the plan still
-exists and nobody wrote it meanwhile. Steps on one plan in one process are served one at a time,
-in arrival order (:class:`PlanLocks`); a plan deleted while a step was in flight stays deleted.
-"""
+"""The ``Store`` interface every store of maps and plans implements, and the formats they keep:
+a plan as a JSON record of constant size beside an append-only trajectory log, so a networked
+store can hold it and a step costs the same at any length of episode."""
 
 from __future__ import annotations
 

@@ -1,24 +1,8 @@
-"""The Redis store: maps and plans shared by every replica of the service.
+"""The Redis store: maps and plans shared by every replica, through redis-py.
 
-Keys, all under ``planner:``:
-
-- ``planner:map:{map_id}``: the map as :func:`~service.stores.base.encode_map` writes it (a
-  header with shape, resolution and origin, then the occupancy, one byte a cell); expires
-  ``PLANNER_MAP_TTL_SECONDS`` after its last use (an upload, a read, a step of a plan on it).
-- ``planner:plan:{plan_id}``: the plan's version, a space, then its record as JSON
-  (``b"8841 {...}"``); expires ``PLANNER_PLAN_TTL_SECONDS`` after its last write. Each write
-  (a new plan, a step) gets a new random version. A record written before versions
-  (plain JSON) is read as version 0 and stepped on (its prefix is its ``{``).
-- ``planner:path:{plan_id}``: the robot's trajectory, packed cells appended with ``APPEND``;
-  expires with the record.
-
-No lock lives in Redis: steps are fenced by the version (:class:`RedisStore`). With API keys,
-ids are the tenant's (``{tenant}.{id}``, :func:`service.edge.tenants.scoped`).
-
-Analyses stay in each replica's own cache: they are recomputed from the map on a miss. This is
-the one module that knows ``redis``: its errors become :class:`StoreUnavailable` (or
-:class:`InsufficientStorage` when Redis is at its ``maxmemory``) here, with the details logged,
-not answered.
+Keys live under ``planner:`` (``map:``, ``plan:``, ``path:``); a step is one version-fenced
+script call, so no lock is held in Redis. redis-py's errors become :class:`StoreUnavailable`
+(or :class:`InsufficientStorage` at Redis's ``maxmemory``) here. Design: docs/architecture-redis.md.
 """
 
 from __future__ import annotations
@@ -26,14 +10,12 @@ from __future__ import annotations
 import asyncio
 import logging
 import random
-from collections import OrderedDict, deque
-from typing import Any, cast
+from collections import OrderedDict
+from typing import Any
 
-import hiredis
 import orjson
 from redis import exceptions as rx
 from redis.asyncio import Redis
-from redis.asyncio.connection import Connection, UnixDomainSocketConnection
 from redis.asyncio.retry import Retry
 from redis.backoff import NoBackoff
 from redis.commands.core import AsyncScript
@@ -107,31 +89,11 @@ return 1
 class RedisStore(Store):
     """Maps and plans in Redis, for any number of replicas.
 
-    A step is optimistic, fenced by the plan's version, and costs one round trip: the replica
-    decides on the record it last read or wrote (kept in a bounded cache, else read first),
-    then one script writes the new record, appends to the trajectory, refreshes the TTLs and
-    publishes the viewer's event, only if the plan still exists (else 404: a plan deleted
-    while a step was in flight stays deleted) and its version is still the one decided on.
-    When another replica's step wrote first, the script answers the plan as it is now and the
-    step decides again on it: for the same ``seq`` it replays the stored answer, for none it
-    steps on from there; after ``STEP_TRIES`` lost races it answers 503. A retried ``seq`` is
-    only checked (nothing written), and a step refused on this replica's copy (a ``seq`` out
-    of order) is decided again on a fresh read before it is refused. No move is lost or
-    doubled, nothing is ever held in Redis (a replica killed mid-step leaves nothing behind),
-    and no step waits on another replica: each write has a version of its own (random), so a
-    write the client sends again after its answer was lost (it resends once on a lost
-    connection or a timeout) finds itself and counts as written, not as another's.
-
-    A step's write goes over a connection of the steps' own (:class:`_Pipelined`): under load,
-    the writes of steps on many plans made in one turn of the event loop go out together.
-
-    Within a replica, steps on one plan are served one at a time, in arrival order (a
-    :class:`~service.stores.base.PlanLocks` lock, in this process): so they never race each
-    other, and under load on one plan each waits behind the steps queued before it, no longer.
-
-    Connections are made on demand, with short timeouts and one immediate retry (a pooled
-    connection dead since Redis restarted is replaced on first use), so the service resumes by
-    itself when Redis returns.
+    A step decides on the record this replica last read or wrote, then one script writes it
+    only if the plan's version is still the one decided on; when another replica wrote first
+    it decides again on the record the script answers (``STEP_TRIES`` times at most, then 503).
+    Every write has a version of its own, so a call redis-py resends after a lost answer finds
+    its own write. Steps on one plan in this process take turns (:class:`PlanLocks`).
     """
 
     kind = "redis"
@@ -150,7 +112,7 @@ class RedisStore(Store):
         self._reaching = _Reaching(self.address)
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
-        self._step = _Pipelined(self._redis, self._redis.register_script(_STEP))
+        self._step = _Collector(self._redis, self._redis.register_script(_STEP))
         self._put = self._redis.register_script(_PUT)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
@@ -276,7 +238,7 @@ class RedisStore(Store):
                 message,
             ]  # fmt: skip
         with self._reaching:
-            answer: list[bytes | int] = await self._step(keys, args)
+            answer: list[bytes | int] = await self._step(keys=keys, args=args)
         if answer[0] == 1 and update.record is not None:
             self._remember(key, written, update.record)
         return answer
@@ -315,7 +277,7 @@ class RedisStore(Store):
         return None
 
     async def close(self) -> None:
-        self._step.close()
+        await self._step.close()
         await self._redis.aclose()
 
     async def _get(self, key: str) -> bytes | None:
@@ -361,189 +323,78 @@ def _split(value: bytes) -> tuple[int, bytes]:
     return int(version), json
 
 
-class _Pipelined:
-    """The step script's calls, on a connection of their own, pipelined.
+_Call = tuple[list[str], list[Any], "asyncio.Future[Any]"]
 
-    A step is one call, and redis-py's client costs a call ~50 us of CPU and ~35 us of latency
-    over the round trip itself (its pool's checks, its timeout contexts; measured with uvloop).
-    Here the calls go over one asyncio connection in RESP, their answers parsed by hiredis
-    (redis-py's own parser): a call made while none is in flight goes out at once, and the
-    calls made in one turn of the event loop while some are go out in one write (a pipeline:
-    under load, steps on many plans share a round trip); the answers come back in order. An
-    answer not back within ``SOCKET_TIMEOUT``, or the connection lost, fails every call in
-    flight on it; each is sent once more on a new connection (as redis-py's one retry does: the
-    script finds its own write), then raises redis-py's ``TimeoutError`` or
-    ``ConnectionError``. A script Redis does not hold (NOSCRIPT, after a restart of Redis) is
-    loaded through the client, and its call sent again. A caller cancelled before its call
-    went out is dropped; after, its answer is dropped. TLS (``rediss://``) goes through the
-    client as any other command.
-    """
+
+class _Collector:
+    """The step script's calls made in one turn of the event loop, sent together in one
+    ``pipeline(transaction=False)`` by a task of their own (a caller that gives up cancels
+    nobody else's call); a lone call is sent as the script itself."""
 
     def __init__(self, redis: Redis, script: AsyncScript) -> None:
-        self._redis = redis
-        self._script = script
-        pool = redis.connection_pool
-        self._kwargs = pool.connection_kwargs
-        self._direct = pool.connection_class in (Connection, UnixDomainSocketConnection)
-        self._link: _Link | None = None
-        self._connecting: asyncio.Lock | None = None
-        self._corked: list[tuple[bytes, asyncio.Future[Any]]] = []
+        self._redis, self._script = redis, script
+        self._calls: list[_Call] = []
+        self._sending: set[asyncio.Task[None]] = set()
         self.pipelines = 0
-        """Writes sent (for tests: calls that shared a round trip)."""
+        """Round trips made (for tests: calls that shared one)."""
 
-    async def __call__(self, keys: list[str], args: list[Any]) -> Any:
-        if not self._direct:
-            return await self._script(keys=keys, args=args)
-        command = _command(b"EVALSHA", self._script.sha, len(keys), *keys, *args)
-        try:
-            answer = await self._send(command)
-        except (rx.ConnectionError, rx.TimeoutError):
-            answer = await self._send(command)  # once more, on a new connection
-        if isinstance(answer, rx.NoScriptError):
-            await self._redis.script_load(_STEP)
-            answer = await self._send(command)
-        if isinstance(answer, rx.ResponseError):
-            raise answer
-        return answer
-
-    async def _send(self, command: bytes) -> Any:
-        link = self._link
-        if link is None or link.lost is not None or not link.loop.is_running():
-            link = await self._connect()
-        loop = link.loop  # not asyncio.get_running_loop(): a getpid system call each time
+    async def __call__(self, *, keys: list[str], args: list[Any]) -> Any:
+        loop = asyncio.get_running_loop()
         answer: asyncio.Future[Any] = loop.create_future()
-        self._corked.append((command, answer))
-        if len(self._corked) == 1:
-            if link.waiting:  # calls in flight: the others of this turn go with this one
-                loop.call_soon(self._flush, link)
-            else:  # none: out now, no turn of the loop waited for company
-                self._flush(link)
-        timer = loop.call_later(SOCKET_TIMEOUT, link.timed_out)
-        try:
-            return await answer
-        finally:
-            timer.cancel()
+        self._calls.append((keys, args, answer))
+        if len(self._calls) == 1:  # the first of this turn: the others join it
+            task = loop.create_task(self._send())
+            self._sending.add(task)
+            task.add_done_callback(self._sending.discard)
+        return await answer
 
-    def _flush(self, link: _Link) -> None:
-        """The calls made in this turn of the event loop: out in one write (those whose caller
-        is still waiting)."""
-        calls = [(command, answer) for command, answer in self._corked if not answer.done()]
-        self._corked = []
+    async def _send(self) -> None:
+        calls = [call for call in self._calls if not call[2].done()]
+        self._calls = []
         if not calls:
             return
-        if link.lost is not None:
-            for _, answer in calls:
-                answer.set_exception(link.lost)
-            return
         self.pipelines += 1
-        link.waiting.extend(answer for _, answer in calls)
-        link.transport.write(b"".join(command for command, _ in calls))
-
-    async def _connect(self) -> _Link:
-        """The connection, made (once, whoever asks meanwhile) with redis-py's settings: its
-        host and port or socket path, password and database."""
-        if self._connecting is None:
-            self._connecting = asyncio.Lock()
-        async with self._connecting:
-            link = self._link
-            if link is not None and link.lost is None and link.loop.is_running():
-                return link
-            kw = self._kwargs
-            loop = asyncio.get_running_loop()
-            try:
-                async with asyncio.timeout(SOCKET_TIMEOUT):
-                    if "path" in kw:
-                        _, link = await loop.create_unix_connection(_Link, kw["path"])
-                    else:
-                        host, port = kw.get("host", "localhost"), kw.get("port", 6379)
-                        _, link = await loop.create_connection(_Link, host, port)
-                    hello = []
-                    if kw.get("password") is not None:
-                        user = [kw["username"]] if kw.get("username") else []
-                        hello.append(_command(b"AUTH", *user, kw["password"]))
-                    if kw.get("db"):
-                        hello.append(_command(b"SELECT", kw["db"]))
-                    for command in hello:
-                        answer: asyncio.Future[Any] = loop.create_future()
-                        link.waiting.append(answer)
-                        link.transport.write(command)
-                        reply = await answer
-                        if isinstance(reply, rx.ResponseError):
-                            link.transport.close()
-                            raise rx.ConnectionError(str(reply))
-            except TimeoutError as exc:
-                raise rx.TimeoutError("connecting timed out") from exc
-            except OSError as exc:
-                raise rx.ConnectionError(str(exc)) from exc
-            self._link = link
-            return link
-
-    def close(self) -> None:
-        if self._link is not None:
-            self._link.transport.close()
-
-
-class _Link(asyncio.Protocol):
-    """One connection of :class:`_Pipelined`: the answers, parsed by hiredis, go to the calls
-    waiting for them in the order they were sent."""
-
-    def __init__(self) -> None:
-        self.transport: asyncio.Transport
-        self.loop: asyncio.AbstractEventLoop
-        self.waiting: deque[asyncio.Future[Any]] = deque()
-        self.lost: rx.RedisError | None = None
-        self._reader = hiredis.Reader(protocolError=rx.InvalidResponse, replyError=_reply_error)
-
-    def connection_made(self, transport: asyncio.BaseTransport) -> None:
-        self.transport = cast(asyncio.Transport, transport)  # uvloop's is not a subclass
-        self.loop = asyncio.get_running_loop()
-
-    def data_received(self, data: bytes) -> None:
-        self._reader.feed(data)
+        answers: list[Any]
         try:
-            while (reply := self._reader.gets()) is not False:
-                if not self.waiting:
-                    raise rx.InvalidResponse("an answer nobody asked for")
-                answer = self.waiting.popleft()
-                if not answer.done():  # its caller gave up: nothing to tell
-                    answer.set_result(reply)
-        except rx.InvalidResponse as exc:  # not Redis speaking: drop the connection
-            self.lost = rx.ConnectionError(str(exc))
-            self.transport.abort()
+            if len(calls) == 1:
+                answers = [await self._script(keys=calls[0][0], args=calls[0][1])]
+            else:
+                answers = await self._pipeline(calls)
+        except Exception as exc:  # Redis out of reach, after redis-py's one retry
+            answers = [exc] * len(calls)
+        except BaseException:  # the store closing
+            answers = [rx.ConnectionError("the store is closing")] * len(calls)
+            raise
+        finally:
+            for (*_, answer), value in zip(calls, answers, strict=True):
+                if answer.done():  # its caller gave up
+                    continue
+                if isinstance(value, BaseException):
+                    answer.set_exception(value)
+                else:
+                    answer.set_result(value)
 
-    def connection_lost(self, exc: Exception | None) -> None:
-        if self.lost is None:
-            self.lost = rx.ConnectionError(f"connection lost ({type(exc).__name__})")
-            self.lost.__cause__ = exc
-        while self.waiting:
-            answer = self.waiting.popleft()
+    async def _pipeline(self, calls: list[_Call]) -> list[Any]:
+        async with self._redis.pipeline(transaction=False) as pipe:
+            for keys, args, _ in calls:
+                pipe.evalsha(self._script.sha, len(keys), *keys, *args)
+            answers: list[Any] = await pipe.execute(raise_on_error=False)
+        for i, answer in enumerate(answers):
+            if isinstance(answer, rx.NoScriptError):  # Redis restarted: the script loads itself
+                try:
+                    answers[i] = await self._script(keys=calls[i][0], args=calls[i][1])
+                except rx.RedisError as exc:
+                    answers[i] = exc
+        return answers
+
+    async def close(self) -> None:
+        for task in list(self._sending):
+            task.cancel()
+        await asyncio.gather(*self._sending, return_exceptions=True)
+        for *_, answer in self._calls:  # their task was cancelled before it began
             if not answer.done():
-                answer.set_exception(self.lost)
-
-    def timed_out(self) -> None:
-        """An answer is overdue: every call in flight fails (the connection is dropped)."""
-        if self.lost is None:
-            self.lost = rx.TimeoutError("timed out")
-        self.transport.abort()
-
-
-def _reply_error(message: str) -> rx.ResponseError:
-    """An error reply as redis-py raises it (NOSCRIPT as ``NoScriptError``)."""
-    if message.startswith("NOSCRIPT"):
-        return rx.NoScriptError(message)
-    return rx.ResponseError(message)
-
-
-def _command(*parts: bytes | str | int) -> bytes:
-    """A command in RESP: an array of bulk strings."""
-    out = [b"*%d\r\n" % len(parts)]
-    for part in parts:
-        if isinstance(part, str):
-            data = part.encode()
-        else:
-            data = b"%d" % part if isinstance(part, int) else part
-        out += (b"$%d\r\n" % len(data), data, b"\r\n")
-    return b"".join(out)
+                answer.set_exception(rx.ConnectionError("the store is closing"))
+        self._calls = []
 
 
 def _why(exc: rx.RedisError) -> str:

@@ -1,12 +1,6 @@
-"""Steps as events, for the live viewer: every step served is published on its plan's channel,
-and ``GET /plan/{plan_id}/events`` streams that channel as server-sent events.
-
-With the in-memory store, the channel lives in this process (:class:`MemoryBus`). With Redis it is
-Redis pub/sub (:class:`RedisBus`, channel ``planner:events:{plan_id}``), so a stream served by
-one replica receives the steps every replica serves. Events are for watching, not for record: a
-viewer that was not connected misses them (the plan itself holds the trajectory), and a bus that
-fails never fails a step.
-"""
+"""Steps as events for the live viewer: each step is published on its plan's channel and
+``GET /plan/{plan_id}/events`` streams it as server-sent events. The bus lives in this process
+(:class:`MemoryBus`) or in Redis pub/sub (:class:`RedisBus`), so every replica's steps are heard."""
 
 from __future__ import annotations
 

@@ -12,8 +12,8 @@ import httpx
 import pytest
 from fastapi import FastAPI
 
+from service.cgroup import available_cpus, parse_cpu_max
 from service.config import Settings
-from service.work.cgroup import available_cpus, parse_cpu_max
 from service.work.engine import Engine
 from tests.service.conftest import RedisServer, replicas
 

@@ -7,11 +7,10 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import AsyncIterator
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pytest
-import redis
 from pydantic import ValidationError
 
 import planner
@@ -22,6 +21,70 @@ from service.stores import redis as redis_store
 from service.stores.base import Decide, Update
 from service.viewer.events import RedisBus, Subscription
 from tests.service.conftest import RedisServer, free_port
+
+
+class Relay:
+    """A TCP relay in front of redis-server that can fail as a network does, so the store is
+    tested through redis-py's own connections: ``lose()`` drops each connection open now at
+    Redis's next answer (Redis did the work, the answer is lost), ``mute`` swallows answers,
+    ``cut()`` closes the connections open now, ``down`` each new one as soon as it is made."""
+
+    def __init__(self, target: int) -> None:
+        self.target = target
+        self.mode: Literal["relay", "mute", "down"] = "relay"
+        self.lost = self.accepted = 0
+        self._lose_upto = 0
+        self._writers: set[asyncio.StreamWriter] = set()
+
+    async def __aenter__(self) -> Relay:
+        self._server = await asyncio.start_server(self._serve, "127.0.0.1", 0)
+        self.url = f"redis://127.0.0.1:{self._server.sockets[0].getsockname()[1]}/0"
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        self._server.close()
+        for writer in list(self._writers):
+            writer.close()
+
+    def lose(self) -> None:
+        self._lose_upto = self.accepted
+
+    def cut(self) -> None:
+        """Close every connection open now (nothing sent on them reaches Redis any more)."""
+        for writer in list(self._writers):
+            writer.close()
+
+    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        self.accepted += 1
+        number = self.accepted
+        if self.mode == "down":
+            writer.close()
+            return
+        up_reader, up_writer = await asyncio.open_connection("127.0.0.1", self.target)
+        self._writers |= {writer, up_writer}
+
+        async def pump(src: asyncio.StreamReader, dst: asyncio.StreamWriter, answers: bool) -> None:
+            try:
+                while data := await src.read(65536):
+                    if answers and number <= self._lose_upto:
+                        self.lost += 1
+                        break
+                    if not (answers and self.mode == "mute"):
+                        dst.write(data)
+            except ConnectionError:
+                pass
+            finally:
+                for w in (writer, up_writer):
+                    w.close()
+                    self._writers.discard(w)
+
+        await asyncio.gather(pump(reader, up_writer, False), pump(up_reader, writer, True))
+
+
+@pytest.fixture
+async def relay(redis_server: RedisServer) -> AsyncIterator[Relay]:
+    async with Relay(redis_server.port) as r:
+        yield r
 
 
 @pytest.fixture
@@ -195,13 +258,6 @@ async def test_a_steady_step_is_one_round_trip(
             return await run(*args, **options)
 
         monkeypatch.setattr(store._redis, "execute_command", counted)
-        send = store._step._send  # the steps' own connection
-
-        async def script(command: bytes, send: Any = send) -> Any:
-            sent.append(command.split(b"\r\n")[2].decode())
-            return await send(command)
-
-        monkeypatch.setattr(store._step, "_send", script)
     try:
         await a.put_plan("p", {"n": 0})
         await a.update_plan("p", _count())  # the first also loads the script into Redis
@@ -254,61 +310,51 @@ async def test_steps_on_many_plans_at_once_share_round_trips(store: RedisStore) 
 
 @pytest.mark.anyio
 async def test_steps_whose_answers_are_lost_are_sent_once_more_and_move_once(
-    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+    relay: Relay,
 ) -> None:
-    """The connection drops with a pipeline's answers unread: each call is sent once more on a
-    new connection, finds its own write (every write's version is its own), and no plan moves
-    twice or not at all."""
-    plans = [f"p{i}" for i in range(6)]
-    for plan_id in plans:
-        await store.put_plan(plan_id, {"n": 0}, append=[(0, 0)])
-    await store.update_plan(plans[0], _count())  # connected
-    link = store._step._link
-    assert link is not None
-    drops = 0
-
-    def drop(data: bytes) -> None:  # Redis wrote; its answers never arrive
-        nonlocal drops
-        drops += 1
-        link.transport.abort()
-
-    monkeypatch.setattr(link, "data_received", drop)
-    done = await asyncio.gather(*(store.update_plan(p, _count()) for p in plans))
-    assert drops == 1
-    assert [u.answer for u in done if u is not None] == [2, 1, 1, 1, 1, 1]
-    assert store._step._link is not link  # a new connection
-    for i, plan_id in enumerate(plans):
-        n = 2 if i == 0 else 1
-        assert await store.get_plan(plan_id) == {"n": n}
-        assert await store.get_trajectory(plan_id) == [(k, 0) for k in range(n + 1)]
+    """The connection drops with a pipeline's answers unread: redis-py sends it once more on a
+    new connection, each call finds its own write (every write's version is its own), and no
+    plan moves twice or not at all."""
+    store = RedisStore(relay.url, ttl_seconds=60)
+    try:
+        plans = [f"p{i}" for i in range(6)]
+        for plan_id in plans:
+            await store.put_plan(plan_id, {"n": 0}, append=[(0, 0)])
+        await store.update_plan(plans[0], _count())  # connected, the script loaded
+        relay.lose()
+        done = await asyncio.gather(*(store.update_plan(p, _count()) for p in plans))
+        assert relay.lost == 1
+        assert [u.answer for u in done if u is not None] == [2, 1, 1, 1, 1, 1]
+        for i, plan_id in enumerate(plans):
+            n = 2 if i == 0 else 1
+            assert await store.get_plan(plan_id) == {"n": n}
+            assert await store.get_trajectory(plan_id) == [(k, 0) for k in range(n + 1)]
+    finally:
+        await store.close()
 
 
 @pytest.mark.anyio
 async def test_steps_fail_as_unavailable_when_redis_cannot_be_reached_then_recover(
-    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+    relay: Relay,
 ) -> None:
-    plans = [f"p{i}" for i in range(6)]
-    for plan_id in plans:
-        await store.put_plan(plan_id, {"n": 0})
-    store._step.close()
-    refused = 0
-
-    async def refuse(self: Any) -> Any:
-        nonlocal refused
-        refused += 1
-        raise redis.exceptions.ConnectionError("refused")
-
-    monkeypatch.setattr(type(store._step), "_connect", refuse)
-    results = await asyncio.gather(
-        *(store.update_plan(p, _count()) for p in plans), return_exceptions=True
-    )
-    assert all(isinstance(r, StoreUnavailable) for r in results), results
-    assert refused == 2 * len(plans)  # each tried twice
-    assert not store._step._corked  # nothing left waiting
-    monkeypatch.undo()
-    update = await store.update_plan("p1", _count())
-    assert update is not None
-    assert update.answer == 1
+    store = RedisStore(relay.url, ttl_seconds=60)
+    try:
+        plans = [f"p{i}" for i in range(6)]
+        for plan_id in plans:
+            await store.put_plan(plan_id, {"n": 0})
+        relay.mode = "down"
+        relay.cut()
+        results = await asyncio.gather(
+            *(store.update_plan(p, _count()) for p in plans), return_exceptions=True
+        )
+        assert all(isinstance(r, StoreUnavailable) for r in results), results
+        relay.mode = "relay"
+        update = await store.update_plan("p1", _count())
+        assert update is not None
+        assert update.answer == 1
+        assert await store.get_trajectory("p1") == [(1, 0)]
+    finally:
+        await store.close()
 
 
 @pytest.mark.anyio
@@ -326,20 +372,24 @@ async def test_a_script_redis_lost_is_loaded_again(store: RedisStore) -> None:
 
 @pytest.mark.anyio
 async def test_a_silent_redis_times_out_as_unavailable(
-    store: RedisStore, monkeypatch: pytest.MonkeyPatch
+    relay: Relay, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """An answer that never comes fails the step within the socket timeout (tried twice), and
     the connection is not reused."""
     monkeypatch.setattr(redis_store, "SOCKET_TIMEOUT", 0.2)
-    await store.put_plan("p", {"n": 0})
-    await store.update_plan("p", _count())
-    monkeypatch.setattr(redis_store._Link, "data_received", lambda self, data: None)
-    began = time.monotonic()
-    with pytest.raises(StoreUnavailable):
+    store = RedisStore(relay.url, ttl_seconds=60)
+    try:
+        await store.put_plan("p", {"n": 0})
         await store.update_plan("p", _count())
-    assert time.monotonic() - began < 2.0
-    monkeypatch.undo()
-    assert (await store.update_plan("p", _count())) is not None
+        relay.mode = "mute"
+        began = time.monotonic()
+        with pytest.raises(StoreUnavailable):
+            await store.update_plan("p", _count())
+        assert time.monotonic() - began < 2.0
+        relay.mode = "relay"
+        assert (await store.update_plan("p", _count())) is not None
+    finally:
+        await store.close()
 
 
 @pytest.mark.anyio
@@ -363,35 +413,57 @@ async def test_a_step_cancelled_while_waiting_cancels_none_of_the_others(
         assert isinstance(update, Update)
         assert update.answer == 1
         assert await store.get_plan(plan_id) == {"n": 1}
-    assert not store._step._corked
-    link = store._step._link
-    assert link is not None
-    assert not link.waiting
+    assert await store.get_plan("p2") == {"n": 0}  # dropped before it went out
+    update = await store.update_plan("p2", _count())
+    assert update is not None
+    assert update.answer == 1
 
 
 @pytest.mark.anyio
-async def test_a_write_sent_again_finds_itself_and_moves_once(store: RedisStore) -> None:
-    """The client resends a call whose answer was lost (one retry): the script finds the very
+async def test_steps_waiting_when_the_store_closes_fail_as_unavailable(store: RedisStore) -> None:
+    for plan_id in ("p", "q"):
+        await store.put_plan(plan_id, {"n": 0})
+    steps = [asyncio.ensure_future(store.update_plan(p, _count())) for p in ("p", "q")]
+    await asyncio.sleep(0)  # each waits for its write, which has not gone out
+    await store.close()
+    done = await asyncio.wait_for(asyncio.gather(*steps, return_exceptions=True), 5)
+    assert all(isinstance(r, StoreUnavailable) for r in done), done
+
+
+@pytest.mark.anyio
+async def test_a_write_sent_again_finds_itself_and_moves_once(relay: Relay) -> None:
+    """redis-py resends a call whose answer was lost (one retry): the script finds the very
     value it would write (every write's version is its own), answers written, and the step
     does not decide and move again."""
-    await store.put_plan("p", {"n": 0}, append=[(0, 0)])
-    await store._redis.script_load(redis_store._STEP)  # no NOSCRIPT resend to count
-    send = store._step._send
-    calls = 0
+    store = RedisStore(relay.url, ttl_seconds=60)
+    decided: list[int] = []
+    try:
+        await store.put_plan("p", {"n": 0}, append=[(0, 0)])
+        await store._redis.script_load(redis_store._STEP)  # no NOSCRIPT resend to count
+        relay.lose()
+        update = await store.update_plan("p", _count(log=decided))
+        assert update is not None
+        assert update.answer == 1
+        assert (relay.lost, decided) == (1, [0])
+        assert await store.get_plan("p") == {"n": 1}
+        assert await store.get_trajectory("p") == [(0, 0), (1, 0)]
+    finally:
+        await store.close()
 
-    async def answer_lost_once(command: bytes) -> Any:
-        nonlocal calls
-        calls += 1
-        first = await send(command)
-        return await send(command) if calls == 1 else first  # sent twice
 
-    store._step._send = answer_lost_once  # type: ignore[method-assign]
-    update = await store.update_plan("p", _count())
-    assert update is not None
-    assert update.answer == 1
-    assert calls == 1
-    assert await store.get_plan("p") == {"n": 1}
-    assert await store.get_trajectory("p") == [(0, 0), (1, 0)]
+@pytest.mark.anyio
+async def test_redis_py_options_in_the_url_are_honoured(redis_server: RedisServer) -> None:
+    """The store is plain redis-py: RESP3, a client name and health checks come from the URL."""
+    url = f"{redis_server.url}?protocol=3&client_name=planner-test&health_check_interval=30"
+    store = RedisStore(url, ttl_seconds=60)
+    try:
+        await store.put_plan("p", {"n": 0})
+        assert await store.update_plan("p", _count()) is not None
+        assert await store.get_plan("p") == {"n": 1}
+        info = await store._redis.client_info()
+        assert (info["name"], str(info["resp"])) == ("planner-test", "3")
+    finally:
+        await store.close()
 
 
 @pytest.mark.anyio
