@@ -4,7 +4,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 """
 
 from schemas.errors import ErrorPublic
-from schemas.maps import MULTIPART_FIELDS, MapCreate, MapEncoding, MapPublic
+from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.plans import (
     EXAMPLE_MAP,
@@ -18,8 +18,6 @@ from schemas.plans import (
     Obstacle,
     PlanCreate,
     PlanDetail,
-    PlanEnds,
-    PlanOptions,
     PlanPublic,
     Point,
     Preset,
@@ -45,13 +43,10 @@ __all__ = [
     "HealthPublic",
     "LivePublic",
     "MapCreate",
-    "MapEncoding",
     "MapPublic",
     "Obstacle",
     "PlanCreate",
     "PlanDetail",
-    "PlanEnds",
-    "PlanOptions",
     "PlanPublic",
     "Point",
     "PoolStats",
