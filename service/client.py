@@ -9,8 +9,9 @@
 
 :class:`PlannerClient` and :class:`AsyncPlannerClient` have the same methods. Results are the
 API's response models from :mod:`schemas` themselves (``Plan`` is ``schemas.PlanPublic``, ...),
-decoded by one function, so they have every field the service answers; :class:`MapInfo` adds
-``created``. Every error answer raises an :class:`APIError`:
+decoded by one function: they have every field of this version's answers (a newer server's extra
+fields are left out); :class:`MapInfo` adds ``created``. Every error answer raises an
+:class:`APIError`:
 
 APIError                 .status_code, .code, .detail, .field, .response
 ├── BadRequestError      400
@@ -178,12 +179,12 @@ def _raise_for(response: httpx.Response) -> None:
     raise error
 
 
-# The fields a call sends besides its positional arguments (None: not sent, the server's default).
-# A test checks them against the request models of ``schemas``.
+# The fields a call sends besides its positional arguments (None: not sent, the server's default);
+# a test checks them against the request models of ``schemas``.
 
 
 class PlanFields(TypedDict, total=False):
-    """``plan``'s options, as ``schemas.PlanOptions``: the preset, overrides, the robot."""
+    """``plan``'s options, ``schemas.plans.PlanOptions``: the preset, overrides, the robot."""
 
     preset: str | None
     params: Mapping[str, Any] | None
@@ -283,11 +284,8 @@ def _upload_map(fields: UploadMapFields) -> _Call[MapInfo]:
     kinds = ("grid", "rows", "occupancy_grid", "yaml")
     given = [name for name in kinds if fields.get(name) is not None]
     if len(given) != 1:
-        msg = (
-            "upload_map takes exactly one of grid, rows, occupancy_grid and yaml; "
-            f"got {given or 'none'}"
-        )
-        raise TypeError(msg)
+        got = given or "none"
+        raise TypeError(f"upload_map takes exactly one of grid, rows, occupancy_grid, yaml: {got}")
     yaml = fields.get("yaml")
     if yaml is None:
         return _Call("POST", "/maps", _created, {"json": _body(fields)})
