@@ -11,16 +11,13 @@ from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     EXAMPLE_PLAN,
-    PARAMS_DESCRIPTION,
     STRICT,
     CellOrPoint,
+    PlanOptions,
     PlanPublic,
-    Preset,
-    RobotRadius,
-    UnknownPolicy,
 )
 
-__all__ = ["MULTIPART_FIELDS", "MapCreate", "MapPublic"]
+__all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]
 
 EXAMPLE_OCCUPANCY_GRID: dict[str, Any] = {
     "info": {
@@ -58,26 +55,11 @@ MULTIPART_FIELDS: dict[str, Any] = {
 ``image``, and the JSON body's other fields as form fields (each value JSON, or a bare word)."""
 
 
-class MapCreate(BaseModel):
-    """A map (exactly one of ``grid``, ``rows``, ``occupancy_grid``, or the multipart parts
-    ``yaml`` and ``image``), with an optional ``start`` and ``goal`` that also create a plan."""
+class MapEncoding(BaseModel):
+    """A map: exactly one of ``grid``, ``rows``, ``occupancy_grid``, or the multipart parts
+    ``yaml`` and ``image``."""
 
-    model_config = ConfigDict(
-        **STRICT,
-        json_schema_extra={
-            "examples": [
-                EXAMPLE_MAP,
-                {"grid": [[1 if ch == "@" else 0 for ch in row] for row in EXAMPLE_MAP["rows"]]},
-                {"grid": [[0, 0, -1], [0, 1, 0]], "resolution": 0.05, "origin": [-1.0, 2.0, 0.0]},
-                {
-                    "occupancy_grid": EXAMPLE_OCCUPANCY_GRID,
-                    "start": {"x": -0.75, "y": 0.75},
-                    "goal": {"x": 0.25, "y": 0.25},
-                    "robot_radius": 0.2,
-                },
-            ]
-        },
-    )
+    model_config = STRICT
 
     grid: list[list[int]] | None = Field(
         default=None, description="Rows of cells: 0 free, 1 blocked, -1 unknown; row 0 on top."
@@ -105,13 +87,6 @@ class MapCreate(BaseModel):
     """multipart/form-data only: the ``yaml`` part."""
     image: SkipJsonSchema[bytes | None] = None
     """multipart/form-data only: the ``image`` part."""
-    start: CellOrPoint | None = None
-    goal: CellOrPoint | None = None
-    preset: Preset = "wide"
-    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
-    allow_narrow: bool | None = None
-    robot_radius: RobotRadius = None
-    unknown: UnknownPolicy = None
 
     @field_validator("yaml", "image", mode="before")
     @classmethod
@@ -121,7 +96,7 @@ class MapCreate(BaseModel):
         return value
 
     @model_validator(mode="after")
-    def _one_encoding_and_both_ends(self) -> MapCreate:
+    def _one_encoding(self) -> MapEncoding:
         kinds = ("grid", "rows", "occupancy_grid", "yaml")
         given = [k for k in kinds if getattr(self, k) is not None]
         if self.image is not None and self.yaml is None:
@@ -140,6 +115,35 @@ class MapCreate(BaseModel):
             raise ValueError(
                 f"{' and '.join(framed)} go with 'grid' or 'rows'; a {given[0]} map has its own"
             )
+        return self
+
+
+# pydantic lists the bases' fields from the right: the map, the plan's options, then the ends.
+class MapCreate(PlanOptions, MapEncoding):
+    """A map (exactly one of ``grid``, ``rows``, ``occupancy_grid``, or the multipart parts
+    ``yaml`` and ``image``), with an optional ``start`` and ``goal`` that also create a plan."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "examples": [
+                EXAMPLE_MAP,
+                {"grid": [[1 if ch == "@" else 0 for ch in row] for row in EXAMPLE_MAP["rows"]]},
+                {"grid": [[0, 0, -1], [0, 1, 0]], "resolution": 0.05, "origin": [-1.0, 2.0, 0.0]},
+                {
+                    "occupancy_grid": EXAMPLE_OCCUPANCY_GRID,
+                    "start": {"x": -0.75, "y": 0.75},
+                    "goal": {"x": 0.25, "y": 0.25},
+                    "robot_radius": 0.2,
+                },
+            ]
+        },
+    )
+
+    start: CellOrPoint | None = None
+    goal: CellOrPoint | None = None
+
+    @model_validator(mode="after")
+    def _both_ends(self) -> MapCreate:
         if (self.start is None) != (self.goal is None):
             missing = "goal" if self.goal is None else "start"
             raise ValueError(f"'start' and 'goal' go together; {missing!r} is missing")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
@@ -21,6 +21,8 @@ __all__ = [
     "Obstacle",
     "PlanCreate",
     "PlanDetail",
+    "PlanEnds",
+    "PlanOptions",
     "PlanPublic",
     "Point",
     "Preset",
@@ -119,7 +121,8 @@ UnknownPolicy = Annotated[
 ]
 
 Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
-PRESET_NAMES: tuple[str, ...] = ("wide", "wfs-mmas", "mmas", "shortest")
+PRESET_NAMES: tuple[str, ...] = get_args(Preset)
+"""The planner's presets, in its order (schemas never import the planner: a test compares)."""
 
 Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
 
@@ -208,11 +211,37 @@ EXAMPLE_METRICS: dict[str, Any] = {
 }
 
 
-class PlanCreate(BaseModel):
+class PlanEnds(BaseModel):
+    """Where a plan goes: a request's required ``start`` and ``goal``."""
+
+    model_config = STRICT
+
+    start: CellOrPoint
+    goal: CellOrPoint
+
+
+class PlanOptions(BaseModel):
+    """How to plan: the preset, single parameters over it, and the robot; every request that
+    plans takes these (a plan, a map uploaded with one, a simulation)."""
+
+    model_config = STRICT
+
+    preset: Preset = "wide"
+    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
+    allow_narrow: bool | None = Field(
+        default=None,
+        description="Plan through tight tunnels when sealing them cuts the start off the goal "
+        "(the planner parameter `allow_narrow`; default true).",
+    )
+    robot_radius: RobotRadius = None
+    unknown: UnknownPolicy = None
+
+
+# pydantic lists the bases' fields from the right: the ends, then the options, then the own.
+class PlanCreate(PlanOptions, PlanEnds):
     """Ask for a plan from ``start`` to ``goal`` on a map already uploaded."""
 
     model_config = ConfigDict(
-        **STRICT,
         json_schema_extra={
             "examples": [
                 {
@@ -228,17 +257,6 @@ class PlanCreate(BaseModel):
     )
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
-    start: CellOrPoint
-    goal: CellOrPoint
-    preset: Preset = "wide"
-    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
-    allow_narrow: bool | None = Field(
-        default=None,
-        description="Plan through tight tunnels when sealing them cuts the start off the goal "
-        "(the planner parameter `allow_narrow`; default true).",
-    )
-    robot_radius: RobotRadius = None
-    unknown: UnknownPolicy = None
 
 
 class AnalysisPublic(BaseModel):
@@ -313,6 +331,12 @@ class TrajectoryMetrics(BaseModel):
     length_m: float = Field(ge=0, description="The trajectory's length in meters.")
     min_clearance_m: float = Field(ge=0)
     mean_clearance_m: float = Field(ge=0)
+
+    def __getitem__(self, name: str) -> Any:
+        """``metrics["moves"]`` reads as ``metrics.moves``: the figures by name, as in the JSON."""
+        if name not in type(self).model_fields:
+            raise KeyError(name)
+        return getattr(self, name)
 
 
 class PlanDetail(PlanPublic):

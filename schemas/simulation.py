@@ -6,18 +6,11 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import (
-    PARAMS_DESCRIPTION,
-    STRICT,
-    Cell,
-    CellOrPoint,
-    Preset,
-    RobotRadius,
-    Status,
-    UnknownPolicy,
-)
+from schemas.plans import Cell, PlanEnds, PlanOptions, Status, TrajectoryMetrics
 
-__all__ = ["SimulationCreate", "SimulationMetrics", "SimulationPublic"]
+__all__ = ["ObstacleMotion", "SimulationCreate", "SimulationMetrics", "SimulationPublic"]
+
+ObstacleMotion = Literal["turns", "simultaneous"]
 
 EXAMPLE_METRICS: dict[str, Any] = {
     "reached": True,
@@ -44,11 +37,10 @@ EXAMPLE_METRICS: dict[str, Any] = {
 }
 
 
-class SimulationCreate(BaseModel):
+class SimulationCreate(PlanOptions, PlanEnds):
     """One seeded episode among ``dynamic_count`` randomly moving obstacles."""
 
     model_config = ConfigDict(
-        **STRICT,
         json_schema_extra={
             "examples": [
                 {"start": [0, 0], "goal": [4, 5], "preset": "wfs-mmas", "dynamic_count": 2,
@@ -57,16 +49,9 @@ class SimulationCreate(BaseModel):
         }
     )  # fmt: skip
 
-    start: CellOrPoint
-    goal: CellOrPoint
-    preset: Preset = "wide"
-    params: dict[str, Any] = Field(default_factory=dict, description=PARAMS_DESCRIPTION)
-    allow_narrow: bool | None = None
-    robot_radius: RobotRadius = None
-    unknown: UnknownPolicy = None
     dynamic_count: int = Field(default=10, ge=0, description="How many obstacles move about.")
     seed: int = Field(default=0, ge=0, le=2**63 - 1)
-    obstacle_motion: Literal["turns", "simultaneous"] = Field(
+    obstacle_motion: ObstacleMotion = Field(
         default="turns",
         description="`turns`: the obstacles move, then the robot sees them and moves (the "
         "paper's simulation); `simultaneous`: the robot decides from where the obstacles are at "
@@ -83,28 +68,17 @@ class SimulationCreate(BaseModel):
     )
 
 
-class SimulationMetrics(BaseModel):
-    """The paper's per-episode figures and a robotics user's."""
+class SimulationMetrics(TrajectoryMetrics):
+    """The paper's per-episode figures and a robotics user's: the trajectory's, and the
+    episode's own."""
 
     model_config = ConfigDict(json_schema_extra={"examples": [EXAMPLE_METRICS]})
 
     reached: bool
     status: Status
-    iterations: int = Field(ge=0)
-    moves: int = Field(ge=0)
-    waits: int = Field(ge=0)
-    replans: int = Field(ge=0)
-    path_length: float = Field(ge=0)
-    arc_cost: float = Field(ge=0)
     gates: int = Field(ge=0)
     tunnels: int = Field(ge=0)
     narrow_fallback: bool
-    min_clearance: float = Field(ge=0)
-    mean_clearance: float = Field(ge=0)
-    contact_ratio: float = Field(ge=0, le=1)
-    length_m: float = Field(ge=0, description="The trajectory's length in meters.")
-    min_clearance_m: float = Field(ge=0)
-    mean_clearance_m: float = Field(ge=0)
     collisions: int = Field(
         ge=0,
         description="Ticks ending on an obstacle's cell or swapping cells with one: 0 for "
@@ -127,6 +101,4 @@ class SimulationPublic(BaseModel):
 
     trajectory: list[Cell]
     metrics: SimulationMetrics
-    obstacle_motion: Literal["turns", "simultaneous"] = Field(
-        default="turns", description="How the obstacles moved."
-    )
+    obstacle_motion: ObstacleMotion = Field(default="turns", description="How the obstacles moved.")

@@ -5,16 +5,21 @@ from __future__ import annotations
 
 import email.parser
 import email.policy
+import inspect
 import json
 import subprocess
 import sys
 from email.message import EmailMessage
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args, get_type_hints
 
 import httpx
 import pytest
+from fastapi import FastAPI
+from pydantic import BaseModel
 
+import schemas
+import schemas.plans
 from service.client import (
     APIError,
     AsyncPlannerClient,
@@ -22,8 +27,12 @@ from service.client import (
     MapInfo,
     NotFoundError,
     NoValidPathError,
+    PlanFields,
     PlannerClient,
+    SimulateFields,
+    StepFields,
     UnavailableError,
+    UploadMapFields,
     ValidationError,
 )
 from tests.service.conftest import ROOT, random_map
@@ -186,7 +195,8 @@ def test_a_ros_map_yaml_is_posted_with_its_image(tmp_path: Path) -> None:
     )
     (maps / "office.yaml").write_text(yaml_text)
     seen: list[httpx.Request] = []
-    answer = {"map_id": "ab" * 32, "height": 2, "width": 3, "free_cells": 4}
+    answer = {"map_id": "ab" * 32, "height": 2, "width": 3, "free_cells": 4, "occupied_cells": 1,
+              "unknown_cells": 1, "resolution": 0.05, "origin": [-1.0, -2.0, 0.0]}  # fmt: skip
 
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(request)
@@ -302,7 +312,7 @@ def test_every_field_of_a_map_and_a_simulation_is_sent(live_url: str) -> None:
         episode = planner.simulate(
             info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1, **EVERY_OPTION
         )
-        assert episode.raw["obstacle_motion"] == "simultaneous"
+        assert episode.obstacle_motion == "simultaneous"
         assert 1 <= episode.metrics["iterations"] <= 50
         # Each is sent: a value the server refuses shows it.
         with pytest.raises(ValidationError, match="START_OCCUPIED"):
@@ -317,7 +327,7 @@ def test_every_field_of_a_map_and_a_simulation_is_sent(live_url: str) -> None:
 
     def handler(request: httpx.Request) -> httpx.Response:
         seen.append(json.loads(request.content))
-        return httpx.Response(200, json={"trajectory": [[0, 0]], "metrics": {}})
+        return httpx.Response(200, json=_example(schemas.SimulationPublic))
 
     with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as planner:
         planner.simulate("m", [0, 0], [1, 1], dynamic_count=2, seed=3, **EVERY_OPTION)
@@ -339,8 +349,105 @@ async def test_the_async_client_sends_every_field_too(live_url: str) -> None:
         episode = await planner.simulate(
             info.map_id, [0, 0], [19, 19], dynamic_count=3, seed=1, **EVERY_OPTION
         )
-        assert episode.raw["obstacle_motion"] == "simultaneous"
+        assert episode.obstacle_motion == "simultaneous"
         with pytest.raises(ValidationError, match="START_OCCUPIED"):
             await planner.simulate(
                 info.map_id, [0, 0], [19, 19], dynamic_count=1, seed=1, robot_radius=1
             )
+
+
+def _example(model: type[BaseModel]) -> Any:
+    return model.model_json_schema()["examples"][0]
+
+
+# Each method of the client and the route it calls.
+ROUTES = {
+    "upload_map": ("post", "/maps"),
+    "get_map": ("get", "/maps/{map_id}"),
+    "plan": ("post", "/plan"),
+    "get_plan": ("get", "/plan/{plan_id}"),
+    "step": ("post", "/plan/{plan_id}/step"),
+    "simulate": ("post", "/maps/{map_id}/simulate"),
+}
+
+
+def _models(annotation: Any) -> list[type[BaseModel]]:
+    """The models in a field's annotation (``PlanPublic | None``, ``list[...]``)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in get_args(annotation) for m in _models(arg)]
+
+
+def _missing(schema: type[BaseModel], result: type[BaseModel], where: str) -> list[str]:
+    """The fields of ``schema``, nested ones too, that ``result`` lacks."""
+    missing = []
+    for name, field in schema.model_fields.items():
+        if name not in result.model_fields:
+            missing.append(f"{where}.{name}")
+            continue
+        ours = _models(result.model_fields[name].annotation)
+        for nested in _models(field.annotation):
+            if not ours:
+                missing.append(f"{where}.{name}: {nested.__name__}")
+            for model in ours:
+                missing += _missing(nested, model, f"{where}.{name}")
+    return missing
+
+
+@pytest.mark.parametrize("kind", [PlannerClient, AsyncPlannerClient])
+def test_the_results_have_every_field_of_the_response_models(kind: type, app: FastAPI) -> None:
+    """Each method's result type has every field of its route's response model (the one
+    /openapi.json documents), nested models too: adding a field to a schema cannot leave the
+    client behind."""
+    spec = app.openapi()
+    for name, (method, path) in ROUTES.items():
+        answers = spec["paths"][path][method]["responses"]
+        refs = {
+            answer["content"]["application/json"]["schema"]["$ref"]
+            for status, answer in answers.items()
+            if status.startswith("2")
+        }
+        assert refs, f"{method} {path} documents no answer"
+        result = get_type_hints(getattr(kind, name))["return"]
+        for ref in refs:
+            schema = getattr(schemas, ref.rsplit("/", 1)[-1])
+            assert issubclass(result, schema), (name, result, schema)
+            assert _missing(schema, result, name) == []
+
+
+def test_the_field_check_sees_a_missing_field() -> None:
+    class Short(BaseModel):
+        gates: int
+
+    class Holder(BaseModel):
+        analysis: Short | None
+
+    assert _missing(schemas.AnalysisPublic, Short, "a") == [
+        "a.tunnels", "a.narrow_fallback", "a.cache_hit", "a.analysis_ms"
+    ]  # fmt: skip
+    assert "p.analysis.tunnels" in _missing(schemas.PlanPublic, Holder, "p")
+
+
+def test_the_client_sends_every_field_of_the_request_models() -> None:
+    """What each method can send is what its request model takes, no less and no more."""
+    plan_fields = set(get_type_hints(PlanFields))
+    assert plan_fields == set(schemas.plans.PlanOptions.model_fields)
+    upload = set(get_type_hints(UploadMapFields))
+    assert upload == set(schemas.MapCreate.model_fields) - {"image"}  # the YAML's image is read
+    simulate = set(get_type_hints(SimulateFields)) | {"start", "goal"}
+    assert simulate == set(schemas.SimulationCreate.model_fields)
+    step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
+    assert step == set(schemas.StepCreate.model_fields)
+    plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}
+    assert plan | plan_fields == set(schemas.PlanCreate.model_fields)
+
+
+def test_both_clients_have_the_same_methods() -> None:
+    public = {n for n in vars(PlannerClient) if not n.startswith("_")} - {"close"}
+    answers = {n: get_type_hints(getattr(PlannerClient, n))["return"] for n in public}
+    models = {n for n, kind in answers.items() if _models(kind)}
+    assert models == set(ROUTES), "every method answering a model is checked against its route"
+    assert public == {n for n in vars(AsyncPlannerClient) if not n.startswith("_")} - {"aclose"}
+    for name in public:
+        ours = inspect.signature(getattr(PlannerClient, name))
+        assert ours == inspect.signature(getattr(AsyncPlannerClient, name)), name
