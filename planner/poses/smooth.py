@@ -33,6 +33,7 @@ _CERTIFY = 0.05  # cells of slack below which a piece is checked exactly
 _D_REL = 2e-7  # float32 distances: a relative margin for their rounding
 _TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
 _SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
+_SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
 
 # --------------------------------------------------------------------------------------------
@@ -172,6 +173,44 @@ def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any
     return keep[:k], -1
 
 
+_OUTSIDE, _JUMP, _BLOCKED = 1, 2, 3  # what is wrong with a path, as _vertices says
+
+
+@njit(cache=True, nogil=True)
+def _vertices(
+    cells: Any, D: Any, sx: float, sy: float, gx: float, gy: float
+) -> tuple[Any, Any, float, int, int]:
+    """The polyline to shortcut: the start point, the cells' centers once each, the goal point
+    (each end dropped where it is its cell's center), with each vertex's index in
+    start, cells, goal; the path's least distance; and what is wrong with it, at which cell."""
+    H, W = D.shape
+    n = cells.shape[0]
+    V = np.empty((n + 2, 2))
+    index = np.empty(n + 2, dtype=np.int64)
+    least = np.inf
+    k = 0
+    for i in range(n):
+        r, c = cells[i, 0], cells[i, 1]
+        if r < 0 or r >= H or c < 0 or c >= W:
+            return V[:0], index[:0], least, _OUTSIDE, i
+        if i > 0 and max(abs(r - cells[i - 1, 0]), abs(c - cells[i - 1, 1])) > 1:
+            return V[:0], index[:0], least, _JUMP, i - 1
+        if D[r, c] <= 0.0:
+            return V[:0], index[:0], least, _BLOCKED, i
+        least = min(least, float(D[r, c]))
+        X, Y = float(c), -float(r)
+        if i == 0 and (sx != X or sy != Y):
+            V[0, 0], V[0, 1], index[0] = sx, sy, 0
+            k = 1
+        if k == 0 or i == 0 or V[k - 1, 0] != X or V[k - 1, 1] != Y:
+            V[k, 0], V[k, 1], index[k] = X, Y, i + 1
+            k += 1
+    if gx != V[k - 1, 0] or gy != V[k - 1, 1]:
+        V[k, 0], V[k, 1], index[k] = gx, gy, n + 1
+        k += 1
+    return V[:k], index[:k], least, 0, -1
+
+
 @njit(cache=True, nogil=True)
 def _arc_steps(theta: float, rho: float) -> int:
     """Chords of an arc turning ``theta`` on radius ``rho``: each turns at most _TURN_STEP and
@@ -280,7 +319,8 @@ def _smooth(
         t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
         # The corner is a cell center: every point within this of it is clear.
         corner = D[int(round(-P[i, 1])), int(round(P[i, 0]))] * (1.0 - _D_REL)
-        lo = min(max(corner - root - 1e-9, 0.0), t_max)
+        safe = min(max(corner - root - 1e-9, 0.0), t_max)
+        lo = safe
         if lo < t_max:
             if _arc_clear(
                 D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root
@@ -295,6 +335,15 @@ def _smooth(
                         lo = mid
                     else:
                         hi = mid
+                # A line left between arcs is either none or long enough to have a direction.
+                short = t_max - _SHORT
+                if lo > short and (
+                    short <= safe
+                    or _arc_clear(
+                        D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, short), T, root
+                    )
+                ):
+                    lo = short
         tang[i] = lo
     # Count, then write the poses: the start's turn in place, lines and arcs, the goal's.
     first_yaw = math.atan2(U[0, 1], U[0, 0]) + oyaw if nseg > 0 else start_yaw
@@ -465,20 +514,7 @@ step 0 goes from [0, 0] to [0, 2]
     if cells.dtype.kind not in "iu":
         if cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells)):
             raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
-    cells = cells.astype(np.int64)
-    outside = (cells[:, 0] < 0) | (cells[:, 0] >= H) | (cells[:, 1] < 0) | (cells[:, 1] >= W)
-    if outside.any():
-        i = int(np.argmax(outside))
-        msg = f"path cell {cells[i].tolist()} (index {i}) is outside the {H} x {W} map"
-        raise InvalidInput(msg, field="path")
-    steps = np.abs(np.diff(cells, axis=0)).max(axis=1) if len(cells) > 1 else np.zeros(0)
-    if (steps > 1).any():
-        i = int(np.argmax(steps > 1))
-        msg = (
-            "path steps must each go to one of the 8 neighbouring cells; step "
-            f"{i} goes from {cells[i].tolist()} to {cells[i + 1].tolist()}"
-        )
-        raise InvalidInput(msg, field="path")
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
     res = _number(resolution, "resolution", "a number of meters > 0")
     if res <= 0:
         msg = f"resolution must be > 0 meters; got {quote(resolution)}"
@@ -505,23 +541,25 @@ step 0 goes from [0, 0] to [0, 2]
             raise InvalidInput(msg, field=name)
         return u - 0.5, v - H + 0.5  # X = col, Y = -row
 
-    centers = np.stack([cells[:, 1], -cells[:, 0]], axis=1).astype(np.float64)
-    s = centers[0] if start is None else np.array(to_cells(start, "start"))
-    g = centers[-1] if goal is None else np.array(to_cells(goal, "goal"))
-    V = np.concatenate([s[None], centers, g[None]])
-    fresh = np.ones(len(V), dtype=bool)
-    fresh[2:-1] = (np.diff(V[1:-1], axis=0) != 0).any(axis=1)  # the cells, once each
-    fresh[0] = bool((V[0] != V[1]).any())  # the start and goal points unless their centers
-    fresh[-1] = bool((V[-1] != V[-2]).any())
-    index = np.flatnonzero(fresh)  # V's vertices kept: 0 the start, 1..n the cells, n + 1 the goal
-    V = np.ascontiguousarray(V[index])
-
-    along = D[cells[:, 0], cells[:, 1]]
-    if (along <= 0).any():
-        i = int(np.argmax(along <= 0))
+    first, last = (
+        (float(cells[0, 1]), float(-cells[0, 0])),
+        (float(cells[-1, 1]), float(-cells[-1, 0])),
+    )
+    s = first if start is None else to_cells(start, "start")
+    g = last if goal is None else to_cells(goal, "goal")
+    V, index, least, wrong, i = _vertices(cells, D, s[0], s[1], g[0], g[1])
+    if wrong == _OUTSIDE:
+        msg = f"path cell {cells[i].tolist()} (index {i}) is outside the {H} x {W} map"
+        raise InvalidInput(msg, field="path")
+    if wrong == _JUMP:
+        msg = (
+            "path steps must each go to one of the 8 neighbouring cells; step "
+            f"{i} goes from {cells[i].tolist()} to {cells[i + 1].tolist()}"
+        )
+        raise InvalidInput(msg, field="path")
+    if wrong == _BLOCKED:
         msg = f"path cell {cells[i].tolist()} (index {i}) is blocked: its distance is 0"
         raise InvalidInput(msg, field="path")
-    least = float(along.min())
     bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
     R = radius / res
     T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)

@@ -33,7 +33,7 @@ def smooth_and_check(plan: planner.Plan, **ends: object) -> naive_poses.Check:
     }
     poses = smooth_path(plan.path, plan.analysis.clearance, **kwargs)  # type: ignore[arg-type]
     check = naive_poses.check_poses(poses, plan.path, plan.analysis.clearance, **kwargs)  # type: ignore[arg-type]
-    assert check.problems == [], check.problems
+    assert check.problems == [], (check.problems, plan.path.tolist(), kwargs, poses.tolist())
     return check
 
 
