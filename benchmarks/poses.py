@@ -115,8 +115,16 @@ def run_map(path: Path, pairs: int, seed: int) -> dict[str, Any]:
             "goal_yaw": goal_yaw,
         }
 
-        def smooth(point_ends: bool, plan: planner.Plan = plan) -> Any:
-            where = {"start": (ends[0]["x"], ends[0]["y"]), "goal": (ends[1]["x"], ends[1]["y"])}
+        def smooth(
+            point_ends: bool,
+            plan: planner.Plan = plan,
+            ends: list[dict[str, float]] = ends,
+            kwargs: dict[str, Any] = kwargs,
+        ) -> Any:
+            where: dict[str, Any] = {
+                "start": (ends[0]["x"], ends[0]["y"]),
+                "goal": (ends[1]["x"], ends[1]["y"]),
+            }
             return smooth_path(
                 plan.path, analysis.clearance, **kwargs, **(where if point_ends else {})
             )
@@ -160,8 +168,8 @@ def run_map(path: Path, pairs: int, seed: int) -> dict[str, Any]:
         if check.problems:
             print(f"  {path.stem}: {check.problems}", file=sys.stderr)
     turning = [r["turning"] for r in rows if not math.isnan(r["turning"])]
-    smooth_ms = [r["smooth_ms"] for r in rows]
-    plan_ms = [r["plan_ms"] for r in rows]
+    smooth_times = [r["smooth_ms"] for r in rows]
+    plan_times = [r["plan_ms"] for r in rows]
     return {
         "map": path.stem,
         "size": f"{robot_map.shape[1]} x {robot_map.shape[0]}",
@@ -176,11 +184,11 @@ def run_map(path: Path, pairs: int, seed: int) -> dict[str, Any]:
         "shortcut": max(r["shortcut"] for r in rows),
         "turning": statistics.median(turning) if turning else math.nan,
         "clearance": min(r["clearance"] for r in rows),
-        "plan_ms": statistics.median(plan_ms),
-        "smooth_ms": statistics.median(smooth_ms),
-        "smooth_p99": percentile(smooth_ms, 99),
+        "plan_ms": statistics.median(plan_times),
+        "smooth_ms": statistics.median(smooth_times),
+        "smooth_p99": percentile(smooth_times, 99),
         "share": statistics.median(r["share"] for r in rows),
-        "share_total": sum(smooth_ms) / sum(plan_ms),
+        "share_total": sum(smooth_times) / sum(plan_times),
     }
 
 

@@ -6,6 +6,7 @@ Points here are in cells: ``X = col``, ``Y = -row`` (cell centers at whole numbe
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -180,7 +181,7 @@ def check_poses(
     # Headings: the tangent, at most 15 degrees a step, turns in place only at the ends.
     yaw = P[:, 2]
     moving = steps > 1e-9 * res
-    turns = np.array([wrap(b - a) for a, b in zip(yaw[:-1], yaw[1:], strict=True)])
+    turns = np.array([wrap(b - a) for a, b in itertools.pairwise(yaw)])
     if len(turns) and np.abs(turns).max() > MAX_TURN + 1e-9:
         bad(f"heading turns {math.degrees(np.abs(turns).max()):.4f} degrees in one step")
     out.turning = float(np.abs(turns[moving]).sum()) if len(turns) else 0.0
@@ -227,13 +228,12 @@ def check_poses(
     out.shortcut_length_m = polyline_length(V[keep]) * res
     if out.length_m > 1.02 * out.shortcut_length_m + res + 1e-9:
         bad(
-            f"length {out.length_m:.6g} m is over 1.02 x the shortcut's {out.shortcut_length_m:.6g} m + res"
+            f"length {out.length_m:.6g} m is over 1.02 x the shortcut's "
+            f"{out.shortcut_length_m:.6g} m + res"
         )
     moves = np.diff(cells, axis=0)
     headings = [math.atan2(-dr, dc) for dr, dc in moves.tolist() if dr or dc]
-    out.grid_turning = float(
-        sum(abs(wrap(b - a)) for a, b in zip(headings[:-1], headings[1:], strict=True))
-    )
+    out.grid_turning = float(sum(abs(wrap(b - a)) for a, b in itertools.pairwise(headings)))
     return out
 
 

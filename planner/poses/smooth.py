@@ -47,8 +47,8 @@ def _lower_bound(D: Any, X: float, Y: float) -> float:
     of the four surrounding centers' exact distance less the way to them."""
     H, W = D.shape
     row = -Y
-    r0 = int(math.floor(row))
-    c0 = int(math.floor(X))
+    r0 = math.floor(row)
+    c0 = math.floor(X)
     best = -np.inf
     for r in range(r0, r0 + 2):
         rr = min(max(r, 0), H - 1)
@@ -85,31 +85,28 @@ def _piece_clear(
     reach2 = reach * reach
     inner2 = inner * inner if inner > 0.0 else 0.0
     prow = -ay
-    for r in range(int(math.ceil(prow - reach)), int(math.floor(prow + reach)) + 1):
+    for r in range(math.ceil(prow - reach), math.floor(prow + reach) + 1):
         dr = r - prow
         rem = reach2 - dr * dr
         if rem < 0.0:
             continue
         wo = math.sqrt(rem)
-        lo = int(math.ceil(ax - wo))
-        hi = int(math.floor(ax + wo))
+        lo = math.ceil(ax - wo)
+        hi = math.floor(ax + wo)
         inrem = inner2 - dr * dr
         # Columns strictly within the inner disc hold no blocked center: skip them.
         skip_lo, skip_hi = hi + 1, hi
         if inrem > 0.0:
             wi = math.sqrt(inrem)
-            skip_lo = int(math.floor(ax - wi)) + 1
-            skip_hi = int(math.ceil(ax + wi)) - 1
+            skip_lo = math.floor(ax - wi) + 1
+            skip_hi = math.ceil(ax + wi) - 1
         inside_row = 0 <= r < H
         c = lo
         while c <= hi:
             if skip_lo <= c <= skip_hi:
                 c = skip_hi + 1
                 continue
-            if inside_row and 0 <= c < W:
-                is_blocked = D[r, c] == 0.0
-            else:
-                is_blocked = outside
+            is_blocked = D[r, c] == 0.0 if inside_row and 0 <= c < W else outside
             if is_blocked and _d2_segment(float(c), -float(r), ax, ay, dx, dy) < T:
                 return False
             c += 1
@@ -218,7 +215,7 @@ def _arc_steps(theta: float, rho: float) -> int:
     step = _TURN_STEP
     if 2.0 * rho > _STEP:
         step = min(step, 2.0 * math.asin(_STEP / (2.0 * rho)))
-    return max(1, int(math.ceil(abs(theta) / step)))
+    return max(1, math.ceil(abs(theta) / step))
 
 
 @njit(cache=True, nogil=True)
@@ -270,7 +267,7 @@ def _wrap(a: float) -> float:
 def _fan_steps(a: float, b: float) -> int:
     """Poses after the first of a turn in place from heading a to heading b."""
     d = abs(_wrap(b - a))
-    return int(math.ceil(d / _TURN_STEP)) if d > 1e-12 else 0
+    return math.ceil(d / _TURN_STEP) if d > 1e-12 else 0
 
 
 @njit(cache=True, nogil=True)
@@ -318,7 +315,7 @@ def _smooth(
         turn[i] = theta
         t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
         # The corner is a cell center: every point within this of it is clear.
-        corner = D[int(round(-P[i, 1])), int(round(P[i, 0]))] * (1.0 - _D_REL)
+        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
         safe = min(max(corner - root - 1e-9, 0.0), t_max)
         lo = safe
         if lo < t_max:
@@ -356,7 +353,7 @@ def _smooth(
     for i in range(nseg):
         line = L[i] - tang[i] - tang[i + 1]
         if line > 1e-9:
-            count += int(math.ceil(line / _STEP))
+            count += math.ceil(line / _STEP)
         if i + 1 < k - 1 and tang[i + 1] > 0.0:
             rho = tang[i + 1] / math.tan(abs(turn[i + 1]) / 2.0)
             count += _arc_steps(turn[i + 1], rho)
@@ -375,7 +372,7 @@ def _smooth(
         line = L[i] - tang[i] - tang[i + 1]
         yaw = math.atan2(U[i, 1], U[i, 0]) + oyaw
         if line > 1e-9:
-            m = int(math.ceil(line / _STEP))
+            m = math.ceil(line / _STEP)
             for q in range(m):
                 out[n, 0] = ax + U[i, 0] * line * q / m
                 out[n, 1] = ay + U[i, 1] * line * q / m
@@ -511,9 +508,10 @@ step 0 goes from [0, 0] to [0, 2]
     if cells.ndim != 2 or cells.shape[1:] != (2,) or len(cells) == 0:
         msg = f"path must be an (n, 2) array of [row, col] cells, n >= 1; got shape {cells.shape!r}"
         raise InvalidInput(msg, field="path")
-    if cells.dtype.kind not in "iu":
-        if cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells)):
-            raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
+    if cells.dtype.kind not in "iu" and (
+        cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells))
+    ):
+        raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
     cells = np.ascontiguousarray(cells, dtype=np.int64)
     res = _number(resolution, "resolution", "a number of meters > 0")
     if res <= 0:

@@ -96,19 +96,27 @@ def test_poses_meet_every_rule_on_random_maps(
     start = point_in(robot_map.frame, s.tolist(), *start_off)
     goal = point_in(robot_map.frame, g.tolist(), *goal_off)
     ends = {"start": start, "goal": goal, "start_yaw": start_yaw, "goal_yaw": goal_yaw}
-    try:
+    T = naive_poses.threshold(plan.min_clearance, radius / 0.1)
+    blocked_way = [
+        not naive_poses.segment_clear_to_start(
+            plan.analysis.clearance,
+            point,
+            robot_map.frame.centers([cell])[0],
+            resolution=0.1,
+            origin=origin,
+            threshold2=T,
+            outside_blocked=unknown == "blocked",
+        )
+        for point, cell in ((start, s), (goal, g))
+    ]
+    if not any(blocked_way):
         smooth_and_check(plan, **ends)
-    except InvalidInput as error:
-        # Only when the robot cannot go straight from its point to its cell's center.
-        assert error.field in ("start", "goal")
-        T = naive_poses.threshold(plan.min_clearance, radius / 0.1)
-        point, cell = (start, s) if error.field == "start" else (goal, g)
-        center = robot_map.frame.centers([cell])[0]
-        assert not naive_poses.segment_clear_to_start(
-            plan.analysis.clearance, point, center, resolution=0.1, origin=origin,
-            threshold2=T, outside_blocked=unknown == "blocked",
-        )  # fmt: skip
-        assert error.code == f"{error.field.upper()}_OCCUPIED"
+        return
+    # Only when the robot cannot go straight from its point to its cell's center.
+    name = "start" if blocked_way[0] else "goal"
+    with pytest.raises(InvalidInput, match=f"{name.upper()}_OCCUPIED") as info:
+        smooth_and_check(plan, **ends)
+    assert info.value.field == name
 
 
 @given(seed=st.integers(0, 2**32 - 1), preset=st.sampled_from(list(planner.PRESETS)))
