@@ -157,12 +157,20 @@ def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any
     k = 1
     a = 0
     while a < n - 1:
+        ax, ay = V[a, 0], V[a, 1]
         j = a + 1
-        if not _segment_clear(D, outside, V[a, 0], V[a, 1], V[j, 0], V[j, 1], T, root):
+        if not _segment_clear(D, outside, ax, ay, V[j, 0], V[j, 1], T, root):
             return keep[:k], a
-        while j + 1 < n and _segment_clear(
-            D, outside, V[a, 0], V[a, 1], V[j + 1, 0], V[j + 1, 1], T, root
-        ):
+        while j + 1 < n:
+            ux, uy = V[j, 0] - ax, V[j, 1] - ay
+            vx, vy = V[j + 1, 0] - V[j, 0], V[j + 1, 1] - V[j, 1]
+            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
+                # Straight on: the segment seen so far and one more step.
+                ok = _segment_clear(D, outside, V[j, 0], V[j, 1], V[j + 1, 0], V[j + 1, 1], T, root)
+            else:
+                ok = _segment_clear(D, outside, ax, ay, V[j + 1, 0], V[j + 1, 1], T, root)
+            if not ok:
+                break
             j += 1
         keep[k] = j
         k += 1
