@@ -3,8 +3,9 @@ corners rounded by arcs checked against the blocked cells, resampled at most one
 pose with its heading.
 
 Clearance is the distance from a point to the nearest blocked cell's center. Every point of the
-poses' polyline (not only the poses) keeps more than the robot's radius and at least the grid
-path's least clearance minus one cell. A segment is checked by sphere tracing over the exact
+poses' polyline (not only the poses) keeps more than the robot's radius, at least the grid path's
+least clearance minus one cell, and more than half a cell's diagonal (so that, with a radius under
+a cell, the line never cuts a blocked cell's corner nor crosses a gate). A segment is checked by sphere tracing over the exact
 distance transform (a cell center's distance, less the way to it, bounds every nearby point's
 from below), and, where that bound is too loose, exactly against the blocked cells near it.
 """
@@ -479,7 +480,8 @@ def smooth_path(
 
     The poses go from ``start`` to ``goal`` at most one ``resolution`` apart. Every point of
     their polyline is more than ``robot_radius`` from every blocked cell's center, and at least
-    the path's least clearance less one ``resolution``. Each yaw is the direction of travel
+    the path's least clearance less one ``resolution`` (and more than half a cell's diagonal: it
+    cuts no blocked cell's corner). Each yaw is the direction of travel
     (the last: ``goal_yaw`` when given), turning at most 15 degrees from one pose to the next;
     poses at one point that differ only in yaw (a turn in place) come only first, from
     ``start_yaw`` to the first heading, and last, to ``goal_yaw``. The polyline is the greedy
