@@ -5,9 +5,10 @@ pose with its heading.
 Clearance is the distance from a point to the nearest blocked cell's center. Every point of the
 poses' polyline (not only the poses) keeps more than the robot's radius, at least the grid path's
 least clearance minus one cell, and more than half a cell's diagonal (so that, with a radius under
-a cell, the line never cuts a blocked cell's corner nor crosses a gate). A segment is checked by sphere tracing over the exact
-distance transform (a cell center's distance, less the way to it, bounds every nearby point's
-from below), and, where that bound is too loose, exactly against the blocked cells near it.
+a cell, the line never cuts a blocked cell's corner nor crosses a gate). A segment is checked
+by sphere tracing over the exact distance transform (a cell center's distance, less the way to
+it, bounds every nearby point's from below), and, where that bound is too loose, exactly against
+the blocked cells near it.
 """
 
 from __future__ import annotations
