@@ -1,0 +1,607 @@
+"""Smooth poses from a grid path: a line-of-sight shortcut that keeps the path's clearance, its
+corners rounded by arcs checked against the blocked cells, resampled at most one cell apart, each
+pose with its heading.
+
+Clearance is the distance from a point to the nearest blocked cell's center. Every point of the
+poses' polyline (not only the poses) keeps more than the robot's radius, at least the grid path's
+least clearance minus one cell, and more than half a cell's diagonal (so that, with a radius under
+a cell, the line never cuts a blocked cell's corner nor crosses a gate). A segment is checked
+by sphere tracing over the exact distance transform (a cell center's distance, less the way to
+it, bounds every nearby point's from below), and, where that bound is too loose, exactly against
+the blocked cells near it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from planner._errors import InvalidInput, quote
+
+__all__ = ["MAX_TURN", "smooth_path"]
+
+MAX_TURN = math.radians(15.0)
+"""The most a pose's heading turns from the previous pose's."""
+
+_TURN_STEP = math.radians(14.9)  # below MAX_TURN: rounding never pushes a step over it
+_STEP = 0.9999  # cells between consecutive poses at most
+_PIECE = 0.5  # cells of a segment checked exactly at once where the lower bound is too loose
+_CERTIFY = 0.05  # cells of slack below which a piece is checked exactly
+_D_REL = 2e-7  # float32 distances: a relative margin for their rounding
+_TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
+_SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
+_SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
+_BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
+
+# --------------------------------------------------------------------------------------------
+# Kernels. Points are (X, Y) in cells, X = col, Y = -row: a right-handed frame on the map's
+# axes, whose cell centers are whole numbers.
+
+
+@njit(cache=True, nogil=True)
+def _lower_bound(D: Any, X: float, Y: float) -> float:
+    """A lower bound of the distance from (X, Y) to the nearest blocked cell's center: the best
+    of the four surrounding centers' exact distance less the way to them."""
+    H, W = D.shape
+    row = -Y
+    r0 = math.floor(row)
+    c0 = math.floor(X)
+    best = -np.inf
+    for r in range(r0, r0 + 2):
+        rr = min(max(r, 0), H - 1)
+        for c in range(c0, c0 + 2):
+            cc = min(max(c, 0), W - 1)
+            v = D[rr, cc] * (1.0 - _D_REL) - math.hypot(X - cc, row - rr)
+            best = max(best, v)
+    return best
+
+
+@njit(cache=True, nogil=True)
+def _d2_segment(px: float, py: float, ax: float, ay: float, dx: float, dy: float) -> float:
+    """Squared distance from (px, py) to the segment from (ax, ay) along (dx, dy)."""
+    L2 = dx * dx + dy * dy
+    t = 0.0
+    if L2 > 0.0:
+        t = min(max(((px - ax) * dx + (py - ay) * dy) / L2, 0.0), 1.0)
+    ex = ax + t * dx - px
+    ey = ay + t * dy - py
+    return ex * ex + ey * ey
+
+
+@njit(cache=True, nogil=True)
+def _piece_clear(
+    D: Any, outside: bool, ax: float, ay: float, bx: float, by: float, T: float, inner: float
+) -> bool:
+    """Whether every point of the short segment a-b is at least sqrt(T) from every blocked
+    center, exactly. No blocked center is nearer to a than ``inner``: only the ring between
+    ``inner`` and sqrt(T) + |ab| around a is looked at."""
+    H, W = D.shape
+    dx = bx - ax
+    dy = by - ay
+    reach = math.sqrt(T) + math.sqrt(dx * dx + dy * dy) + 1e-9
+    reach2 = reach * reach
+    inner2 = inner * inner if inner > 0.0 else 0.0
+    prow = -ay
+    for r in range(math.ceil(prow - reach), math.floor(prow + reach) + 1):
+        dr = r - prow
+        rem = reach2 - dr * dr
+        if rem < 0.0:
+            continue
+        wo = math.sqrt(rem)
+        lo = math.ceil(ax - wo)
+        hi = math.floor(ax + wo)
+        inrem = inner2 - dr * dr
+        # Columns strictly within the inner disc hold no blocked center: skip them.
+        skip_lo, skip_hi = hi + 1, hi
+        if inrem > 0.0:
+            wi = math.sqrt(inrem)
+            skip_lo = math.floor(ax - wi) + 1
+            skip_hi = math.ceil(ax + wi) - 1
+        inside_row = 0 <= r < H
+        c = lo
+        while c <= hi:
+            if skip_lo <= c <= skip_hi:
+                c = skip_hi + 1
+                continue
+            is_blocked = D[r, c] == 0.0 if inside_row and 0 <= c < W else outside
+            if is_blocked and _d2_segment(float(c), -float(r), ax, ay, dx, dy) < T:
+                return False
+            c += 1
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _segment_clear(
+    D: Any, outside: bool, ax: float, ay: float, bx: float, by: float, T: float, root: float
+) -> bool:
+    """Whether every point of segment a-b is at least sqrt(T) = ``root`` from every blocked
+    center: sphere tracing over the lower bound, exact pieces where it is too loose."""
+    dx = bx - ax
+    dy = by - ay
+    L = math.hypot(dx, dy)
+    ux = dx / L if L > 0.0 else 0.0
+    uy = dy / L if L > 0.0 else 0.0
+    s = 0.0
+    while True:
+        px = ax + ux * s
+        py = ay + uy * s
+        lb = _lower_bound(D, px, py)
+        slack = lb - root - 1e-9
+        if slack > _CERTIFY:
+            # Every point within `slack` of p is clear.
+            s += slack
+            if s >= L:
+                return True
+        else:
+            s1 = min(s + _PIECE, L)
+            qx = bx if s1 >= L else ax + ux * s1
+            qy = by if s1 >= L else ay + uy * s1
+            if not _piece_clear(D, outside, px, py, qx, qy, T, lb):
+                return False
+            if s1 >= L:
+                return True
+            s = s1
+
+
+@njit(cache=True, nogil=True)
+def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any, int]:
+    """The greedy line-of-sight shortcut of the polyline V: from each kept vertex, the next
+    kept one is the last before the first vertex it cannot see clear. Returns the kept indices,
+    and -1, or the index of a vertex whose step to the next is not clear itself."""
+    n = V.shape[0]
+    keep = np.empty(n, dtype=np.int64)
+    keep[0] = 0
+    k = 1
+    a = 0
+    while a < n - 1:
+        ax, ay = V[a, 0], V[a, 1]
+        j = a + 1
+        if not _segment_clear(D, outside, ax, ay, V[j, 0], V[j, 1], T, root):
+            return keep[:k], a
+        while j + 1 < n:
+            ux, uy = V[j, 0] - ax, V[j, 1] - ay
+            vx, vy = V[j + 1, 0] - V[j, 0], V[j + 1, 1] - V[j, 1]
+            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
+                # Straight on: the segment seen so far and one more step.
+                ok = _segment_clear(D, outside, V[j, 0], V[j, 1], V[j + 1, 0], V[j + 1, 1], T, root)
+            else:
+                ok = _segment_clear(D, outside, ax, ay, V[j + 1, 0], V[j + 1, 1], T, root)
+            if not ok:
+                break
+            j += 1
+        keep[k] = j
+        k += 1
+        a = j
+    return keep[:k], -1
+
+
+_OUTSIDE, _JUMP, _BLOCKED = 1, 2, 3  # what is wrong with a path, as _vertices says
+
+
+@njit(cache=True, nogil=True)
+def _vertices(
+    cells: Any, D: Any, sx: float, sy: float, gx: float, gy: float
+) -> tuple[Any, Any, float, int, int]:
+    """The polyline to shortcut: the start point, the cells' centers once each, the goal point
+    (each end dropped where it is its cell's center), with each vertex's index in
+    start, cells, goal; the path's least distance; and what is wrong with it, at which cell."""
+    H, W = D.shape
+    n = cells.shape[0]
+    V = np.empty((n + 2, 2))
+    index = np.empty(n + 2, dtype=np.int64)
+    least = np.inf
+    k = 0
+    for i in range(n):
+        r, c = cells[i, 0], cells[i, 1]
+        if r < 0 or r >= H or c < 0 or c >= W:
+            return V[:0], index[:0], least, _OUTSIDE, i
+        if i > 0 and max(abs(r - cells[i - 1, 0]), abs(c - cells[i - 1, 1])) > 1:
+            return V[:0], index[:0], least, _JUMP, i - 1
+        if D[r, c] <= 0.0:
+            return V[:0], index[:0], least, _BLOCKED, i
+        least = min(least, float(D[r, c]))
+        X, Y = float(c), -float(r)
+        if i == 0 and (sx != X or sy != Y):
+            V[0, 0], V[0, 1], index[0] = sx, sy, 0
+            k = 1
+        if k == 0 or i == 0 or V[k - 1, 0] != X or V[k - 1, 1] != Y:
+            V[k, 0], V[k, 1], index[k] = X, Y, i + 1
+            k += 1
+    if gx != V[k - 1, 0] or gy != V[k - 1, 1]:
+        V[k, 0], V[k, 1], index[k] = gx, gy, n + 1
+        k += 1
+    return V[:k], index[:k], least, 0, -1
+
+
+@njit(cache=True, nogil=True)
+def _arc_steps(theta: float, rho: float) -> int:
+    """Chords of an arc turning ``theta`` on radius ``rho``: each turns at most _TURN_STEP and
+    is at most _STEP long."""
+    step = _TURN_STEP
+    if 2.0 * rho > _STEP:
+        step = min(step, 2.0 * math.asin(_STEP / (2.0 * rho)))
+    return max(1, math.ceil(abs(theta) / step))
+
+
+@njit(cache=True, nogil=True)
+def _arc(
+    cx: float, cy: float, ix: float, iy: float, ox: float, oy: float, theta: float, t: float
+) -> Any:
+    """The fillet of the corner (cx, cy) entered along unit (ix, iy) and left along (ox, oy),
+    turning ``theta`` (counter-clockwise positive), tangent ``t`` from the corner: its points
+    from the tangent point in to the tangent point out, and its center and radius."""
+    rho = t / math.tan(abs(theta) / 2.0)
+    m = _arc_steps(theta, rho)
+    t1x = cx - ix * t
+    t1y = cy - iy * t
+    side = 1.0 if theta > 0.0 else -1.0
+    Ox = t1x - iy * rho * side
+    Oy = t1y + ix * rho * side
+    phi0 = math.atan2(t1y - Oy, t1x - Ox)
+    pts = np.empty((m + 1, 3))
+    for q in range(m + 1):
+        phi = phi0 + theta * q / m
+        pts[q, 0] = Ox + rho * math.cos(phi)
+        pts[q, 1] = Oy + rho * math.sin(phi)
+        pts[q, 2] = phi + side * math.pi / 2.0
+    pts[0, 0], pts[0, 1] = t1x, t1y
+    pts[m, 0], pts[m, 1] = cx + ox * t, cy + oy * t
+    pts[0, 2] = math.atan2(iy, ix)
+    pts[m, 2] = math.atan2(oy, ox)
+    return pts
+
+
+@njit(cache=True, nogil=True)
+def _arc_clear(D: Any, outside: bool, pts: Any, T: float, root: float) -> bool:
+    for q in range(pts.shape[0] - 1):
+        if not _segment_clear(
+            D, outside, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1], T, root
+        ):
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _wrap(a: float) -> float:
+    """An angle in (-pi, pi]."""
+    a = math.atan2(math.sin(a), math.cos(a))
+    return math.pi if a == -math.pi else a
+
+
+@njit(cache=True, nogil=True)
+def _fan_steps(a: float, b: float) -> int:
+    """Poses after the first of a turn in place from heading a to heading b."""
+    d = abs(_wrap(b - a))
+    return math.ceil(d / _TURN_STEP) if d > 1e-12 else 0
+
+
+@njit(cache=True, nogil=True)
+def _smooth(
+    D: Any,
+    outside: bool,
+    V: Any,
+    T: float,
+    root: float,
+    res: float,
+    ox: float,
+    oy: float,
+    oyaw: float,
+    start_yaw: float,
+    has_start_yaw: bool,
+    goal_yaw: float,
+    has_goal_yaw: bool,
+) -> tuple[Any, int]:
+    """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), and
+    -1, or the index of a step of V that is not clear (then no poses)."""
+    H = D.shape[0]
+    keep, bad = _shortcut(D, outside, V, T, root)
+    if bad >= 0:
+        return np.empty((0, 3)), bad
+    P = V[keep]
+    k = P.shape[0]
+    nseg = max(k - 1, 0)
+    L = np.empty(nseg)
+    U = np.empty((nseg, 2))
+    for i in range(nseg):
+        dx = P[i + 1, 0] - P[i, 0]
+        dy = P[i + 1, 1] - P[i, 1]
+        L[i] = math.hypot(dx, dy)
+        U[i, 0] = dx / L[i]
+        U[i, 1] = dy / L[i]
+    # Round each corner: the longest tangent its segments allow whose arc is clear.
+    tang = np.zeros(k)
+    turn = np.zeros(k)
+    for i in range(1, k - 1):
+        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
+        theta = math.atan2(ix * uy - iy * ux, ix * ux + iy * uy)
+        if abs(theta) < 1e-9:
+            continue
+        theta = max(min(theta, math.pi - 1e-6), -math.pi + 1e-6)
+        turn[i] = theta
+        t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
+        # The corner is a cell center: every point within this of it is clear.
+        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
+        safe = min(max(corner - root - 1e-9, 0.0), t_max)
+        lo = safe
+        if lo < t_max:
+            if _arc_clear(
+                D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root
+            ):
+                lo = t_max
+            else:
+                hi = t_max
+                for _ in range(_BISECT):
+                    mid = 0.5 * (lo + hi)
+                    pts = _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, mid)
+                    if _arc_clear(D, outside, pts, T, root):
+                        lo = mid
+                    else:
+                        hi = mid
+                # A line left between arcs is either none or long enough to have a direction.
+                short = t_max - _SHORT
+                if lo > short and (
+                    short <= safe
+                    or _arc_clear(
+                        D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, short), T, root
+                    )
+                ):
+                    lo = short
+        tang[i] = lo
+    # Count, then write the poses: the start's turn in place, lines and arcs, the goal's.
+    first_yaw = math.atan2(U[0, 1], U[0, 0]) + oyaw if nseg > 0 else start_yaw
+    if nseg == 0 and not has_start_yaw:
+        first_yaw = goal_yaw if has_goal_yaw else oyaw
+    last_yaw = math.atan2(U[nseg - 1, 1], U[nseg - 1, 0]) + oyaw if nseg > 0 else first_yaw
+    n_start = _fan_steps(start_yaw, first_yaw) if has_start_yaw else 0
+    n_goal = _fan_steps(last_yaw, goal_yaw) if has_goal_yaw else 0
+    count = n_start + 1 + n_goal
+    for i in range(nseg):
+        line = L[i] - tang[i] - tang[i + 1]
+        if line > 1e-9:
+            count += math.ceil(line / _STEP)
+        if i + 1 < k - 1 and tang[i + 1] > 0.0:
+            rho = tang[i + 1] / math.tan(abs(turn[i + 1]) / 2.0)
+            count += _arc_steps(turn[i + 1], rho)
+    out = np.empty((count, 3))
+    cos_o = math.cos(oyaw)
+    sin_o = math.sin(oyaw)
+    n = 0
+    if has_start_yaw:
+        d = _wrap(first_yaw - start_yaw)
+        for q in range(n_start):
+            out[n, 2] = start_yaw + d * q / n_start
+            n += 1
+    for i in range(nseg):
+        ax = P[i, 0] + U[i, 0] * tang[i]
+        ay = P[i, 1] + U[i, 1] * tang[i]
+        line = L[i] - tang[i] - tang[i + 1]
+        yaw = math.atan2(U[i, 1], U[i, 0]) + oyaw
+        if line > 1e-9:
+            m = math.ceil(line / _STEP)
+            for q in range(m):
+                out[n, 0] = ax + U[i, 0] * line * q / m
+                out[n, 1] = ay + U[i, 1] * line * q / m
+                out[n, 2] = yaw
+                n += 1
+        if i + 1 < k - 1 and tang[i + 1] > 0.0:
+            c = i + 1
+            pts = _arc(P[c, 0], P[c, 1], U[i, 0], U[i, 1], U[c, 0], U[c, 1], turn[c], tang[c])
+            for q in range(pts.shape[0] - 1):
+                out[n, 0] = pts[q, 0]
+                out[n, 1] = pts[q, 1]
+                out[n, 2] = pts[q, 2] + oyaw
+                n += 1
+    out[n, 0] = P[k - 1, 0]
+    out[n, 1] = P[k - 1, 1]
+    out[n, 2] = last_yaw
+    n += 1
+    if has_goal_yaw:
+        d = _wrap(goal_yaw - last_yaw)
+        for q in range(1, n_goal + 1):
+            out[n, 2] = last_yaw + d * q / n_goal
+            n += 1
+    # Cells to meters: the start's and goal's turns in place stand at their points.
+    for q in range(count):
+        if q < n_start:
+            X, Y = P[0, 0], P[0, 1]
+        elif q >= count - n_goal:
+            X, Y = P[k - 1, 0], P[k - 1, 1]
+        else:
+            X, Y = out[q, 0], out[q, 1]
+        u = (X + 0.5) * res
+        v = (H - 0.5 + Y) * res
+        out[q, 0] = ox + cos_o * u - sin_o * v
+        out[q, 1] = oy + sin_o * u + cos_o * v
+        out[q, 2] = _wrap(out[q, 2])
+    return out, -1
+
+
+# --------------------------------------------------------------------------------------------
+# The wrapper
+
+
+def _number(value: Any, field: str, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field)
+    out = float(value)
+    if not math.isfinite(out):
+        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field)
+    return out
+
+
+def _point(value: Any, field: str) -> tuple[float, float]:
+    if isinstance(value, Mapping):
+        if "x" not in value or "y" not in value:
+            raise InvalidInput(f"{field} must have 'x' and 'y'; got {quote(value)}", field=field)
+        pair: list[Any] = [value["x"], value["y"]]
+    elif isinstance(value, Sequence | np.ndarray) and not isinstance(value, str | bytes):
+        pair = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
+    else:
+        pair = []
+    if len(pair) != 2:
+        msg = f"{field} must be a point (x, y) in meters; got {quote(value)}"
+        raise InvalidInput(msg, field=field)
+    what = "a point (x, y) of finite numbers in meters"
+    try:
+        return _number(pair[0], field, what), _number(pair[1], field, what)
+    except InvalidInput:
+        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field) from None
+
+
+def smooth_path(
+    path: Any,
+    distance: Any,
+    *,
+    resolution: float = 1.0,
+    origin: Any = (0.0, 0.0, 0.0),
+    robot_radius: float = 0.0,
+    start: Any = None,
+    goal: Any = None,
+    start_yaw: float | None = None,
+    goal_yaw: float | None = None,
+    outside_blocked: bool = True,
+) -> npt.NDArray[np.float64]:
+    """Poses ``(m, 3)`` ``[x, y, yaw]`` in meters that a robot can drive along a grid ``path``.
+
+    ``path``: ``(n, 2)`` ``[row, col]`` cells, each step to one of the 8 neighbours (a plan's
+    ``path``). ``distance``: from each cell's center to the nearest blocked cell's center, in
+    cells, 0 on blocked cells (a plan's ``analysis.clearance``: the exact EDT of the map's
+    blocked cells); ``outside_blocked``: whether the map's outside counts as blocked, as it did
+    for that transform (a robot map's ``cspace.unknown == "blocked"``; True on plain grids).
+    ``resolution`` and ``origin`` ``(x, y, yaw)`` place the cells in meters as ROS does: cell
+    ``[row, col]``'s center is ``x = ox + (col + 0.5) res``, ``y = oy + (H - 1 - row + 0.5)
+    res``, rotated by ``yaw`` about ``(ox, oy)``. ``start`` and ``goal`` are points ``(x, y)``
+    or ``{"x", "y"}`` in meters (default: the first and last cells' centers), normally within
+    those cells; ``start_yaw`` and ``goal_yaw`` optional headings in radians.
+
+    The poses go from ``start`` to ``goal`` at most one ``resolution`` apart. Every point of
+    their polyline is more than ``robot_radius`` from every blocked cell's center, and at least
+    the path's least clearance less one ``resolution`` (and more than half a cell's diagonal: it
+    cuts no blocked cell's corner). Each yaw is the direction of travel
+    (the last: ``goal_yaw`` when given), turning at most 15 degrees from one pose to the next;
+    poses at one point that differ only in yaw (a turn in place) come only first, from
+    ``start_yaw`` to the first heading, and last, to ``goal_yaw``. The polyline is the greedy
+    line-of-sight shortcut of ``start``, the cells' centers and ``goal`` that keeps that
+    clearance, its corners rounded by the widest arcs that keep it too: never longer than the
+    path (with the start's and goal's offsets from their cells' centers), nor than the shortcut.
+
+    Raises :class:`~planner.InvalidInput` naming the argument at fault; ``START_OCCUPIED`` /
+    ``GOAL_OCCUPIED`` when the robot at the start (goal) point, or on its way to the first
+    (from the last) cell's center, would come within its radius of a blocked cell.
+
+    >>> import planner
+    >>> grid = [[0, 0, 0, 0, 0, 0],
+    ...         [0, 0, 0, 1, 1, 0],
+    ...         [0, 0, 0, 1, 1, 0],
+    ...         [0, 0, 0, 0, 0, 0]]
+    >>> p = planner.plan(grid, [3, 0], [0, 5], preset="shortest")
+    >>> poses = smooth_path(p.path, p.analysis.clearance, start=(0.3, 0.4))
+    >>> poses[0].round(3).tolist(), poses[-1].round(3).tolist()
+    ([0.3, 0.4, 0.77], [5.5, 3.5, 0.0])
+    >>> smooth_path([[0, 0], [0, 2]], p.analysis.clearance)
+    Traceback (most recent call last):
+    ...
+    planner._errors.InvalidInput: path steps must each go to one of the 8 neighbouring cells; \
+step 0 goes from [0, 0] to [0, 2]
+    """
+    D = np.asarray(distance)
+    if D.ndim != 2 or D.size == 0 or D.dtype.kind not in "fiu":
+        msg = f"distance must be a 2-D array of distances in cells; got shape {D.shape!r}"
+        raise InvalidInput(f"{msg}, dtype {D.dtype}", field="distance")
+    D = np.ascontiguousarray(D, dtype=np.float32)
+    H, W = D.shape
+    cells = np.asarray(path)
+    if cells.ndim != 2 or cells.shape[1:] != (2,) or len(cells) == 0:
+        msg = f"path must be an (n, 2) array of [row, col] cells, n >= 1; got shape {cells.shape!r}"
+        raise InvalidInput(msg, field="path")
+    if cells.dtype.kind not in "iu" and (
+        cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells))
+    ):
+        raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    res = _number(resolution, "resolution", "a number of meters > 0")
+    if res <= 0:
+        msg = f"resolution must be > 0 meters; got {quote(resolution)}"
+        raise InvalidInput(msg, field="resolution")
+    if isinstance(origin, str | bytes | Mapping) or len(origin) != 3:
+        raise InvalidInput(f"origin must be (x, y, yaw); got {quote(origin)}", field="origin")
+    ox, oy, oyaw = (_number(v, "origin", "(x, y, yaw) of finite numbers") for v in origin)
+    radius = _number(robot_radius, "robot_radius", "a number of meters >= 0")
+    if radius < 0:
+        msg = f"robot_radius must be >= 0 meters; got {quote(robot_radius)}"
+        raise InvalidInput(msg, field="robot_radius")
+    yaws = []
+    for name, yaw in (("start_yaw", start_yaw), ("goal_yaw", goal_yaw)):
+        yaws.append(None if yaw is None else _number(yaw, name, "a finite number of radians"))
+    cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
+
+    def to_cells(point: Any, name: str) -> tuple[float, float]:
+        x, y = _point(point, name)
+        u = (cos_o * (x - ox) + sin_o * (y - oy)) / res
+        v = (-sin_o * (x - ox) + cos_o * (y - oy)) / res
+        slack = 1e-9 * (H + W)
+        if not (-slack <= u <= W + slack and -slack <= v <= H + slack):
+            msg = f"{name} {quote(point)} is outside the {H} x {W} map of {res:g} m cells"
+            raise InvalidInput(msg, field=name)
+        return u - 0.5, v - H + 0.5  # X = col, Y = -row
+
+    first, last = (
+        (float(cells[0, 1]), float(-cells[0, 0])),
+        (float(cells[-1, 1]), float(-cells[-1, 0])),
+    )
+    s = first if start is None else to_cells(start, "start")
+    g = last if goal is None else to_cells(goal, "goal")
+    V, index, least, wrong, i = _vertices(cells, D, s[0], s[1], g[0], g[1])
+    if wrong == _OUTSIDE:
+        msg = f"path cell {cells[i].tolist()} (index {i}) is outside the {H} x {W} map"
+        raise InvalidInput(msg, field="path")
+    if wrong == _JUMP:
+        msg = (
+            "path steps must each go to one of the 8 neighbouring cells; step "
+            f"{i} goes from {cells[i].tolist()} to {cells[i + 1].tolist()}"
+        )
+        raise InvalidInput(msg, field="path")
+    if wrong == _BLOCKED:
+        msg = f"path cell {cells[i].tolist()} (index {i}) is blocked: its distance is 0"
+        raise InvalidInput(msg, field="path")
+    bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
+    R = radius / res
+    T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
+    poses, bad = _smooth(
+        D, bool(outside_blocked), V, T, math.sqrt(T), res, ox, oy, oyaw,
+        yaws[0] or 0.0, yaws[0] is not None, yaws[1] or 0.0, yaws[1] is not None,
+    )  # fmt: skip
+    if bad >= 0:
+        a, b = int(index[bad]), int(index[bad + 1])
+        need = (
+            f"more than robot_radius {radius:g} m and than half a cell's diagonal "
+            f"{math.sqrt(_SQUARE) * res:.6g} m, and at least {bound * res:.6g} m (the path's "
+            f"least clearance {least * res:.6g} m less one cell)"
+        )
+        if a == 0 or b == len(cells) + 1:
+            name = "start" if a == 0 else "goal"
+            point, cell = (start, cells[0]) if a == 0 else (goal, cells[-1])
+            msg = (
+                f"{name.upper()}_OCCUPIED: the robot at {name} {quote(point)}, on its way "
+                f"{'to' if a == 0 else 'from'} cell {cell.tolist()}'s center, would come too "
+                f"near a blocked cell: it needs {need}"
+            )
+            raise InvalidInput(msg, field=name, code=f"{name.upper()}_OCCUPIED")
+        msg = (
+            f"the path's step from {cells[a - 1].tolist()} to {cells[b - 1].tolist()} is not "
+            f"clear: every point needs {need}; is it a path of this map's traversable cells?"
+        )
+        raise InvalidInput(msg, field="path")
+    out: npt.NDArray[np.float64] = poses
+    # The start and goal points as given, to the bit, with the turns in place standing there.
+    for point, name, rows in ((start, "start", out), (goal, "goal", out[::-1])):
+        if point is not None:
+            there = (rows[:, 0] == rows[0, 0]) & (rows[:, 1] == rows[0, 1])
+            run = len(rows) if there.all() else int(np.argmin(there))
+            rows[:run, 0], rows[:run, 1] = _point(point, name)
+    return out
