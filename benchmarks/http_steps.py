@@ -7,7 +7,9 @@ the way to the goal a long serpentine, so no robot arrives during a run), then f
 creates fresh plans and runs ``wrk`` with ``benchmarks/http_steps.lua`` (10 random dynamic
 obstacles per step). The echo is run with the same bodies and connections just before each of
 the store's cases. Prints a markdown table: requests/s, ratio to the echo, p50/p99, non-2xx
-(and socket errors: a run with any is not a result), the server's CPU per request, and the CPU.
+(and socket errors: a run with any is not a result), the server process's CPU per request (user +
+system time from ``/proc/PID/stat`` before and after the run) and the requests a core serves at
+that cost, for both sides, and the CPU.
 
     .venv/bin/python benchmarks/http_steps.py [--seconds 5] [--repeats 1] [--no-redis|--only-redis]
 """
@@ -192,15 +194,16 @@ def cpu_model() -> str:
 def table(results: list[dict[str, Any]]) -> str:
     lines = [
         "| store | case | steps/s | echo/s | ratio | p50 ms | p99 ms | non-2xx | "
-        "CPU µs/step | CPU µs/echo |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "CPU µs/step | CPU µs/echo | steps/s a core | echoes/s a core |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in results:
         ours, bare = r["ours"], r["bare"]
         lines.append(
             f"| {r['store']} | {r['case']} | {ours['rps']:.0f} | {bare['rps']:.0f} | "
             f"{ours['rps'] / bare['rps']:.2f} | {ours['p50_ms']:.2f} | {ours['p99_ms']:.2f} | "
-            f"{ours['errors']:.0f} | {ours['cpu_us']:.0f} | {bare['cpu_us']:.0f} |"
+            f"{ours['errors']:.0f} | {ours['cpu_us']:.0f} | {bare['cpu_us']:.0f} | "
+            f"{1e6 / max(ours['cpu_us'], 1e-9):.0f} | {1e6 / max(bare['cpu_us'], 1e-9):.0f} |"
         )
     return "\n".join(lines)
 

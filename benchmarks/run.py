@@ -370,7 +370,8 @@ def http_section(out: Callable[..., None], seconds: int, repeats: int) -> list[d
     out("step, the echo with the same bodies and connections just before it; each side's best")
     out(f"of {repeats} such runs (requests/s). 'c=16, one plan'")
     out("steps one plan from 16 connections without `seq` (its steps are serialised by the plan's")
-    out("lock). CPU µs: the server process's user + system time over the run per request served.")
+    out("lock). CPU µs: the server process's user + system time over the run per request served;")
+    out("a core: the requests one core serves at that cost (10^6 / CPU µs).")
     out("non-2xx counts non-2xx answers and socket errors: a run with any is not a result.")
     out()
     if results:
@@ -533,7 +534,7 @@ def main() -> None:
         f"`benchmarks/run.py{' --quick' if quick else ''}`; the whole run took "
         f"{took / 60:.1f} min. Each comparison alternates its contenders in this one run.",
         "",
-        "## Issue 14's targets, from this run",
+        "## Issue 14's targets (the HTTP ones as issue 21 set them), from this run",
         "",
         "Each target as measured in this run, the ratio (or value) compared with its threshold and",
         "the absolute figures it comes from; the sections below give the details. An HTTP figure",

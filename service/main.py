@@ -8,16 +8,14 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
+from schemas import StepCreate
 from service import errors
 from service.api import routers
-from service.api.hot import HotApp, HotPath
 from service.config import Settings
-from service.edge.auth import ApiKeys
-from service.edge.middleware import BodyLimit
+from service.edge.middleware import Edge
 from service.ops import docs
 from service.ops.logs import LOG, REQUEST_LINES
 from service.ops.metrics import Metrics
-from service.ops.observe import Observe
 from service.stores import Store, open_store
 from service.viewer.events import open_bus
 from service.work.cache import ByteLRU
@@ -37,7 +35,7 @@ TAGS = [
     {"name": "simulation", "description": "The paper's experiment: a whole seeded episode."},
     {"name": "service", "description": "Health and cache statistics."},
 ]
-"""The order of the groups in ``/docs`` (routes are registered hot path first)."""
+"""The order of the groups in ``/docs``."""
 
 
 @asynccontextmanager
@@ -88,7 +86,7 @@ def store_name(store: Store) -> str:
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The service configured by ``settings`` (default: from the ``PLANNER_*`` environment)."""
     settings = settings if settings is not None else Settings()
-    app = HotApp(
+    app = FastAPI(
         title="Wide-free-space path planner",
         version="1.0.0",
         description=DESCRIPTION,
@@ -96,28 +94,28 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         openapi_tags=TAGS,
         docs_url=None,  # served by service.ops.docs, with no CDN
         redoc_url=None,
-        # FastAPI's native OpenTelemetry off: it asks the global providers on every request,
-        # and the service's own metrics (/metrics) and request lines already cover it.
+        # FastAPI's native OpenTelemetry off: the service's own metrics (/metrics) and request
+        # lines cover it.
         telemetry={"tracing": False, "metrics": False, "logs": False},
     )
     app.state.settings = settings
     app.state.metrics = Metrics()
     errors.install(app)
-    docs.install(app)
     app.add_middleware(
-        BodyLimit,
+        Edge,
+        metrics=app.state.metrics,
+        # To label the requests it refuses before routing by the route they asked for.
+        routes=[route for router in routers for route in router.routes],
+        keys=settings.keys,
         max_bytes=settings.max_body_bytes,
         max_step_bytes=settings.max_step_body_bytes,
         body_timeout=settings.body_timeout_seconds,
         request_timeout=settings.request_timeout_seconds,
     )
-    app.add_middleware(ApiKeys, keys=settings.keys)  # no key, nothing is read
-    # Times, counts and logs every answer, the 401s and 413s included.
-    app.add_middleware(Observe, metrics=app.state.metrics)
-    # Outermost: steps served straight from here, by the three above's own methods in turn.
-    app.add_middleware(HotPath, routers=routers, handlers=app.exception_handlers)
-    for router in routers:  # each directly: one level of route matching
+    for router in routers:  # each directly, steps first: one level of route matching
         app.include_router(router)
+    docs.install(app)
+    docs.document_models(app, StepCreate)  # the step reads its body itself
     return app
 
 

@@ -2,18 +2,18 @@
 
 A key comes as ``Authorization: Bearer <key>`` or ``X-API-Key: <key>``; it is compared with
 each configured key in constant time (:func:`hmac.compare_digest`), and the request then acts
-for that key's tenant (:mod:`service.edge.tenants`). A request without a known key is refused with
-401 before its body is read.
+for that key's tenant (:mod:`service.edge.tenants`). The edge middleware refuses a request without
+a known key with 401 before its body is read.
 """
 
 from __future__ import annotations
 
 import hmac
 
-from starlette.types import ASGIApp, Receive, Scope, Send
+from starlette.types import Scope
 
-from service.edge.tenants import TENANT, tenant_of
-from service.errors import Unauthorized, send_problem
+from service.edge.tenants import tenant_of
+from service.errors import Unauthorized
 
 __all__ = ["OPEN_PATHS", "ApiKeys"]
 
@@ -24,29 +24,10 @@ OPEN_PATHS = frozenset(
 
 
 class ApiKeys:
-    """ASGI middleware: the request's key, checked, becomes its tenant."""
+    """The configured keys (none: every request is let in, as the tenant ``""``)."""
 
-    def __init__(self, app: ASGIApp, *, keys: list[str]) -> None:
-        self.app = app
+    def __init__(self, keys: list[str]) -> None:
         self._keys = [(k.encode(), tenant_of(k)) for k in keys]
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        try:
-            tenant = self.admit(scope)
-        except Unauthorized as error:
-            await send_problem(scope, send, error)
-            return
-        if not tenant:
-            await self.app(scope, receive, send)
-            return
-        token = TENANT.set(tenant)
-        try:
-            await self.app(scope, receive, send)
-        finally:
-            TENANT.reset(token)
 
     def admit(self, scope: Scope) -> str:
         """The tenant the request acts for (``""`` without keys, and on an open path);

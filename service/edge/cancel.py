@@ -12,7 +12,7 @@ from contextvars import ContextVar
 __all__ = ["CANCEL", "cancelled"]
 
 CANCEL: ContextVar[threading.Event | None] = ContextVar("planner_cancel", default=None)
-"""Set by :class:`service.edge.middleware.BodyLimit` for each request."""
+"""Set by :class:`service.edge.middleware.Edge` for each heavy request."""
 
 
 def cancelled() -> threading.Event:

@@ -1,5 +1,5 @@
 """JSON log lines, one object per line on stdout: the request lines of
-:class:`service.ops.observe.Observe`, the start-up lines, and uvicorn's own messages.
+:class:`service.ops.observe.Recorder`, the start-up lines, and uvicorn's own messages.
 
 ``python -m service`` installs :func:`log_config` with :func:`configure` (uvicorn's plain-text
 access line is off: the service writes its own). Fields of a line beyond ``time``,
@@ -133,7 +133,7 @@ class RequestLines:
 
 
 REQUEST_LINES = RequestLines()
-"""The process's request lines (:class:`service.ops.observe.Observe` writes them)."""
+"""The process's request lines (:class:`service.ops.observe.Recorder` writes them)."""
 
 
 def configure(level: str = "info") -> dict[str, Any]:

@@ -1,5 +1,5 @@
-"""Pure ASGI middleware around every request: its ``X-Request-ID``, its metrics and its one
-JSON log line (``service.ops.logs``).
+"""What every request leaves behind: its ``X-Request-ID``, its metrics and its one JSON log line
+(``service.ops.logs``); the edge middleware (:mod:`service.edge.middleware`) calls these.
 
 The request id is the client's ``X-Request-ID`` when it is a plain token (letters, digits,
 ``._:-``, at most 128), else a new random one; the answer carries it back, whatever its status.
@@ -11,52 +11,32 @@ import logging
 import random
 import re
 import time
+from collections.abc import Sequence
 
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
+from starlette.routing import BaseRoute, Match
+from starlette.types import Scope
 
-from service.ops.logs import ACCESS, REQUEST_ID, REQUEST_LINES
+from service.ops.logs import ACCESS, REQUEST_LINES
 from service.ops.metrics import UNMATCHED, Metrics
 
-__all__ = ["HEADER", "Observe", "request_id_of", "route_of"]
+__all__ = ["HEADER", "Recorder", "request_id_of", "route_of"]
 
 HEADER = b"x-request-id"
 _TOKEN = re.compile(rb"[A-Za-z0-9._:\-]{1,128}")
 
 
-class Observe:
-    """Times the request, labels it by its route template, counts it, logs it."""
+class Recorder:
+    """Counts a request in ``metrics`` under its route template, and logs its line."""
 
-    def __init__(self, app: ASGIApp, *, metrics: Metrics) -> None:
-        self.app = app
+    def __init__(self, metrics: Metrics) -> None:
         self.metrics = metrics
 
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-        began = time.perf_counter()
-        request_id = request_id_of(scope)
-        status = 500  # unless an answer starts
-
-        async def send_with_id(message: Message) -> None:
-            nonlocal status
-            if message["type"] == "http.response.start":
-                status = message["status"]
-                message["headers"] = [*message.get("headers", ()), (HEADER, request_id)]
-            await send(message)
-
-        token = REQUEST_ID.set(request_id.decode())
-        try:
-            await self.app(scope, receive, send_with_id)
-        finally:
-            self.record(scope, status, began, request_id)
-            REQUEST_ID.reset(token)
-
-    def record(self, scope: Scope, status: int, began: float, request_id: bytes) -> None:
+    def record(
+        self, scope: Scope, route: str, status: int, began: float, request_id: bytes
+    ) -> None:
         """Count and log a request answered with ``status`` (500 when no answer started)
         that began at ``began`` (``time.perf_counter()``)."""
         seconds = time.perf_counter() - began
-        route = route_of(scope)
         self.metrics.observe(scope["method"], route, status, seconds)
         if ACCESS.isEnabledFor(logging.INFO):
             REQUEST_LINES.write(
@@ -70,10 +50,18 @@ class Observe:
             )
 
 
-def route_of(scope: Scope) -> str:
+def route_of(scope: Scope, routes: Sequence[BaseRoute] = ()) -> str:
     """The template of the route that served the request (``/plan/{plan_id}/step``), which the
-    router leaves in the scope, or :data:`UNMATCHED`."""
-    path = getattr(scope.get("route"), "path", None)
+    router leaves in the scope; for a request refused before routing, that of the route of
+    ``routes`` the router would give it (a full match first, as the router matches); else
+    :data:`UNMATCHED`."""
+    route = scope.get("route")
+    if route is None and routes:
+        matches = [(r.matches(scope)[0], r) for r in routes]
+        route = next((r for m, r in matches if m is Match.FULL), None) or next(
+            (r for m, r in matches if m is Match.PARTIAL), None
+        )
+    path = getattr(route, "path", None)
     return path if isinstance(path, str) and path else UNMATCHED
 
 

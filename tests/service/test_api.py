@@ -273,7 +273,7 @@ async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
 
 
 async def test_step_answers_validate_as_their_documented_model(client: httpx.AsyncClient) -> None:
-    """The step's answer is built without the response model (the hot path): it is still
+    """The step's answer is built without the response model: it is still
     exactly what StepPublic writes, and its schema is still documented."""
     r = await client.post("/maps", json={"rows": ROWS, "start": [4, 0], "goal": [0, 5]})
     url = f"/plan/{r.json()['plan']['plan_id']}/step"

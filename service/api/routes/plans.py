@@ -9,8 +9,7 @@ from fastapi import APIRouter, Query, Request, Response, status
 
 from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
 from service.api import present
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute
-from service.api.hot import HotRoute, JSONBytes
+from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute, json_body
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
@@ -20,14 +19,29 @@ __all__ = ["router"]
 
 router = APIRouter(tags=["plans"], route_class=OrjsonRoute)
 
+STEP_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {"application/json": {"schema": {"$ref": "#/components/schemas/StepCreate"}}},
+    }
+}
+"""The step's body in ``/docs``: the route reads it itself (:func:`json_body`)."""
 
-async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
+
+@router.post(
+    "/plan/{plan_id}/step",
+    response_model=StepPublic,
+    summary="Report the dynamic obstacles; get the move to make now",
+    responses=responses(404, 409, 413, 422),
+    openapi_extra=STEP_BODY,
+)
+async def step(plan_id: str, request: Request) -> Response:
     """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
     optionally where the robot really is, a cell or a point); the answer is the cell to move
     to (and its center `position_xy`), which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    # The hot path (service.api.hot): the engine and the bus are read here, not dependencies.
+    body = await json_body(request, StepCreate)
     state = request.app.state
     engine: Engine = state.engine
     bus: EventBus = state.bus
@@ -47,21 +61,9 @@ async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
         answer = present.step_answer(view)
         if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
             await bus.publish(plan_id, _event(answer, view))
-    # Built and encoded directly (the hot path): `response_model` documents it, and
+    # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
-    return JSONBytes(orjson.dumps(answer))
-
-
-# The hot path: served by service.api.hot.HotPath, before the router (and first in it).
-router.add_api_route(
-    "/plan/{plan_id}/step",
-    step,
-    methods=["POST"],
-    response_model=StepPublic,
-    summary="Report the dynamic obstacles; get the move to make now",
-    responses=responses(404, 409, 413, 422),
-    route_class_override=HotRoute,
-)
+    return Response(orjson.dumps(answer), media_type="application/json")
 
 
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:

@@ -1,7 +1,9 @@
-"""The hot path (``service.api.hot``): a step served by ``HotPath`` answers exactly what the
-router answers with the same route (statuses, bodies, headers, the errors mapped by the app's
-handlers, the metrics' route label), for good and bad requests alike. The route's own body
-handling keeps FastAPI's answers: ``test_bad_input.py`` and ``test_hardening.py`` pin them."""
+"""The edge (``service.edge.middleware.Edge``) and the step route: a step is a plain FastAPI
+route whose body it reads with ``StepCreate.model_validate_json``, answering what FastAPI answers
+for a body parameter of that model (statuses, bodies, headers, the errors mapped by the app's
+handlers), and the edge refuses, bounds, times and labels it (401, 413, 408, 504, request ids,
+metric labels, 500 for an unmapped error). ``test_bad_input.py`` and ``test_hardening.py`` pin
+the rest."""
 
 from __future__ import annotations
 
@@ -12,10 +14,13 @@ from typing import Any
 
 import httpx
 import pytest
-from fastapi import FastAPI
+from fastapi import APIRouter, FastAPI, Request, Response
+from fastapi.routing import APIRoute
 from pydantic import SecretStr
 
-from service.api.hot import HotPath
+from schemas import StepCreate
+from service.api.deps import OrjsonRoute
+from service.api.routes import plans
 from service.main import create_app
 from service.work.engine import Engine
 from tests.service.conftest import SMALL
@@ -47,10 +52,17 @@ STEPS: list[tuple[dict[str, str], bytes]] = [
 ]
 
 
-def _without_hot_path(app: FastAPI) -> FastAPI:
-    app.user_middleware = [
-        m for m in app.user_middleware if getattr(m.cls, "__name__", None) != HotPath.__name__
-    ]
+def _with_a_body_parameter(app: FastAPI) -> FastAPI:
+    """The app, its step served first by a route that takes the body as FastAPI's own body
+    parameter (FastAPI reads and validates it), then hands the request to the real step."""
+
+    async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
+        return await plans.step(plan_id, request)
+
+    reference = APIRouter(route_class=OrjsonRoute)
+    reference.add_api_route("/plan/{plan_id}/step", step, methods=["POST"])
+    app.include_router(reference)
+    app.router.routes.insert(0, app.router.routes.pop())
     return app
 
 
@@ -76,12 +88,16 @@ async def _answers(app: FastAPI) -> list[tuple[int, Any, str | None]]:
     return out
 
 
-async def test_the_hot_path_answers_what_the_router_answers() -> None:
-    hot = await _answers(create_app(SMALL))
-    routed = await _answers(_without_hot_path(create_app(SMALL)))
-    assert [a[0] for a in hot] == [200, 200, 200, 409, 422, 422, 422, 200, 422, 422, 422,
-                                   422, 422, 422, 422, 200, 405, 405, 404]  # fmt: skip
-    assert hot == routed
+async def test_the_step_answers_what_a_body_parameter_answers() -> None:
+    ours = await _answers(create_app(SMALL))
+    reference = await _answers(_with_a_body_parameter(create_app(SMALL)))
+    assert [a[0] for a in ours] == [200, 200, 200, 409, 422, 422, 422, 200, 422, 422, 422,
+                                    422, 422, 422, 422, 200, 405, 405, 404]  # fmt: skip
+    # pydantic's JSON mode words one error its own way: a body that is JSON but no object.
+    words = "Input should be a valid dictionary or object to extract fields from"
+    assert ours[11][1]["detail"] == "body: Input should be an object; got []"
+    ours[11][1]["detail"] = f"body: {words}; got []"
+    assert ours == reference
 
 
 async def _guarded_answers(
@@ -125,25 +141,51 @@ async def _guarded_answers(
     return out, metrics
 
 
-async def test_the_hot_path_guards_a_step_as_the_middlewares_do() -> None:
-    """API keys, body limits and request ids: the hot path's answers are the middlewares'."""
+async def test_the_edge_guards_a_step() -> None:
+    """API keys, body limits (by Content-Length and as the body streams in) and request ids."""
     settings = SMALL.model_copy(update={"api_keys": SecretStr("k1,k2"), "max_step_body_bytes": 200})
-    hot, metrics = await _guarded_answers(create_app(settings))
-    routed, _ = await _guarded_answers(_without_hot_path(create_app(settings)))
-    assert [a[0] for a in hot] == [401, 401, 413, 413, 200, 404]
-    assert [a[3] for a in hot] == [None, None, "trace-7", "trace-8", "trace-9", None]
-    assert hot == routed
-    # Counted under the step's route, its refusals too (the middlewares, before any route
-    # matched, count theirs as "unmatched").
+    answers, metrics = await _guarded_answers(create_app(settings))
+    assert [a[0] for a in answers] == [401, 401, 413, 413, 200, 404]
+    assert [a[1].get("code") for a in answers] == [
+        "UNAUTHORIZED", "UNAUTHORIZED", "TOO_LARGE", "TOO_LARGE", None, "NOT_FOUND"
+    ]  # fmt: skip
+    assert [a[2] for a in answers] == ['Bearer realm="planner"'] * 2 + [None] * 4
+    assert [a[3] for a in answers] == [None, None, "trace-7", "trace-8", "trace-9", None]
+    assert "PLANNER_MAX_STEP_BODY_BYTES is 200" in answers[2][1]["detail"]
+    assert answers[4][1]["seq"] == 0
+    # Counted under the step's route, its refusals too (the edge labels a request it refused
+    # before routing with the route the router would have given it).
     for status in (401, 413, 200, 404):
         assert f'route="/plan/{{plan_id}}/step",status="{status}"' in metrics
 
 
-def test_the_app_serves_steps_by_the_hot_path() -> None:
-    assert any(
-        getattr(m.cls, "__name__", None) == HotPath.__name__
-        for m in create_app(SMALL).user_middleware
+async def test_the_step_is_a_plain_fastapi_route() -> None:
+    """Served by an ``APIRoute`` of the app's router (no road around it), behind the one edge
+    middleware, in an app that is FastAPI itself."""
+    app = create_app(SMALL)
+    assert type(app) is FastAPI
+    assert [m.cls.__name__ for m in app.user_middleware] == ["Edge"]  # type: ignore[attr-defined]
+    route = next(
+        r for r in plans.router.routes if getattr(r, "path", None) == "/plan/{plan_id}/step"
     )
+    assert isinstance(route, APIRoute)
+    assert route.endpoint is plans.step
+    assert route.methods == {"POST"}
+    served: list[Any] = []
+
+    async def probe(scope: Any, receive: Any, send: Any) -> None:
+        await app(scope, receive, send)
+        served.append(scope.get("route"))  # as the router left it
+
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=probe)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
+            map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
+            body = {"map_id": map_id, "start": [0, 0], "goal": [4, 8]}
+            plan_id = (await client.post("/plan", json=body)).json()["plan_id"]
+            r = await client.post(f"/plan/{plan_id}/step", json={"seq": 0})
+            assert r.status_code == 200
+    assert served[-1] is route
 
 
 async def _timed_answers(
@@ -179,28 +221,24 @@ async def _timed_answers(
     return out
 
 
-async def test_the_hot_path_times_a_step_as_the_middlewares_do(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
+async def test_the_edge_times_a_step(monkeypatch: pytest.MonkeyPatch) -> None:
     settings = SMALL.model_copy(
         update={"body_timeout_seconds": 0.2, "request_timeout_seconds": 0.2}
     )
-    hot = await _timed_answers(create_app(settings), monkeypatch)
-    routed = await _timed_answers(_without_hot_path(create_app(settings)), monkeypatch)
-    assert hot == [(408, "BODY_TIMEOUT", "close"), (504, "TIMED_OUT", None), (200, 0, None)]
-    assert hot == routed
+    answers = await _timed_answers(create_app(settings), monkeypatch)
+    assert answers == [(408, "BODY_TIMEOUT", "close"), (504, "TIMED_OUT", None), (200, 0, None)]
 
 
 async def test_an_unexpected_error_in_a_step_is_a_500_counted_under_its_route(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """An error no handler maps: the server answers 500 (the app sent nothing) and the step
-    is counted and logged as a 500, whichever road served it."""
+    is counted and logged as a 500."""
 
     async def broken(*args: Any, **kwargs: Any) -> Any:
         raise RuntimeError("a bug")
 
-    for app in (create_app(SMALL), _without_hot_path(create_app(SMALL))):
+    for app in (create_app(SMALL),):
         async with app.router.lifespan_context(app):
             transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
             async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
