@@ -15,13 +15,13 @@ from typing import Any
 import numpy as np
 
 from planner._errors import InvalidInput, PlannerError
-from planner.analysis.fields import analyse
-from planner.analysis.planning import Plan, plan
+from planner.analysis.analyse import analyse
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
 from planner.maps.grids import read_map, read_scen
-from planner.maps.robot_maps import read_ros_map
+from planner.maps.ros_maps import read_ros_map
 from planner.params import PRESETS, resolve_params
+from planner.plans.planning import Plan, plan
 from planner.render import render_episode, render_plan
 from planner.stepping.simulation import run_episode, simulate, warm_up
 

@@ -19,7 +19,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planner._errors import InvalidInput, quote
-from planner.analysis.fields import analyse, goal_wave
+from planner.analysis.analyse import analyse
+from planner.plans.whole_wave import goal_wave
 
 __all__ = ["DESCRIPTIONS", "SIZE", "TABLE1", "Pair", "connected", "environment"]
 

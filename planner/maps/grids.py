@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from planner._errors import InvalidInput, quote
-from planner.analysis import _kernels as K
 
 __all__ = [
     "MAP_BLOCKED",
@@ -139,6 +139,24 @@ def _is_int(value: Any) -> bool:
     return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
 
 
+@njit(cache=True, nogil=True)
+def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int]:
+    """``lookup[data]`` (bytes to cells) and the index of the first byte it maps to 255 (not a
+    map character), or -1: one pass where numpy takes two (the lookup, then the search)."""
+    n = data.shape[0]
+    out = np.empty(n, dtype=np.uint8)
+    bad = 0
+    for i in range(n):
+        v = lookup[data[i]]
+        out[i] = v
+        bad |= v == 255
+    if bad:
+        for i in range(n):
+            if out[i] == 255:
+                return out, i
+    return out, -1
+
+
 def parse_rows(rows: Sequence[str], *, name: str = "rows") -> Grid:
     """Turn rows of Moving AI characters into a grid, without a Python loop per cell.
 
@@ -165,7 +183,7 @@ def parse_rows(rows: Sequence[str], *, name: str = "rows") -> Grid:
             f"{flat % width}; map characters are {MAP_FREE!r} (free) and {MAP_BLOCKED!r} (blocked)"
         )
         raise InvalidInput(msg, field=name) from None
-    cells, bad = K._decode_cells(np.frombuffer(data, dtype=np.uint8), _LOOKUP)
+    cells, bad = _decode_cells(np.frombuffer(data, dtype=np.uint8), _LOOKUP)
     if bad >= 0:
         flat = int(bad)
         msg = (

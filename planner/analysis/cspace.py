@@ -23,7 +23,8 @@ import numpy as np
 import numpy.typing as npt
 
 from planner._errors import InvalidInput, quote
-from planner.maps.robot_maps import MapFrame, RobotMap, point_xy
+from planner.maps.frames import MapFrame, point_xy
+from planner.maps.robot_maps import RobotMap
 from planner.params import Unknown
 
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
