@@ -3,11 +3,15 @@ decision, among dynamic obstacles, waiting, evading, and following a detour's ne
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from planner.params import Params
 from planner.plans.moves import DC, DR
+from planner.plans.whole_wave import WaveView
 
 __all__ = [
     "BLOCKED",
@@ -16,10 +20,10 @@ __all__ = [
     "MODE_WIDE",
     "MOVE",
     "WAIT",
+    "Rule",
     "cost_here",
     "decide",
     "decide_core",
-    "decide_still",
     "legal_moves",
 ]
 
@@ -32,7 +36,23 @@ BLOCKED = 3  # the goal cannot be reached from here, whatever the dynamic obstac
 MODE_WIDE = 0
 MODE_PAPER = 1
 
-_NO_CONTACT = np.zeros(8, dtype=np.int64)
+_NO_OBSTACLES = np.empty((0, 2), dtype=np.int64)
+
+
+class Rule(NamedTuple):
+    """The decision's parameters, as the kernels take them."""
+
+    mode: int
+    alpha: float
+    beta: float
+    diagonal_cost: float
+
+    @classmethod
+    def of(cls, params: Params, *, wide: bool = False) -> Rule:
+        """The rule of ``params`` (with ``wide``, the wide decision whatever they say)."""
+        paper = params.decision == "paper" and not wide
+        mode = MODE_PAPER if paper else MODE_WIDE
+        return cls(mode, float(params.alpha), float(params.beta), float(params.diagonal_cost))
 
 
 @njit(cache=True, nogil=True)
@@ -96,27 +116,21 @@ def _cost_here(
 
 
 def cost_here(
-    passable: npt.NDArray[np.uint8],
-    field: npt.NDArray[np.float64],
-    clean: npt.NDArray[np.float32],
-    r: int,
-    c: int,
-    *,
-    diagonal_cost: float,
-    use_clean: bool,
+    view: WaveView, cell: tuple[int, int], *, diagonal_cost: float, use_clean: bool
 ) -> float:
-    """The cost-to-go ``field`` at (r, c) of the arrays' window (see ``_cost_here``)."""
-    if not (0 <= r < passable.shape[0] and 0 <= c < passable.shape[1]):
-        raise ValueError(f"cell ({r}, {c}) is outside the {passable.shape!r} window given.")
-    return float(_cost_here(passable, field, clean, r, c, diagonal_cost, use_clean))
+    """``kw`` (with ``use_clean``, else ``k``) at ``cell`` (of the map) from a wave's ``view``;
+    off the wave's grid, the best ``cost (+ clean) + field`` over its moves (see ``_cost_here``).
+    """
+    r, c = cell[0] - view.top, cell[1] - view.left
+    if not (0 <= r < view.passable.shape[0] and 0 <= c < view.passable.shape[1]):
+        raise ValueError(f"cell {cell!r} is outside the view given.")
+    field = view.kw if use_clean else view.k
+    return float(_cost_here(view.passable, field, view.clean, r, c, diagonal_cost, use_clean))
 
 
 @njit(cache=True, nogil=True)
 def decide_core(
-    passable: np.ndarray,
-    k: np.ndarray,
-    kw: np.ndarray,
-    clean: np.ndarray,
+    fields: tuple[Any, ...],
     r: int,
     c: int,
     dyn: int,
@@ -124,17 +138,15 @@ def decide_core(
     on_me: bool,
     contact: np.ndarray,
     tabu: int,
-    goal_r: int,
-    goal_c: int,
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
+    goal: tuple[int, int],
+    rule: tuple[int, float, float, float],
     target: int,
 ) -> tuple[int, int]:
     """(move index or -1, outcome) for the robot at (r, c).
 
-    ``dyn``: neighbours blocked by dynamic obstacles this step, margin included (bit mask);
+    ``fields``: the window's grid, ``k``, ``kw`` and ``clean`` (a :class:`WaveView` or a
+    tuple); ``rule``: a :class:`Rule`; ``dyn``: neighbours blocked by dynamic obstacles this
+    step, margin included (bit mask);
     ``raw``: neighbours an obstacle stands on; ``on_me``: an obstacle stands on the robot's cell;
     ``contact[i]``: obstacles touching neighbour i; ``tabu``: visited neighbours (bit mask, paper
     decision only); ``target``: the flat index of a detour's next cell, or -1.
@@ -144,6 +156,9 @@ def decide_core(
     waits when the neighbour it prefers with no dynamic obstacles is blocked (ALGORITHM.md §4);
     the wide one takes the best feasible neighbour that is closer, else waits.
     """
+    passable, k, kw, clean = fields[0], fields[1], fields[2], fields[3]
+    goal_r, goal_c = goal
+    mode, alpha, beta, diagonal_cost = rule[0], rule[1], rule[2], rule[3]
     W = passable.shape[1]
     chosen = -1
     if target >= 0:
@@ -220,21 +235,14 @@ def decide_core(
 
 @njit(cache=True, nogil=True)
 def _decide(
-    passable: np.ndarray,
-    k: np.ndarray,
-    kw: np.ndarray,
-    clean: np.ndarray,
+    view: WaveView,
     r: int,
     c: int,
     obstacles: np.ndarray,
     margin: int,
     tabu: int,
-    goal_r: int,
-    goal_c: int,
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
+    goal: tuple[int, int],
+    rule: Rule,
     target: int,
 ) -> tuple[int, int]:
     """One step's decision among dynamic ``obstacles`` (an (m, 2) array of cells), each blocking
@@ -259,63 +267,37 @@ def _decide(
                 contact[i] += 1
             if d <= margin:
                 dyn |= 1 << i
-    return decide_core(
-        passable, k, kw, clean, r, c, dyn, raw, on_me, contact, tabu, goal_r, goal_c, mode,
-        alpha, beta, diagonal_cost, target,
-    )  # fmt: skip
+    return decide_core(view, r, c, dyn, raw, on_me, contact, tabu, goal, rule, target)
 
 
 def decide(
-    passable: npt.NDArray[np.uint8],
-    k: npt.NDArray[np.float64],
-    kw: npt.NDArray[np.float64],
-    clean: npt.NDArray[np.float32],
+    view: WaveView,
     cell: tuple[int, int],
-    obstacles: npt.NDArray[np.int64],
+    rule: Rule,
+    obstacles: npt.NDArray[np.int64] = _NO_OBSTACLES,
     *,
-    margin: int,
-    tabu: int,
     goal: tuple[int, int],
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
-    target: int = -1,
+    margin: int = 0,
+    tabu: int = 0,
+    target: tuple[int, int] | None = None,
 ) -> tuple[int, int]:
-    """(move index or -1, outcome) of one step at ``cell`` of the arrays' window, among dynamic
-    ``obstacles`` (``(m, 2)`` cells of the window) each blocking the cells within ``margin``;
-    ``tabu``: the visited neighbours (bit mask); ``target``: a detour's next cell (flat in the
-    window) or -1."""
-    r, c = cell
-    if not (0 <= r < passable.shape[0] and 0 <= c < passable.shape[1]):
-        raise ValueError(f"cell {cell!r} is outside the {passable.shape!r} window given.")
+    """(move index or -1, outcome) of one step at ``cell`` (of the map) over what a wave's
+    ``view`` holds, among dynamic ``obstacles`` (``(m, 2)`` cells of the map) each blocking the
+    cells within ``margin``; ``tabu``: the visited neighbours (bit mask); ``target``: a detour's
+    next cell, if any; ``goal``: the wave's goal."""
+    r, c = cell[0] - view.top, cell[1] - view.left
+    h, w = view.passable.shape
+    if not (0 <= r < h and 0 <= c < w):
+        msg = f"cell {cell!r} is outside the {h} x {w} view at ({view.top}, {view.left}) given."
+        raise ValueError(msg)
+    if view.top or view.left:  # a window of the map: its cells are relative to it
+        obstacles = obstacles - np.array([view.top, view.left], dtype=np.int64)
+    local = -1
+    if target is not None:
+        tr, tc = target[0] - view.top, target[1] - view.left
+        local = tr * w + tc if 0 <= tr < h and 0 <= tc < w else h * w  # outside: never taken
     i, outcome = _decide(
-        passable, k, kw, clean, r, c, obstacles, margin, tabu, goal[0], goal[1], mode, alpha,
-        beta, diagonal_cost, target,
-    )  # fmt: skip
-    return int(i), int(outcome)
-
-
-def decide_still(
-    passable: npt.NDArray[np.uint8],
-    k: npt.NDArray[np.float64],
-    kw: npt.NDArray[np.float64],
-    clean: npt.NDArray[np.float32],
-    cell: tuple[int, int],
-    *,
-    tabu: int,
-    goal: tuple[int, int],
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
-) -> tuple[int, int]:
-    """:func:`decide` with no dynamic obstacles and no detour: the plan's own next move."""
-    r, c = cell
-    if not (0 <= r < passable.shape[0] and 0 <= c < passable.shape[1]):
-        raise ValueError(f"cell {cell!r} is outside the {passable.shape!r} window given.")
-    i, outcome = decide_core(
-        passable, k, kw, clean, r, c, 0, 0, False, _NO_CONTACT, tabu, goal[0], goal[1], mode,
-        alpha, beta, diagonal_cost, -1,
+        view, r, c, obstacles, margin, tabu, (goal[0] - view.top, goal[1] - view.left), rule,
+        local,
     )  # fmt: skip
     return int(i), int(outcome)

@@ -19,7 +19,7 @@ from planner.analysis.cells import BLOCKED_CELL
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
-from planner.plans.decide import MODE_PAPER, MODE_WIDE, cost_here
+from planner.plans.decide import Rule, cost_here
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
@@ -52,9 +52,8 @@ class Plan:
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
         """The cells the decision visits with no dynamic obstacles, start to goal."""
-        p, s, g = self.params, self.start, self.goal
-        mode = MODE_PAPER if p.decision == "paper" else MODE_WIDE
-        flat = route(self.wave, self.analysis, s, g, mode, p)
+        s, g = self.start, self.goal
+        flat = route(self.wave, self.analysis, s, g, Rule.of(self.params))
         if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
             raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
         path: npt.NDArray[np.int64] = np.stack(np.divmod(flat, self.analysis.shape[1]), axis=1)
@@ -304,15 +303,7 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
         msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
         raise InvalidInput(msg, field="wave")
     v = wave.view(r, c, analysis.clean)
-    here = cost_here(
-        v.passable,
-        v.kw,
-        v.clean,
-        r - v.top,
-        c - v.left,
-        diagonal_cost=wave.diagonal_cost,
-        use_clean=True,
-    )
+    here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
     return bool(np.isfinite(here))
 
 
@@ -339,18 +330,14 @@ def route(
     analysis: Analysis,
     start: tuple[int, int],
     goal: tuple[int, int],
-    mode: int,
-    params: Params,
+    rule: Rule,
 ) -> npt.NDArray[np.int64]:
-    """The cells (flat) the decision of ``mode`` visits from ``start`` with no dynamic
+    """The cells (flat) the decision of ``rule`` visits from ``start`` with no dynamic
     obstacles, down ``wave``'s fields (a resumable wave settling what it reads); empty when it
     does not reach ``goal``."""
     H, W = analysis.shape
-    p = params
     if isinstance(wave, ResumableWave):
-        return wave.walk(start, mode, p.alpha, p.beta, 4 * H * W + 8)
-    return walk_fields(
-        wave.passable, wave.k, wave.kw, analysis.clean, start[0] * W + start[1],
-        goal[0] * W + goal[1], mode=mode, alpha=p.alpha, beta=p.beta,
-        diagonal_cost=p.diagonal_cost, max_steps=4 * H * W + 8,
-    )  # fmt: skip
+        return wave.walk(start, rule, 4 * H * W + 8)
+    view = wave.view(start[0], start[1], analysis.clean)
+    flat_goal = goal[0] * W + goal[1]
+    return walk_fields(view, start[0] * W + start[1], flat_goal, rule, max_steps=4 * H * W + 8)

@@ -23,7 +23,7 @@ from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
-from planner.plans.decide import MODE_WIDE, MOVE, decide_still
+from planner.plans.decide import MODE_PAPER, MOVE, Rule, decide
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_SEALED, OPEN_UNSEALED, octile, on_grid
 from planner.plans.search import SETTLED_COUNT, GoalSearch
@@ -315,15 +315,13 @@ class ResumableWave(Wave):
         return values
 
     @_locked
-    def walk(
-        self, start: tuple[int, int], mode: int, alpha: float, beta: float, max_steps: int
-    ) -> npt.NDArray[np.int64]:
+    def walk(self, start: tuple[int, int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
         """The path (flat indices) the decision follows with no dynamic obstacles, as
         :func:`~planner.plans.walk.walk_fields` does over whole fields; empty if the goal is
         not reached."""
         W = self.analysis.shape[1]
-        if mode == MODE_WIDE:
-            return self._walk_wide(start[0] * W + start[1], max_steps)
+        if rule.mode != MODE_PAPER:
+            return self._walk_wide(start[0] * W + start[1], rule, max_steps)
         r, c = start
         path = [r * W + c]
         visited = set(path)
@@ -331,10 +329,10 @@ class ResumableWave(Wave):
             if len(path) > max_steps:
                 return np.empty(0, dtype=np.int64)
             if self._whole is not None and len(path) == 1:
-                return self._walk_whole(path, mode, alpha, beta, max_steps)
+                return self._walk_whole(path, rule, max_steps)
             # The paper's tabu list: the cells visited (a move off the map is never legal).
             tabu = sum(1 << i for i in range(8) if (r + DR_[i]) * W + c + DC_[i] in visited)
-            i, outcome = self._step(r, c, mode, alpha, beta, tabu)
+            i, outcome = self._step(r, c, rule, tabu)
             if outcome != MOVE:
                 return np.empty(0, dtype=np.int64)
             r, c = r + DR_[i], c + DC_[i]
@@ -342,18 +340,12 @@ class ResumableWave(Wave):
             visited.add(r * W + c)
         return np.array(path, dtype=np.int64)
 
-    def _step(
-        self, r: int, c: int, mode: int, alpha: float, beta: float, tabu: int
-    ) -> tuple[int, int]:
+    def _step(self, r: int, c: int, rule: Rule, tabu: int) -> tuple[int, int]:
         """The decision at (r, c) over what the wave settled there (or its whole fields)."""
         v = self.view(r, c, self.analysis.clean)
-        return decide_still(
-            v.passable, v.k, v.kw, v.clean, (r - v.top, c - v.left), tabu=tabu,
-            goal=(self.goal[0] - v.top, self.goal[1] - v.left), mode=mode, alpha=alpha,
-            beta=beta, diagonal_cost=self.diagonal_cost,
-        )  # fmt: skip
+        return decide(v, (r, c), rule, goal=self.goal, tabu=tabu)
 
-    def _walk_wide(self, start: int, max_steps: int) -> npt.NDArray[np.int64]:
+    def _walk_wide(self, start: int, rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
         """The wide walk in a kernel over the settled cells, the searches resumed wherever it
         finds a neighbourhood unsettled."""
         W = self.analysis.shape[1]
@@ -362,7 +354,7 @@ class ResumableWave(Wave):
         steps = 0
         while True:
             if self._whole is not None:
-                rest = self._walk_whole([x], MODE_WIDE, 0.0, 0.0, max_steps - steps)
+                rest = self._walk_whole([x], rule, max_steps - steps)
                 if rest.size == 0:
                     return rest
                 pieces.append(rest)
@@ -383,7 +375,7 @@ class ResumableWave(Wave):
             # One step as a session takes it (settling, then deciding over the window): the
             # kernel resumes from the next cell.
             r, c = divmod(x, W)
-            i, outcome = self._step(r, c, MODE_WIDE, 0.0, 0.0, 0)
+            i, outcome = self._step(r, c, rule, 0)
             if outcome != MOVE or steps >= max_steps:
                 return np.empty(0, dtype=np.int64)
             pieces.append(np.array([x], dtype=np.int64))
@@ -391,17 +383,12 @@ class ResumableWave(Wave):
             x = (r + DR_[i]) * W + c + DC_[i]
         return np.concatenate(pieces)
 
-    def _walk_whole(
-        self, path: list[int], mode: int, alpha: float, beta: float, max_steps: int
-    ) -> npt.NDArray[np.int64]:
+    def _walk_whole(self, path: list[int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
         """The walk's rest from ``path[-1]`` over the whole-map wave (the paper decision's
         kernel keeps its tabu list from there: called with one cell visited)."""
-        w = self.whole()
-        rest = walk_fields(
-            w.passable, w.k, w.kw, self.analysis.clean, path[-1], self._flat_goal, mode=mode,
-            alpha=alpha, beta=beta, diagonal_cost=self.diagonal_cost,
-            max_steps=max_steps - len(path) + 1,
-        )  # fmt: skip
+        view = self.whole().view(0, 0, self.analysis.clean)
+        steps = max_steps - len(path) + 1
+        rest = walk_fields(view, path[-1], self._flat_goal, rule, max_steps=steps)
         if rest.size == 0:
             return rest
         return np.concatenate([np.array(path[:-1], dtype=np.int64), rest])

@@ -8,9 +8,10 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner.plans.decide import MODE_PAPER, MODE_WIDE, MOVE, decide_core
+from planner.plans.decide import MODE_PAPER, MODE_WIDE, MOVE, Rule, decide_core
 from planner.plans.moves import DC, DR, on_grid
 from planner.plans.search import SETTLED, SHIFT, TILE_MASK, GoalSearch, tile_slot
+from planner.plans.whole_wave import WaveView
 
 __all__ = [
     "WALK_ARRIVED",
@@ -31,24 +32,11 @@ WALK_TOO_LONG = 3
 
 
 @njit(cache=True, nogil=True)
-def _walk(
-    passable: np.ndarray,
-    k: np.ndarray,
-    kw: np.ndarray,
-    clean: np.ndarray,
-    start: int,
-    goal: int,
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
-    max_steps: int,
-) -> np.ndarray:
-    """The path (flat indices, start first) the decision follows with no dynamic obstacles.
-
-    Returns an empty array when the goal is not reached within ``max_steps`` moves.
-    """
-    H, W = passable.shape
+def _walk(view: WaveView, start: int, goal: int, rule: Rule, max_steps: int) -> np.ndarray:
+    """The path (flat indices, start first) the decision follows with no dynamic obstacles down
+    a whole-map ``view``; empty when the goal is not reached within ``max_steps`` moves."""
+    H, W = view.passable.shape
+    mode = rule.mode
     # Only the paper decision keeps a tabu list; the wide one never revisits a cell.
     visited = np.zeros(H * W if mode == MODE_PAPER else 1, dtype=np.uint8)
     path = np.empty(min(max_steps + 1, 1024), dtype=np.int64)
@@ -76,10 +64,7 @@ def _walk(
                 yc = c + DC[i]
                 if 0 <= yr < H and 0 <= yc < W and visited[yr * W + yc]:
                     tabu |= 1 << i
-        i, outcome = decide_core(
-            passable, k, kw, clean, r, c, 0, 0, False, contact, tabu, gr, gc, mode, alpha, beta,
-            diagonal_cost, -1,
-        )  # fmt: skip
+        i, outcome = decide_core(view, r, c, 0, 0, False, contact, tabu, (gr, gc), rule, -1)
         if outcome != MOVE:
             return path[:0].copy()
         x = (r + DR[i]) * W + c + DC[i]
@@ -91,30 +76,21 @@ def _walk(
 
 
 def walk_fields(
-    passable: npt.NDArray[np.uint8],
-    k: npt.NDArray[np.float64],
-    kw: npt.NDArray[np.float64],
-    clean: npt.NDArray[np.float32],
-    start: int,
-    goal: int,
-    *,
-    mode: int,
-    alpha: float,
-    beta: float,
-    diagonal_cost: float,
-    max_steps: int,
+    view: WaveView, start: int, goal: int, rule: Rule, *, max_steps: int
 ) -> npt.NDArray[np.int64]:
-    """The path (flat indices, ``start`` first) the decision follows down whole fields with no
-    dynamic obstacles; empty when it does not reach ``goal`` within ``max_steps`` moves."""
-    n = passable.size
-    if k.shape != passable.shape or kw.shape != passable.shape or clean.shape != passable.shape:
-        shapes = (passable.shape, k.shape, kw.shape, clean.shape)
-        raise TypeError(f"passable, k, kw and clean must have one shape; {shapes!r} given.")
+    """The path (flat indices, ``start`` first) the decision of ``rule`` follows down a whole
+    wave's fields (its ``view``) with no dynamic obstacles; empty when it does not reach
+    ``goal`` within ``max_steps`` moves."""
+    n = view.passable.size
+    if (
+        view.top
+        or view.left
+        or {view.k.shape, view.kw.shape, view.clean.shape} != {view.passable.shape}
+    ):
+        raise TypeError("the view must hold whole fields of one shape, from a whole-map wave.")
     if not (0 <= start < n and 0 <= goal < n):
         raise ValueError(f"start {start} and goal {goal} must be cells of the map.")
-    out: npt.NDArray[np.int64] = _walk(
-        passable, k, kw, clean, start, goal, mode, alpha, beta, diagonal_cost, max_steps
-    )
+    out: npt.NDArray[np.int64] = _walk(view, start, goal, rule, max_steps)
     return out
 
 
@@ -236,6 +212,7 @@ def _walk_settled(
     W = state.shape[1]
     gr = goal // W
     gc = goal - gr * W
+    rule = (MODE_WIDE, 0.0, 0.0, diagonal_cost)
     contact = np.zeros(8, dtype=np.int64)
     path = np.empty(256, dtype=np.int64)
     path[0] = start
@@ -254,10 +231,9 @@ def _walk_settled(
             state, clean, open_, goal, r, c, tile_of_k, g_k, status_k, tile_of_kw, g_kw,
             status_kw,
         )  # fmt: skip
-        i, outcome = decide_core(
-            passable, k, kw, cl, 1, 1, 0, 0, False, contact, 0, gr - r + 1, gc - c + 1,
-            MODE_WIDE, 0.0, 0.0, diagonal_cost, -1,
-        )  # fmt: skip
+        fields = (passable, k, kw, cl)
+        goal_here = (gr - r + 1, gc - c + 1)
+        i, outcome = decide_core(fields, 1, 1, 0, 0, False, contact, 0, goal_here, rule, -1)
         if outcome != MOVE:
             return path[:n].copy(), WALK_STUCK
         x = (r + DR[i]) * W + c + DC[i]

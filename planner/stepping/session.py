@@ -17,20 +17,10 @@ from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
-from planner.plans.decide import (
-    BLOCKED,
-    EVADE,
-    MODE_PAPER,
-    MODE_WIDE,
-    MOVE,
-    WAIT,
-    cost_here,
-    decide,
-)
+from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, cell_of, free_cell, route
-from planner.plans.whole_wave import WaveView
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -55,10 +45,10 @@ class Session:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
         self._width = plan.analysis.shape[1]
-        self._mode = MODE_PAPER if plan.params.decision == "paper" else MODE_WIDE
+        self._rule = Rule.of(plan.params)
         # The tabu list: only the paper's decision reads it.
         self._visited: set[int] | None = None
-        if self._mode == MODE_PAPER:
+        if self._rule.mode == MODE_PAPER:
             w = self._width
             self._visited = {r * w + c for r, c in state.trajectory}
 
@@ -210,15 +200,10 @@ class Session:
         tabu = self._tabu(r, c) if self._visited is not None else 0
         # The hook of resumable waves: the view settles what the decision reads, around (r, c).
         v = wave.view(r, c, plan.analysis.clean)
-        # A window of the map (not the map itself): cells and flat indices are relative to it.
-        if v.top or v.left or v.passable.shape != plan.analysis.shape:
-            obstacles = obstacles - np.array([v.top, v.left], dtype=np.int64)
-            target = _local(target, self._width, v)
+        next_cell = None if target < 0 else divmod(target, self._width)
         return decide(
-            v.passable, v.k, v.kw, v.clean, (r - v.top, c - v.left), obstacles,
-            margin=p.dynamic_margin, tabu=tabu, goal=(plan.goal[0] - v.top, plan.goal[1] - v.left),
-            mode=self._mode, alpha=p.alpha, beta=p.beta, diagonal_cost=p.diagonal_cost,
-            target=target,
+            v, cell, self._rule, obstacles, goal=plan.goal, margin=p.dynamic_margin, tabu=tabu,
+            target=next_cell,
         )  # fmt: skip
 
     def _on_plan(self, cell: tuple[int, int]) -> bool:
@@ -228,9 +213,7 @@ class Session:
         r, c = cell[0] - v.top, cell[1] - v.left
         if v.passable[r, c] and v.kw[r, c] < np.inf:  # the usual case, without a kernel call
             return True
-        value = cost_here(
-            v.passable, v.kw, v.clean, r, c, diagonal_cost=wave.diagonal_cost, use_clean=True
-        )
+        value = cost_here(v, cell, diagonal_cost=wave.diagonal_cost, use_clean=True)
         return bool(np.isfinite(value))
 
     def _route_clear(self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64]) -> bool:
@@ -241,7 +224,7 @@ class Session:
         plan = self.plan
         wave, p, W = plan.wave, plan.params, self._width
         H = plan.analysis.shape[0]
-        way = route(wave, plan.analysis, cell, plan.goal, MODE_WIDE, p)
+        way = route(wave, plan.analysis, cell, plan.goal, Rule.of(p, wide=True))
         if way.size == 0:
             return False
         rows, cols = np.divmod(way, W)
@@ -331,15 +314,7 @@ class Session:
         r, c = st.position
         # The hook of resumable waves: the view settles what is read, around (r, c).
         v = wave.view(r, c, self.plan.analysis.clean)
-        value = cost_here(
-            v.passable,
-            v.k,
-            v.clean,
-            r - v.top,
-            c - v.left,
-            diagonal_cost=wave.diagonal_cost,
-            use_clean=False,
-        )
+        value = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=False)
         if np.isfinite(value):
             return value
         if st.detour:
@@ -439,15 +414,6 @@ def _blocked_cells(
     inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
     out: npt.NDArray[np.int64] = rows[inside] * W + cols[inside]
     return out
-
-
-def _local(target: int, width: int, v: WaveView) -> int:
-    """A flat map index as the flat index into the view's window (one past it when outside)."""
-    if target < 0:
-        return target
-    h, w = int(v.passable.shape[0]), int(v.passable.shape[1])
-    r, c = target // width - v.top, target % width - v.left
-    return r * w + c if 0 <= r < h and 0 <= c < w else h * w
 
 
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:

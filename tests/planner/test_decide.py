@@ -52,12 +52,9 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
             if 0 <= r + dr < H and 0 <= c + dc < W:
                 target = (r + dr, c + dc)
         paper = p.params.decision == "paper"
-        flat_target = -1 if target is None else target[0] * W + target[1]
         got = D.decide(
-            w.passable, w.k, w.kw, a.clean, (r, c), np.ascontiguousarray(obstacles),
-            margin=margin, tabu=tabu, goal=p.goal, mode=D.MODE_PAPER if paper else D.MODE_WIDE,
-            alpha=p.params.alpha, beta=p.params.beta, diagonal_cost=p.params.diagonal_cost,
-            target=flat_target,
+            w.view(r, c, a.clean), (r, c), D.Rule.of(p.params), np.ascontiguousarray(obstacles),
+            goal=p.goal, margin=margin, tabu=tabu, target=target,
         )  # fmt: skip
         want = naive.decide(
             w.passable, w.k, w.kw, a.clean, (r, c), [(int(o[0]), int(o[1])) for o in obstacles],

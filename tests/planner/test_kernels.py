@@ -11,7 +11,7 @@ import pytest
 import planner
 from planner.analysis.cells import classify, gate_cells
 from planner.plans.decide import cost_here, legal_moves
-from planner.plans.whole_wave import _move_masks
+from planner.plans.whole_wave import WaveView, _move_masks
 from planner.stepping.simulation import move_obstacles
 from tests import naive
 
@@ -58,10 +58,11 @@ def test_cost_here(seed: int) -> None:
     diagonal = [math.sqrt(2), 1.4][seed % 2]
     for r, c in np.ndindex(passable.shape):
         want = naive.cost_here(passable, field, np.zeros_like(clean), r, c, diagonal)
-        got = cost_here(passable, field, clean, r, c, diagonal_cost=diagonal, use_clean=False)
+        view = WaveView(passable, field, field, clean, 0, 0)
+        got = cost_here(view, (r, c), diagonal_cost=diagonal, use_clean=False)
         assert got == pytest.approx(want)
         want = naive.cost_here(passable, field, clean, r, c, diagonal)
-        got = cost_here(passable, field, clean, r, c, diagonal_cost=diagonal, use_clean=True)
+        got = cost_here(view, (r, c), diagonal_cost=diagonal, use_clean=True)
         assert got == pytest.approx(want, rel=1e-6)
 
 

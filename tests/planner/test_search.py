@@ -160,10 +160,8 @@ def test_plans_match_the_whole_map_wave(case: Case, preset: str) -> None:
         steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
         cost = np.where(steps == 2, lazy.params.diagonal_cost, 1.0)
         cost += clean[path[1:, 0], path[1:, 1]]
-        here = cost_here(
-            whole.wave.passable, whole.wave.kw, clean, start[0], start[1],
-            diagonal_cost=lazy.params.diagonal_cost, use_clean=True,
-        )  # fmt: skip
+        view = whole.wave.view(start[0], start[1], clean)
+        here = cost_here(view, start, diagonal_cost=lazy.params.diagonal_cost, use_clean=True)
         assert cost.sum() == pytest.approx(here, rel=1e-9, abs=1e-9)
 
 
