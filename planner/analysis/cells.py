@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["BLOCKED_CELL", "FREE", "TUNNEL", "classify", "gate_cells"]
+__all__ = ["BLOCKED_CELL", "FREE", "TUNNEL", "classify", "gate_cells", "slide_rows"]
 
 FREE = 0
 BLOCKED_CELL = 1  # a static obstacle: "blocked" as in the API
@@ -27,26 +27,36 @@ def _grid(grid: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
 
 
 @njit(cache=True, nogil=True)
+def slide_rows(pad: np.ndarray, grid: np.ndarray, r: int, outside: int) -> None:
+    """Centre ``pad`` (3 rows of W + 2 cells, filled with ``outside`` by the caller) on map row r:
+    rows r - 1, r and r + 1 of ``grid != 0``, shifted one column, ``outside`` beyond the map.
+    Called for r = 0, 1, ... in turn, it reads each row of the map once."""
+    H, W = grid.shape
+    if r == 0:
+        for c in range(W):
+            pad[2, c + 1] = 1 if grid[0, c] != 0 else 0
+    for c in range(W + 2):
+        pad[0, c] = pad[1, c]
+        pad[1, c] = pad[2, c]
+    if r + 1 < H:
+        for c in range(W):
+            pad[2, c + 1] = 1 if grid[r + 1, c] != 0 else 0
+    else:
+        for c in range(W + 2):
+            pad[2, c] = outside
+
+
+@njit(cache=True, nogil=True)
 def _classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
     """Cell states (FREE, BLOCKED_CELL, TUNNEL), the gate count and the tunnel count, row by row
     over padded copies of three rows (the outside blocked), every inner loop branch-free."""
     H, W = grid.shape
     state = np.empty((H, W), dtype=np.uint8)
     pad = np.ones((3, W + 2), dtype=np.uint8)  # blocked: rows r - 1, r, r + 1
-    for c in range(W):
-        pad[2, c + 1] = 1 if grid[0, c] != 0 else 0
     tunnels = 0
     gates = 0
     for r in range(H):
-        for c in range(W + 2):
-            pad[0, c] = pad[1, c]
-            pad[1, c] = pad[2, c]
-        if r + 1 < H:
-            for c in range(W):
-                pad[2, c + 1] = 1 if grid[r + 1, c] != 0 else 0
-        else:
-            for c in range(W + 2):
-                pad[2, c] = 1
+        slide_rows(pad, grid, r, 1)
         up = pad[0]
         mid = pad[1]
         down = pad[2]

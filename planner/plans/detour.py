@@ -30,9 +30,7 @@ def _detour(
     goal: int,
     clean: np.ndarray,
     field: np.ndarray,
-    tile_of: np.ndarray,
-    g_kw: np.ndarray,
-    status_kw: np.ndarray,
+    tiles: tuple[np.ndarray, np.ndarray, np.ndarray],
     exhausted: bool,
     start: int,
     diagonal_cost: float,
@@ -44,14 +42,16 @@ def _detour(
     every cell within Chebyshev ``margin`` of a dynamic obstacle blocked.
 
     The heuristic is ``kw`` without dynamic obstacles: the whole ``field`` when given (cells it
-    marks unreachable are skipped), else a resumable search's tiles where settled, the octile
-    distance elsewhere (and, once the search is ``exhausted``, cells it did not settle are
-    unreachable). Admissible, so the first time the goal is popped its cost is optimal; a cell
-    reached more cheaply later is expanded again. Returns the cells after ``start`` up to the
-    goal (flat indices), empty when cut off, and whether it gave up after ``limit`` expansions.
+    marks unreachable are skipped), else a resumable search's ``tiles`` (index, values, states)
+    where settled and the octile distance elsewhere (once the search is ``exhausted``, cells it
+    did not settle are unreachable). Admissible, so the first time the goal is popped its cost
+    is optimal; a cell reached more cheaply later is expanded again. Returns the cells after
+    ``start`` up to the goal (flat indices), empty when cut off, and whether it gave up after
+    ``limit`` expansions.
     ``start`` itself may be blocked.
     """
     H, W = codes.shape
+    tile_of, g_kw, status_kw = tiles
     tiles_w = (W + TILE_MASK) >> SHIFT
     gr = goal // W
     gc = goal - gr * W
@@ -167,9 +167,8 @@ def detour_cells(
     if field is not None and field.shape != codes.shape:
         raise TypeError(f"field must have the map's shape; {field.shape!r} given.")
     obstacles = np.ascontiguousarray(obstacles, dtype=np.int64).reshape(-1, 2)
-    tile_of, g_kw, status_kw = _NO_TILES if tiles is None else tiles
     return _detour(
-        codes, open_, goal, clean, _NO_FIELD if field is None else field, tile_of, g_kw,
-        status_kw, exhausted, start, float(diagonal_cost), obstacles, int(margin),
-        H * W if limit is None else int(limit),
+        codes, open_, goal, clean, _NO_FIELD if field is None else field,
+        _NO_TILES if tiles is None else tiles, exhausted, start, float(diagonal_cost), obstacles,
+        int(margin), H * W if limit is None else int(limit),
     )  # fmt: skip

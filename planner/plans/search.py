@@ -36,6 +36,10 @@ UNSEEN = 0
 OPEN = 1
 SETTLED = 2
 
+#: A search's memory, as the kernels take it: the tile index, the tiles' values and states, the
+#: open list's keys and cells, ``meta``.
+Memory = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 TILES_USED = 0
 HEAP_SIZE = 1
 SETTLED_COUNT = 2
@@ -70,15 +74,11 @@ def tile_slot(tile_of: np.ndarray, tiles_w: int, r: int, c: int) -> int:
 def _start(
     state: np.ndarray,
     root: int,
-    tile_of: np.ndarray,
-    g: np.ndarray,
-    status: np.ndarray,
-    keys: np.ndarray,
-    cells: np.ndarray,
-    meta: np.ndarray,
+    memory: Memory,
 ) -> None:
     """Open the search: the root's tile allocated, the root (the goal, or for a probe the
     robot's cell) queued at cost 0."""
+    tile_of, g, status, keys, cells, meta = memory
     W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
     r = root // W
@@ -102,12 +102,7 @@ def _resume(
     use_clean: bool,
     diagonal_cost: float,
     goal: int,
-    tile_of: np.ndarray,
-    g: np.ndarray,
-    status: np.ndarray,
-    keys: np.ndarray,
-    cells: np.ndarray,
-    meta: np.ndarray,
+    memory: Memory,
     targets: np.ndarray,
     tr: int,
     tc: int,
@@ -123,6 +118,7 @@ def _resume(
     ``use_clean``; the search runs from the goal, so settling Y relaxes every X with a legal move
     X -> Y at ``g(Y) (+ clean(Y)) + step``.
     """
+    tile_of, g, status, keys, cells, meta = memory
     W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
     heap_cap = keys.shape[0]
@@ -205,17 +201,13 @@ def _resume(
 def _rekey(
     W: int,
     diagonal_cost: float,
-    tile_of: np.ndarray,
-    g: np.ndarray,
-    status: np.ndarray,
-    keys: np.ndarray,
-    cells: np.ndarray,
-    meta: np.ndarray,
+    memory: Memory,
     tr: int,
     tc: int,
     slack: float,
 ) -> None:
     """Key the open list for a new heuristic target, dropping stale entries, and re-heap it."""
+    tile_of, g, status, keys, cells, meta = memory
     tiles_w = (W + TILE_MASK) >> SHIFT
     n = 0
     for j in range(meta[HEAP_SIZE]):
@@ -299,15 +291,15 @@ class GoalSearch:
         self.exhausted = False
         self.aim = divmod(goal, W)
         self.slack = 0.0
-        _start(
-            self.state, goal if root is None else root, self.tile_of, self.g, self.status,
-            self.keys, self.cells, self.meta,
-        )  # fmt: skip
+        _start(self.state, goal if root is None else root, self._memory)
+
+    @property
+    def _memory(self) -> Memory:
+        return (self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
 
     @property
     def nbytes(self) -> int:
-        arrays = (self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
-        return sum(int(a.nbytes) for a in arrays)
+        return sum(int(a.nbytes) for a in self._memory)
 
     def seen(self, cell: int) -> bool:
         """Whether the search has reached ``cell`` (a flat index): queued or settled."""
@@ -338,16 +330,12 @@ class GoalSearch:
         d = self.aim[0] - aim[0], self.aim[1] - aim[1]
         if max(abs(d[0]), abs(d[1])) > _REAIM:
             self.aim, self.slack = aim, slack
-            _rekey(
-                self.width, self.diagonal_cost, self.tile_of, self.g, self.status, self.keys,
-                self.cells, self.meta, aim[0], aim[1], slack,
-            )  # fmt: skip
+            _rekey(self.width, self.diagonal_cost, self._memory, aim[0], aim[1], slack)
         tr, tc = self.aim
         while True:
             outcome = _resume(
                 self.state, self.clean, self.open, self.use_clean, self.diagonal_cost,
-                self.goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta,
-                targets, tr, tc, self.slack, limit,
+                self.goal, self._memory, targets, tr, tc, self.slack, limit,
             )  # fmt: skip
             if outcome == NEED_SPACE:
                 self._grow()

@@ -25,6 +25,10 @@ __all__ = [
     "window",
 ]
 
+#: Both searches' tiles, as the kernels take them: ``k``'s tile index, values and states, then
+#: ``kw``'s.
+Tiles = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 WALK_ARRIVED = 0
 WALK_UNSETTLED = 1
 WALK_STUCK = 2
@@ -121,12 +125,10 @@ def _settled_around(
     goal: int,
     r: int,
     c: int,
-    tile_of_k: np.ndarray,
-    status_k: np.ndarray,
-    tile_of_kw: np.ndarray,
-    status_kw: np.ndarray,
+    tiles: Tiles,
 ) -> bool:
     """Whether every cell a decision at (r, c) reads is settled in both searches."""
+    tile_of_k, _, status_k, tile_of_kw, _, status_kw = tiles
     W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
     targets = _neighbourhood(state, open_, goal, r, c)
@@ -151,15 +153,11 @@ def _window(
     goal: int,
     r: int,
     c: int,
-    tile_of_k: np.ndarray,
-    g_k: np.ndarray,
-    status_k: np.ndarray,
-    tile_of_kw: np.ndarray,
-    g_kw: np.ndarray,
-    status_kw: np.ndarray,
+    tiles: Tiles,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The 3 x 3 windows centred on (r, c) of the wave's grid, ``k``, ``kw`` and ``clean``
     (outside the map: not passable, +inf, 0); unsettled cells read +inf."""
+    tile_of_k, g_k, status_k, tile_of_kw, g_kw, status_kw = tiles
     H, W = state.shape
     tiles_w = (W + TILE_MASK) >> SHIFT
     passable = np.zeros((3, 3), dtype=np.uint8)
@@ -194,12 +192,7 @@ def _walk_settled(
     clean: np.ndarray,
     open_: int,
     goal: int,
-    tile_of_k: np.ndarray,
-    g_k: np.ndarray,
-    status_k: np.ndarray,
-    tile_of_kw: np.ndarray,
-    g_kw: np.ndarray,
-    status_kw: np.ndarray,
+    tiles: Tiles,
     start: int,
     diagonal_cost: float,
     max_steps: int,
@@ -223,14 +216,9 @@ def _walk_settled(
             return path[:n].copy(), WALK_TOO_LONG
         r = x // W
         c = x - r * W
-        if not _settled_around(
-            state, open_, goal, r, c, tile_of_k, status_k, tile_of_kw, status_kw
-        ):
+        if not _settled_around(state, open_, goal, r, c, tiles):
             return path[:n].copy(), WALK_UNSETTLED
-        passable, k, kw, cl = _window(
-            state, clean, open_, goal, r, c, tile_of_k, g_k, status_k, tile_of_kw, g_kw,
-            status_kw,
-        )  # fmt: skip
+        passable, k, kw, cl = _window(state, clean, open_, goal, r, c, tiles)
         fields = (passable, k, kw, cl)
         goal_here = (gr - r + 1, gc - c + 1)
         i, outcome = decide_core(fields, 1, 1, 0, 0, False, contact, 0, goal_here, rule, -1)
@@ -263,10 +251,7 @@ def settled_around(
     searches: tuple[GoalSearch, GoalSearch],
 ) -> bool:
     """Whether every cell a decision at (r, c) reads is settled in both searches (k, kw)."""
-    k, kw = searches
-    return bool(
-        _settled_around(state, open_, goal, r, c, k.tile_of, k.status, kw.tile_of, kw.status)
-    )
+    return bool(_settled_around(state, open_, goal, r, c, _tiles(searches)))
 
 
 def window(
@@ -281,15 +266,12 @@ def window(
     npt.NDArray[np.uint8], npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float32]
 ]:
     """The 3 x 3 windows centred on (r, c) of the grid, ``k``, ``kw`` and ``clean``."""
-    k, kw = searches
     out: tuple[
         npt.NDArray[np.uint8],
         npt.NDArray[np.float64],
         npt.NDArray[np.float64],
         npt.NDArray[np.float32],
-    ] = _window(
-        state, clean, open_, goal, r, c, k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status
-    )
+    ] = _window(state, clean, open_, goal, r, c, _tiles(searches))
     return out
 
 
@@ -305,11 +287,13 @@ def walk_settled(
     max_steps: int,
 ) -> tuple[npt.NDArray[np.int64], int]:
     """The wide walk from ``start`` over what both searches settled (see ``_walk_settled``)."""
-    k, kw = searches
     if not 0 <= start < state.size:
         raise ValueError(f"start {start} is not a cell of the {state.shape!r} map.")
-    path, why = _walk_settled(
-        state, clean, open_, goal, k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status, start,
-        diagonal_cost, max_steps,
-    )  # fmt: skip
+    tiles = _tiles(searches)
+    path, why = _walk_settled(state, clean, open_, goal, tiles, start, diagonal_cost, max_steps)
     return path, int(why)
+
+
+def _tiles(searches: tuple[GoalSearch, GoalSearch]) -> Tiles:
+    k, kw = searches
+    return (k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status)

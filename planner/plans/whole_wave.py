@@ -14,7 +14,7 @@ from numba import njit
 
 from planner._errors import InvalidInput, quote
 from planner.analysis.analyse import Analysis
-from planner.analysis.cells import BLOCKED_CELL
+from planner.analysis.cells import BLOCKED_CELL, slide_rows
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 from planner.plans.detour import detour_cells
@@ -35,18 +35,8 @@ def _move_masks(passable: np.ndarray) -> np.ndarray:
     H, W = passable.shape
     out = np.zeros((H, W), dtype=np.uint8)
     pad = np.zeros((3, W + 2), dtype=np.uint8)  # rows r - 1, r, r + 1; columns shifted by one
-    for c in range(W):
-        pad[2, c + 1] = 1 if passable[0, c] != 0 else 0
     for r in range(H):
-        for c in range(W + 2):
-            pad[0, c] = pad[1, c]
-            pad[1, c] = pad[2, c]
-        if r + 1 < H:
-            for c in range(W):
-                pad[2, c + 1] = 1 if passable[r + 1, c] != 0 else 0
-        else:
-            for c in range(W + 2):
-                pad[2, c] = 0
+        slide_rows(pad, passable, r, 0)
         up = pad[0]
         mid = pad[1]
         down = pad[2]
