@@ -176,21 +176,43 @@ def analyse(
         msg = f"clean_weight must be >= 0; got {quote(clean_weight)}"
         raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
-    state, gates, tunnels = classify(g)
-    if clean_weight > 0:
+    return _analysis(g, t0, seal_tunnels, float(clean_weight), clean_radius)
+
+
+def _analysis(
+    grid: npt.NDArray[np.uint8],
+    t0: float,
+    seal_tunnels: bool,
+    clean_weight: float,
+    clean_radius: int,
+    *,
+    pad: int = 0,
+    clean: npt.NDArray[np.float32] | None = None,
+    **extra: Any,
+) -> Analysis:
+    """The analysis of a 0/1 ``grid`` begun at ``t0``: classified (on a copy padded with ``pad``
+    free cells a side, then cropped, when the outside counts as free), its wall term ``clean``
+    as given, else counted in cells (none when ``clean_weight`` is 0); ``extra`` goes to
+    :class:`Analysis`."""
+    H, W = grid.shape
+    inner = (slice(pad, pad + H), slice(pad, pad + W))
+    state, gates, tunnels = classify(np.pad(grid, pad) if pad else grid)
+    if clean is None and clean_weight > 0:
         clean = clean_field(state, seal=seal_tunnels, weight=clean_weight, radius=clean_radius)
-    else:
-        clean = np.zeros(g.shape, dtype=np.float32)
-    elapsed = (time.perf_counter() - t0) * 1e3
+        clean = np.ascontiguousarray(clean[inner])
+    if pad:
+        state = np.ascontiguousarray(state[inner])
+        tunnels = int(np.count_nonzero(state == TUNNEL))
     return Analysis(
         state,
-        clean,
-        gates=int(gates),
-        tunnels=int(tunnels),
+        np.zeros((H, W), dtype=np.float32) if clean is None else clean,
+        gates=gates,
+        tunnels=tunnels,
         seal_tunnels=bool(seal_tunnels),
-        clean_weight=float(clean_weight),
+        clean_weight=clean_weight,
         clean_radius=int(clean_radius),
-        elapsed_ms=elapsed,
+        elapsed_ms=(time.perf_counter() - t0) * 1e3,
+        **extra,
     )
 
 
@@ -264,44 +286,13 @@ def analyse_map(robot_map: RobotMap, params: Params | None = None) -> Analysis:
         occupied_threshold=p.occupied_threshold,
     )
     grid = np.ascontiguousarray(1 - cs.traversable, dtype=np.uint8)
-    wants_cells = wall == "cells" and p.clean_weight > 0
-    if p.unknown == "free":
-        # The outside counts as free: classify and count on a grid padded with free cells (wide
-        # enough that the padding's own edge is out of the clean radius), then crop.
-        pad = p.clean_radius + 1
-        padded = np.pad(grid, pad)
-        state_p, gates, _ = classify(padded)
-        inner = (slice(pad, pad + grid.shape[0]), slice(pad, pad + grid.shape[1]))
-        state = np.ascontiguousarray(state_p[inner])
-        tunnels = int(np.count_nonzero(state == TUNNEL))
-        if wants_cells:
-            clean_p = clean_field(
-                state_p, seal=p.seal_tunnels, weight=p.clean_weight, radius=p.clean_radius
-            )
-            clean = np.ascontiguousarray(clean_p[inner])
-    else:
-        state, gates, tunnels = classify(grid)
-        if wants_cells:
-            clean = clean_field(
-                state, seal=p.seal_tunnels, weight=p.clean_weight, radius=p.clean_radius
-            )
+    clean = None
     if wall == "meters":
         clean = wide_clean(cs, weight=p.wide_weight, wide_distance=p.wide_distance)
-    elif not wants_cells:
-        clean = np.zeros(grid.shape, dtype=np.float32)
-    elapsed = (time.perf_counter() - t0) * 1e3
-    return Analysis(
-        state,
-        clean,
-        gates=int(gates),
-        tunnels=int(tunnels),
-        seal_tunnels=bool(p.seal_tunnels),
-        clean_weight=float(p.clean_weight),
-        clean_radius=int(p.clean_radius),
-        elapsed_ms=elapsed,
-        frame=robot_map.frame,
-        cspace=cs,
-        wall_cost=wall,
-        params_key=key,
-        plain=robot_map.plain,
-    )
+    # When the outside counts as free, the grid is classified padded with free cells (wide enough
+    # that the padding's own edge is out of the clean radius).
+    pad = p.clean_radius + 1 if p.unknown == "free" else 0
+    return _analysis(
+        grid, t0, p.seal_tunnels, float(p.clean_weight), p.clean_radius, pad=pad, clean=clean,
+        frame=robot_map.frame, cspace=cs, wall_cost=wall, params_key=key, plain=robot_map.plain,
+    )  # fmt: skip

@@ -27,10 +27,12 @@ def _grid(grid: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
 
 
 @njit(cache=True, nogil=True)
-def slide_rows(pad: np.ndarray, grid: np.ndarray, r: int, outside: int) -> None:
+def slide_rows(
+    pad: np.ndarray, grid: np.ndarray, r: int, outside: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Centre ``pad`` (3 rows of W + 2 cells, filled with ``outside`` by the caller) on map row r:
     rows r - 1, r and r + 1 of ``grid != 0``, shifted one column, ``outside`` beyond the map.
-    Called for r = 0, 1, ... in turn, it reads each row of the map once."""
+    Called for r = 0, 1, ... in turn, it reads each row of the map once; returns the three rows."""
     H, W = grid.shape
     if r == 0:
         for c in range(W):
@@ -44,6 +46,7 @@ def slide_rows(pad: np.ndarray, grid: np.ndarray, r: int, outside: int) -> None:
     else:
         for c in range(W + 2):
             pad[2, c] = outside
+    return pad[0], pad[1], pad[2]
 
 
 @njit(cache=True, nogil=True)
@@ -56,10 +59,7 @@ def _classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
     tunnels = 0
     gates = 0
     for r in range(H):
-        slide_rows(pad, grid, r, 1)
-        up = pad[0]
-        mid = pad[1]
-        down = pad[2]
+        up, mid, down = slide_rows(pad, grid, r, 1)
         for c in range(W):
             blocked = mid[c + 1]
             tunnel = (up[c + 1] & down[c + 1]) | (mid[c] & mid[c + 2])

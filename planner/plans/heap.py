@@ -17,6 +17,13 @@ def _before(keys: np.ndarray, a: int, f: float, g: float) -> bool:
 
 
 @njit(cache=True, nogil=True)
+def _put(keys: np.ndarray, cells: np.ndarray, j: int, f: float, g: float, cell: int) -> None:
+    keys[j, 0] = f
+    keys[j, 1] = g
+    cells[j] = cell
+
+
+@njit(cache=True, nogil=True)
 def heap_push(keys: np.ndarray, cells: np.ndarray, size: int, f: float, g: float, cell: int) -> int:
     """Add ``cell`` with key ``(f, g)`` (``keys`` rows: f, g; room for one more); the new size."""
     j = size
@@ -24,13 +31,9 @@ def heap_push(keys: np.ndarray, cells: np.ndarray, size: int, f: float, g: float
         parent = (j - 1) >> 1
         if _before(keys, parent, f, g):
             break
-        keys[j, 0] = keys[parent, 0]
-        keys[j, 1] = keys[parent, 1]
-        cells[j] = cells[parent]
+        _put(keys, cells, j, keys[parent, 0], keys[parent, 1], cells[parent])
         j = parent
-    keys[j, 0] = f
-    keys[j, 1] = g
-    cells[j] = cell
+    _put(keys, cells, j, f, g, cell)
     return size + 1
 
 
@@ -47,13 +50,9 @@ def _sift_down(keys: np.ndarray, cells: np.ndarray, j: int, size: int) -> None:
             child += 1
         if not (keys[child, 0] < f or (keys[child, 0] == f and keys[child, 1] > g)):
             break
-        keys[j, 0] = keys[child, 0]
-        keys[j, 1] = keys[child, 1]
-        cells[j] = cells[child]
+        _put(keys, cells, j, keys[child, 0], keys[child, 1], cells[child])
         j = child
-    keys[j, 0] = f
-    keys[j, 1] = g
-    cells[j] = cell
+    _put(keys, cells, j, f, g, cell)
 
 
 @njit(cache=True, nogil=True)
@@ -63,9 +62,7 @@ def heap_pop(keys: np.ndarray, cells: np.ndarray, size: int) -> tuple[int, float
     g = keys[0, 1]
     size -= 1
     if size > 0:
-        keys[0, 0] = keys[size, 0]
-        keys[0, 1] = keys[size, 1]
-        cells[0] = cells[size]
+        _put(keys, cells, 0, keys[size, 0], keys[size, 1], cells[size])
         _sift_down(keys, cells, 0, size)
     return cell, g, size
 

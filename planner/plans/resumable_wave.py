@@ -18,11 +18,9 @@ from typing import Any, Concatenate, ParamSpec, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
+from planner._errors import InvalidInput
 from planner.analysis.analyse import Analysis
-from planner.analysis.cells import BLOCKED_CELL
-from planner.maps.grids import as_cell
-from planner.params import PARAMETER_RANGES, SQRT2
+from planner.params import SQRT2
 from planner.plans.decide import MODE_PAPER, MOVE, Rule, decide
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_SEALED, OPEN_UNSEALED, octile, on_grid
@@ -36,7 +34,7 @@ from planner.plans.walk import (
     walk_settled,
     window,
 )
-from planner.plans.whole_wave import Wave, WaveView, goal_wave
+from planner.plans.whole_wave import Cells, Clean, Wave, WaveView, goal_wave, wave_goal
 
 __all__ = ["ResumableWave", "Unsettled", "resumable_wave"]
 
@@ -259,13 +257,7 @@ class ResumableWave(Wave):
         return view
 
     @_locked
-    def detour(
-        self,
-        start: int,
-        obstacles: npt.NDArray[np.int64],
-        clean: npt.NDArray[np.float32],
-        margin: int = 0,
-    ) -> npt.NDArray[np.int64]:
+    def detour(self, start: int, obstacles: Cells, clean: Clean, margin: int = 0) -> Cells:
         """The replan over what the searches have settled (:mod:`planner.plans.detour`); past
         the budget of expansions, or on a map no larger than the budget (whose whole-map wave
         takes no more memory than the searches may), over the whole-map wave."""
@@ -446,11 +438,5 @@ def resumable_wave(
     >>> w.settle([[1, 1]]); round(w.k_at(1, 1), 3)
     1.414
     """
-    r, c = as_cell(goal, analysis.shape, name="goal")
-    if analysis.state[r, c] == BLOCKED_CELL:
-        raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
-    low, high = PARAMETER_RANGES["diagonal_cost"]
-    if not low <= diagonal_cost <= high:
-        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
-        raise InvalidInput(msg, field="params.diagonal_cost")
+    r, c = wave_goal(analysis, goal, diagonal_cost)
     return ResumableWave(analysis, (r, c), diagonal_cost=float(diagonal_cost), narrow=narrow)

@@ -20,7 +20,11 @@ from planner.params import PARAMETER_RANGES, SQRT2
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_PASSABLE
 
-__all__ = ["Wave", "WaveView", "goal_wave"]
+__all__ = ["Cells", "Clean", "Wave", "WaveView", "goal_wave", "wave_goal"]
+
+Cells = npt.NDArray[np.int64]
+"""Cells as flat indices ``r * W + c``, or as ``(n, 2)`` rows ``[r, c]``."""
+Clean = npt.NDArray[np.float32]
 
 # From this many cells on, a goal wave computes ``k`` and ``kw`` in two threads at once.
 _THREADED_CELLS = 1 << 16
@@ -36,10 +40,7 @@ def _move_masks(passable: np.ndarray) -> np.ndarray:
     out = np.zeros((H, W), dtype=np.uint8)
     pad = np.zeros((3, W + 2), dtype=np.uint8)  # rows r - 1, r, r + 1; columns shifted by one
     for r in range(H):
-        slide_rows(pad, passable, r, 0)
-        up = pad[0]
-        mid = pad[1]
-        down = pad[2]
+        up, mid, down = slide_rows(pad, passable, r, 0)
         for c in range(W):
             n = up[c + 1]
             s = down[c + 1]
@@ -209,13 +210,7 @@ class Wave:
             view = self._view = WaveView(self.passable, self.k, self.kw, clean, 0, 0)
         return view
 
-    def detour(
-        self,
-        start: int,
-        obstacles: npt.NDArray[np.int64],
-        clean: npt.NDArray[np.float32],
-        margin: int = 0,
-    ) -> npt.NDArray[np.int64]:
+    def detour(self, start: int, obstacles: Cells, clean: Clean, margin: int = 0) -> Cells:
         """The replan of ALGORITHM.md §4 from ``start`` (a flat index) over the wave's grid with
         every cell within Chebyshev ``margin`` of a dynamic obstacle blocked: the cells after
         ``start`` up to the goal, empty when cut off."""
@@ -258,6 +253,22 @@ class Wave:
         return int(self.k.nbytes + (0 if shared else self.kw.nbytes) + self.passable.nbytes)
 
 
+def wave_goal(analysis: Analysis, goal: Any, diagonal_cost: float) -> tuple[int, int]:
+    """A wave's goal as a cell (``goal`` a ``[row, col]`` cell or a point ``{"x", "y"}`` in
+    meters), checked with the wave's ``diagonal_cost``: what every goal wave validates."""
+    if isinstance(goal, Mapping):  # a point in meters: the cell holding it
+        r, c = analysis.frame.cell_of(goal, name="goal")
+    else:
+        r, c = as_cell(goal, analysis.shape, name="goal")
+    if analysis.state[r, c] == BLOCKED_CELL:
+        raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
+    low, high = PARAMETER_RANGES["diagonal_cost"]
+    if not low <= diagonal_cost <= high:
+        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
+        raise InvalidInput(msg, field="params.diagonal_cost")
+    return r, c
+
+
 def goal_wave(
     analysis: Analysis, goal: Any, *, diagonal_cost: float = SQRT2, narrow: bool = False
 ) -> Wave:
@@ -269,16 +280,7 @@ def goal_wave(
     >>> w.k.round(3).tolist()
     [[0.0, 1.0], [1.0, 1.414]]
     """
-    if isinstance(goal, Mapping):  # a point in meters: the cell holding it
-        r, c = analysis.frame.cell_of(goal, name="goal")
-    else:
-        r, c = as_cell(goal, analysis.shape, name="goal")
-    if analysis.state[r, c] == BLOCKED_CELL:
-        raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
-    low, high = PARAMETER_RANGES["diagonal_cost"]
-    if not low <= diagonal_cost <= high:
-        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
-        raise InvalidInput(msg, field="params.diagonal_cost")
+    r, c = wave_goal(analysis, goal, diagonal_cost)
     t0 = time.perf_counter()
     passable = analysis.passable(narrow=narrow)
     passable[r, c] = 1
