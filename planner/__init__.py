@@ -14,14 +14,6 @@ robot over its configuration space.
 [[0, 0], [0, 1], [0, 2], [1, 2], [2, 2], [2, 1], [2, 0]]
 """
 
-from planner._errors import (
-    QUOTE_LIMIT,
-    InvalidInput,
-    NoValidPath,
-    PlannerError,
-    SequenceConflict,
-    quote,
-)
 from planner.analysis.analyse import (
     Analysis,
     analyse,
@@ -32,6 +24,14 @@ from planner.analysis.analyse import (
     resolve_wall_cost,
 )
 from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.errors import (
+    QUOTE_LIMIT,
+    InvalidInput,
+    NoValidPath,
+    PlannerError,
+    SequenceConflict,
+    quote,
+)
 from planner.experiment.environments import TABLE1, environment
 from planner.experiment.runs import compare, run_experiment
 from planner.maps.frames import MapFrame

@@ -14,8 +14,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from planner._errors import InvalidInput, PlannerError
 from planner.analysis.analyse import analyse
+from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
 from planner.maps.grids import read_map, read_scen

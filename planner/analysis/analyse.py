@@ -13,10 +13,10 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
 from planner.analysis.cells import BLOCKED_CELL, FREE, TUNNEL, classify, gate_cells
 from planner.analysis.clean import clean_field
 from planner.analysis.cspace import CSpace, configuration_space, wide_clean
+from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap

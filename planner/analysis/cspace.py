@@ -22,7 +22,7 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, point_xy
 from planner.maps.robot_maps import RobotMap
 from planner.params import Unknown

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 from planner.experiment.environments import TABLE1, environment
 from planner.params import PRESETS
 from planner.plans.planning import plan

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 
 __all__ = ["MapFrame", "point_xy"]
 
@@ -67,7 +67,7 @@ class MapFrame:
         >>> MapFrame((2, 3), 0.5).cell_of({"x": 9.0, "y": 0.0}, name="goal")  # doctest: +ELLIPSIS
         Traceback (most recent call last):
         ...
-        planner._errors.InvalidInput: goal {'x': 9.0, 'y': 0.0} is outside the map: ...
+        planner.errors.InvalidInput: goal {'x': 9.0, 'y': 0.0} is outside the map: ...
         """
         x, y = point_xy(point, name=name)
         (r, c), *_ = self.cells([[x, y]]).tolist()

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 
 __all__ = [
     "MAP_BLOCKED",
@@ -53,7 +53,7 @@ def grid_array(grid: Any, *, name: str = "grid") -> npt.NDArray[Any]:
     >>> grid_array([[0, 1], [0]])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: grid must be a rectangular 2-D array: grid[1] has 1 cells; grid[0] has 2
+    planner.errors.InvalidInput: grid must be a rectangular 2-D array: grid[1] has 1 cells; grid[0] has 2
     """  # noqa: E501
     try:
         arr = np.asarray(grid)
@@ -99,7 +99,7 @@ def as_grid(grid: Any, *, name: str = "grid") -> Grid:
     >>> as_grid([[0, 2]])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: grid must hold only 0 (free) and 1 (blocked); found 2 at [0, 1]
+    planner.errors.InvalidInput: grid must hold only 0 (free) and 1 (blocked); found 2 at [0, 1]
     """
     arr = grid_array(grid, name=name)
     bad = (arr != 0) & (arr != 1)
@@ -119,7 +119,7 @@ def as_cell(cell: Any, shape: tuple[int, int], *, name: str) -> tuple[int, int]:
     >>> as_cell([3, 0], (3, 3), name="goal")
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: goal [3, 0] is outside the 3 x 3 map
+    planner.errors.InvalidInput: goal [3, 0] is outside the 3 x 3 map
     """
     if isinstance(cell, str | bytes) or not isinstance(cell, Sequence | np.ndarray):
         raise InvalidInput(f"{name} must be a [row, col] pair; got {quote(cell)}", field=name)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, _number, _origin, _resolution
 from planner.maps.grids import grid_array
 

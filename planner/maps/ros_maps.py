@@ -15,7 +15,7 @@ import numpy.typing as npt
 import yaml
 from PIL import Image, UnidentifiedImageError
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, _number, _origin, _resolution
 from planner.maps.robot_maps import RobotMap
 
@@ -61,7 +61,7 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
     >>> parse_map_yaml("resolution: 0.05\\norigin: [0, 0, 0]\\nmode: colour")
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: yaml.mode must be trinary, scale or raw; got 'colour'
+    planner.errors.InvalidInput: yaml.mode must be trinary, scale or raw; got 'colour'
     """
     try:
         doc = yaml.safe_load(text)

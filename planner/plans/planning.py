@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, NoValidPath, quote
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.analysis.cells import BLOCKED_CELL
+from planner.errors import InvalidInput, NoValidPath, quote
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
@@ -178,7 +178,7 @@ def plan(
     >>> plan([[0, 1], [1, 0]], [0, 0], [1, 1])
     Traceback (most recent call last):
     ...
-    planner._errors.NoValidPath: NO_VALID_PATH: goal [1, 1] cannot be reached from start [0, 0]
+    planner.errors.NoValidPath: NO_VALID_PATH: goal [1, 1] cannot be reached from start [0, 0]
     """
     t0 = time.perf_counter()
     p = resolve_params(preset, **params)
@@ -296,7 +296,7 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     >>> reaches(goal_wave(a, [0, 0]), a, [-1, 0])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
+    planner.errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
     """
     r, c = as_cell(cell, analysis.shape, name="cell")
     if wave.shape != analysis.shape:

@@ -18,8 +18,8 @@ from typing import Any, Concatenate, ParamSpec, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput
 from planner.analysis.analyse import Analysis
+from planner.errors import InvalidInput
 from planner.params import SQRT2
 from planner.plans.decide import MODE_PAPER, MOVE, Rule, decide
 from planner.plans.detour import detour_cells

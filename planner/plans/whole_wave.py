@@ -12,9 +12,9 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner._errors import InvalidInput, quote
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL, slide_rows
+from planner.errors import InvalidInput, quote
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES, SQRT2
 from planner.plans.detour import detour_cells

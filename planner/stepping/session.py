@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, SequenceConflict, quote
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
+from planner.errors import InvalidInput, SequenceConflict, quote
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan, clearance_metrics, plan
 from planner.stepping.session import Session
