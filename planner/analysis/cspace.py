@@ -1,9 +1,5 @@
-"""The robot's configuration space on a map in meters, the metric wall term of ``wide``, and
-dynamic obstacles given as circles.
-
-A cell is *traversable* when it is free and the distance from its center to the nearest blocked
-cell's center is more than the robot's radius (Nav2's inscribed rule); distances come from an
-exact Euclidean distance transform (``edt``).
+"""The robot's configuration space on a map in meters (Nav2's inscribed rule, over an exact
+distance transform), the metric wall term of ``wide``, and dynamic obstacles given as circles.
 
 >>> from planner.maps.robot_maps import grid_map
 >>> m = grid_map([[0, 0, 0, 0, 0], [0, 0, 0, 0, 1]], resolution=0.1)

@@ -1,8 +1,5 @@
-"""Occupancy grids in and out: numpy 0/1 arrays, Moving AI ``.map`` text and ``.scen`` files.
-
-Cells are ``[row, col]`` everywhere, row 0 at the top. Moving AI files say ``x`` for the column
-and ``y`` for the row; they are converted here, at the edge, and nowhere else.
-"""
+"""Occupancy grids in and out: numpy 0/1 arrays, Moving AI ``.map`` text and ``.scen`` files
+(whose ``x`` is the column, ``y`` the row: converted here to ``[row, col]``, and nowhere else)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,5 @@
-"""The eight moves of a robot on a grid (ALGORITHM.md §1), which cells a wave's grid holds, and
-the octile distance: the building blocks of the waves, the detour and the decision.
-
-Cells are flat indices ``r * W + c``; the moves are numbered clockwise from north:
-N NE E SE S SW W NW. A wave's grid is given by an array of cell codes and an ``open`` bit mask:
-cell (r, c) is on the grid when bit ``codes[r, c]`` of ``open`` is set (the goal always is).
-"""
+"""The eight moves (numbered clockwise from north: N NE E SE S SW W NW), which cells a wave's
+grid holds, and the octile distance: what the waves, the detour and the decision share."""
 
 from __future__ import annotations
 
@@ -18,6 +13,8 @@ __all__ = ["DC", "DR", "OPEN_PASSABLE", "OPEN_SEALED", "OPEN_UNSEALED", "octile"
 DR = np.array([-1, -1, 0, 1, 1, 1, 0, -1], dtype=np.int64)
 DC = np.array([0, 1, 1, 1, 0, -1, -1, -1], dtype=np.int64)
 
+# A wave's grid is an array of cell codes and an ``open`` bit mask: cell (r, c) is on the grid
+# when bit ``codes[r, c]`` of ``open`` is set (the goal always is). Cells are flat ``r * W + c``.
 #: Over an analysis's cell states: the sealed grid (free cells) and the unsealed one (tunnels too).
 OPEN_SEALED = 1 << FREE
 OPEN_UNSEALED = (1 << FREE) | (1 << TUNNEL)

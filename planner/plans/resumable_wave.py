@@ -1,11 +1,5 @@
 """The resumable goal wave: ``k`` and ``kw`` settled by the goal's searches only where a robot
-needs them, exact to the bit, handing over to the whole-map wave past a budget.
-
-:meth:`ResumableWave.ensure` resumes both searches until what a decision at a cell reads is
-settled, so a plan's memory and time grow with the region explored, not the map. Robots sharing
-a goal may share one wave, each growing it where it goes (one thread at a time;
-:meth:`ResumableWave.hold` lets a caller read without waiting and without resuming).
-"""
+needs them, exact to the bit, handing over to the whole-map wave past a budget."""
 
 from __future__ import annotations
 
@@ -75,7 +69,12 @@ _POCKETS = 4
 
 
 class ResumableWave(Wave):
-    """A goal wave settled on demand: see the module's docstring.
+    """A goal wave settled on demand.
+
+    :meth:`ensure` resumes both searches until what a decision at a cell reads is settled, so a
+    plan's memory and time grow with the region explored, not the map. Robots sharing a goal
+    may share one wave, each growing it where it goes (one thread at a time; :meth:`hold` lets
+    a caller read without waiting and without resuming).
 
     >>> from planner import analyse
     >>> a = analyse([[0] * 40 for _ in range(40)], seal_tunnels=False, clean_weight=0)

@@ -1,14 +1,5 @@
-"""The goal's resumable search (RRA*): A* from the goal towards the robot over an analysed map's
-cells, in tiled memory, stopped once the cells asked for are settled and resumed later.
-
-The heuristic is the octile distance to the robot (every move costs at least its octile length
-and ``clean >= 0``, so it is consistent for ``k`` and ``kw`` alike: a settled cell's cost-to-go
-is exact). Values live in 32 x 32 tiles allocated on first touch, found through one small index
-of tiles. Mutable scalars travel in ``meta`` (int64): ``[tiles used, heap size, cells
-settled]``. When the pools are nearly full a kernel returns ``NEED_SPACE`` before touching
-anything; :class:`GoalSearch` grows them and calls again, so every kernel is resumable at any
-return.
-"""
+"""The goal's resumable search (RRA*): A* from the goal towards the robot in tiled memory,
+stopped once the cells asked for are settled and resumed later, so memory follows the region."""
 
 from __future__ import annotations
 
@@ -258,7 +249,16 @@ def _all_settled(W: int, tile_of: np.ndarray, status: np.ndarray, targets: np.nd
 
 
 class GoalSearch:
-    """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory."""
+    """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory.
+
+    The heuristic is the octile distance to the robot (every move costs at least its octile
+    length and ``clean >= 0``: consistent for ``k`` and ``kw`` alike, so a settled cell's
+    cost-to-go is exact). Values live in 32 x 32 tiles allocated on first touch, found through
+    one small index of tiles; mutable scalars travel in ``meta`` (int64): ``[tiles used, heap
+    size, cells settled]``. When the pools are nearly full a kernel returns ``NEED_SPACE``
+    before touching anything; the search grows them and calls again, so every kernel is
+    resumable at any return.
+    """
 
     def __init__(
         self,

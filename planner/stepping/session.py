@@ -1,9 +1,5 @@
-"""Stepping among dynamic obstacles (ALGORITHM.md §4): one decision per reported step.
-
-A :class:`Session` pairs a :class:`~planner.Plan` (heavy, cacheable arrays) with a
-:class:`SessionState` (small, plain data that a store can keep as JSON), so a session can be
-rebuilt anywhere from the plan's inputs and its state.
-"""
+"""Stepping among dynamic obstacles (ALGORITHM.md §4): one decision per reported step, from a
+plan (heavy, cacheable) and a session state (small, plain data a store keeps as JSON)."""
 
 from __future__ import annotations
 

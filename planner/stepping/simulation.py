@@ -1,16 +1,5 @@
-"""The paper's simulated experiment (ALGORITHM.md §5): one episode among random dynamic obstacles.
-
-Each obstacle starts on a random free cell (not the start, not the goal) and every tick moves to
-a random legal neighbouring cell or stays (never onto another obstacle or the robot's cell). Two
-orders of play (``obstacle_motion``):
-
-- ``turns`` (the paper's): the obstacles move, then the robot is told where they are and steps;
-- ``simultaneous`` (the real world): the robot decides from where the obstacles are at the tick's
-  start, then they all move at once, the robot's move unknown to them and theirs to it.
-
-A collision is the robot ending a tick on an obstacle's cell, or swapping cells with one, in
-either mode. Everything is drawn from one seeded generator, so an episode is reproducible.
-"""
+"""The paper's simulated experiment (ALGORITHM.md §5): one seeded, reproducible episode of a
+robot among randomly moving dynamic obstacles, and its metrics."""
 
 from __future__ import annotations
 
@@ -91,6 +80,14 @@ def run_episode(
     stop: Callable[[], bool] | None = None,
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic_count`` randomly moving obstacles.
+
+    Each obstacle starts on a random free cell (not the start, not the goal) and every tick
+    moves to a random legal neighbouring cell or stays (never onto another obstacle or the
+    robot's cell). Two orders of play (``obstacle_motion``): ``turns`` (the paper's), the
+    obstacles move, then the robot is told where they are and steps; ``simultaneous`` (the real
+    world), the robot decides from where the obstacles are at the tick's start, then they all
+    move at once. A collision is the robot ending a tick on an obstacle's cell, or swapping
+    cells with one. Everything is drawn from one seeded generator.
 
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
     off, the obstacles' cells at each step are not kept (``Episode.dynamic_obstacles`` is empty).
