@@ -235,18 +235,26 @@ def decide_core(
 
 @njit(cache=True, nogil=True)
 def _decide(
-    view: WaveView,
+    passable: np.ndarray,
+    k: np.ndarray,
+    kw: np.ndarray,
+    clean: np.ndarray,
     r: int,
     c: int,
     obstacles: np.ndarray,
     margin: int,
     tabu: int,
-    goal: tuple[int, int],
-    rule: Rule,
+    goal_r: int,
+    goal_c: int,
+    mode: int,
+    alpha: float,
+    beta: float,
+    diagonal_cost: float,
     target: int,
 ) -> tuple[int, int]:
     """One step's decision among dynamic ``obstacles`` (an (m, 2) array of cells), each blocking
-    the cells within Chebyshev distance ``margin`` of it."""
+    the cells within Chebyshev distance ``margin`` of it (arrays and scalars: a step calls it
+    from Python, where tuples cost more to pass)."""
     dyn = 0
     raw = 0
     on_me = False
@@ -267,7 +275,9 @@ def _decide(
                 contact[i] += 1
             if d <= margin:
                 dyn |= 1 << i
-    return decide_core(view, r, c, dyn, raw, on_me, contact, tabu, goal, rule, target)
+    fields = (passable, k, kw, clean)
+    rule = (mode, alpha, beta, diagonal_cost)
+    return decide_core(fields, r, c, dyn, raw, on_me, contact, tabu, (goal_r, goal_c), rule, target)
 
 
 def decide(
@@ -297,7 +307,8 @@ def decide(
         tr, tc = target[0] - view.top, target[1] - view.left
         local = tr * w + tc if 0 <= tr < h and 0 <= tc < w else h * w  # outside: never taken
     i, outcome = _decide(
-        view, r, c, obstacles, margin, tabu, (goal[0] - view.top, goal[1] - view.left), rule,
-        local,
+        view.passable, view.k, view.kw, view.clean, r, c, obstacles, margin, tabu,
+        goal[0] - view.top, goal[1] - view.left, rule.mode, rule.alpha, rule.beta,
+        rule.diagonal_cost, local,
     )  # fmt: skip
     return int(i), int(outcome)

@@ -93,7 +93,12 @@ def _resume(
     use_clean: bool,
     diagonal_cost: float,
     goal: int,
-    memory: Memory,
+    tile_of: np.ndarray,  # the memory's arrays one by one here: the hot loop runs faster so
+    g: np.ndarray,
+    status: np.ndarray,
+    keys: np.ndarray,
+    cells: np.ndarray,
+    meta: np.ndarray,
     targets: np.ndarray,
     tr: int,
     tc: int,
@@ -109,7 +114,6 @@ def _resume(
     ``use_clean``; the search runs from the goal, so settling Y relaxes every X with a legal move
     X -> Y at ``g(Y) (+ clean(Y)) + step``.
     """
-    tile_of, g, status, keys, cells, meta = memory
     W = state.shape[1]
     tiles_w = (W + TILE_MASK) >> SHIFT
     heap_cap = keys.shape[0]
@@ -335,7 +339,7 @@ class GoalSearch:
         while True:
             outcome = _resume(
                 self.state, self.clean, self.open, self.use_clean, self.diagonal_cost,
-                self.goal, self._memory, targets, tr, tc, self.slack, limit,
+                self.goal, *self._memory, targets, tr, tc, self.slack, limit,
             )  # fmt: skip
             if outcome == NEED_SPACE:
                 self._grow()
