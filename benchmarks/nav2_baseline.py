@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import planner  # noqa: E402
-from planner.maps.cspace import CSpace, configuration_space  # noqa: E402
+from planner import CSpace, configuration_space  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "RESULTS.md"
 FIGURE = ROOT / "docs" / "figures" / "depot-wide-vs-nav2.png"

@@ -19,7 +19,7 @@ import numpy as np
 import orjson
 
 import planner
-from planner.analysis import _kernels as K
+from planner.analysis.cells import BLOCKED_CELL, FREE, TUNNEL
 
 Grid = np.ndarray
 
@@ -57,7 +57,7 @@ def near_cells(
         r, c = (int(v) for v in rng.integers(H // 4, 3 * H // 4, size=2))
         off = int(rng.integers(0, distance + 1))
         gr, gc = r + distance * int(rng.choice([-1, 1])), c + off * int(rng.choice([-1, 1]))
-        if analysis.state[r, c] != K.FREE or analysis.state[gr, gc] != K.FREE:
+        if analysis.state[r, c] != FREE or analysis.state[gr, gc] != FREE:
             continue
         try:
             planner.plan(None, (r, c), (gr, gc), analysis=analysis)
@@ -133,13 +133,13 @@ def numpy_analysis(grid: Grid, weight: float = 0.5, radius: int = 2) -> tuple[Gr
     b = np.pad(grid, 1, constant_values=1).astype(bool)
     free = ~b[1:-1, 1:-1]
     tunnel = free & ((b[:-2, 1:-1] & b[2:, 1:-1]) | (b[1:-1, :-2] & b[1:-1, 2:]))
-    state = np.where(free, np.where(tunnel, K.TUNNEL, K.FREE), K.BLOCKED_CELL).astype(np.uint8)
+    state = np.where(free, np.where(tunnel, TUNNEL, FREE), BLOCKED_CELL).astype(np.uint8)
     g = grid == 0
     gates = int(
         np.count_nonzero(g[:-1, :-1] & g[1:, 1:] & ~g[:-1, 1:] & ~g[1:, :-1])
         + np.count_nonzero(g[:-1, 1:] & g[1:, :-1] & ~g[:-1, :-1] & ~g[1:, 1:])
     )
-    blocked = (state != K.FREE).astype(np.float32)  # sealed tunnels count as blocked
+    blocked = (state != FREE).astype(np.float32)  # sealed tunnels count as blocked
     clean = np.zeros(grid.shape, dtype=np.float32)
     inner = blocked
     for d in range(1, radius + 1):
@@ -148,7 +148,7 @@ def numpy_analysis(grid: Grid, weight: float = 0.5, radius: int = 2) -> tuple[Gr
         clean += (box - inner) / d
         inner = box
     clean *= weight
-    clean[state == K.BLOCKED_CELL] = 0
+    clean[state == BLOCKED_CELL] = 0
     return state, gates, clean
 
 

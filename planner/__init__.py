@@ -14,7 +14,17 @@ robot over its configuration space.
 [[0, 0], [0, 1], [0, 2], [1, 2], [2, 2], [2, 1], [2, 0]]
 """
 
-from planner._errors import (
+from planner.analysis.analyse import (
+    Analysis,
+    analyse,
+    analyse_map,
+    analysis_key,
+    analysis_params,
+    params_key,
+    resolve_wall_cost,
+)
+from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.errors import (
     QUOTE_LIMIT,
     InvalidInput,
     NoValidPath,
@@ -22,22 +32,9 @@ from planner._errors import (
     SequenceConflict,
     quote,
 )
-from planner.analysis.fields import (
-    Analysis,
-    Wave,
-    WaveView,
-    analyse,
-    analyse_map,
-    analysis_key,
-    analysis_params,
-    goal_wave,
-    resolve_wall_cost,
-)
-from planner.analysis.planning import Plan, plan, reaches
-from planner.analysis.search import ResumableWave, resumable_wave
 from planner.experiment.environments import TABLE1, environment
 from planner.experiment.runs import compare, run_experiment
-from planner.maps.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.maps.frames import MapFrame
 from planner.maps.grids import (
     Scenario,
     as_grid,
@@ -47,19 +44,19 @@ from planner.maps.grids import (
     read_map,
     read_scen,
 )
-from planner.maps.robot_maps import (
-    MapFrame,
+from planner.maps.robot_maps import RobotMap, grid_map, occupancy_grid_map
+from planner.maps.ros_maps import (
     MapYaml,
-    RobotMap,
     decode_map_image,
-    grid_map,
     image_size,
-    occupancy_grid_map,
     parse_map_yaml,
     parse_ros_map,
     read_ros_map,
 )
 from planner.params import PRESETS, Params, resolve_params
+from planner.plans.planning import Plan, clearance_metrics, plan, reaches
+from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
+from planner.plans.whole_wave import Wave, WaveView, goal_wave
 from planner.render import render_episode, render_map, render_plan
 from planner.stepping.session import MOVES, Session, SessionState, Step, detour
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
@@ -87,6 +84,7 @@ __all__ = [
     "Session",
     "SessionState",
     "Step",
+    "Unsettled",
     "Wave",
     "WaveView",
     "analyse",
@@ -95,6 +93,7 @@ __all__ = [
     "analysis_params",
     "as_grid",
     "circle_cells",
+    "clearance_metrics",
     "compare",
     "configuration_space",
     "decode_map_image",
@@ -105,6 +104,7 @@ __all__ = [
     "grid_map",
     "image_size",
     "occupancy_grid_map",
+    "params_key",
     "parse_map",
     "parse_map_yaml",
     "parse_ros_map",

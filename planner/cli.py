@@ -7,23 +7,25 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
-from planner._errors import InvalidInput, PlannerError
-from planner.analysis.fields import analyse
-from planner.analysis.planning import Plan, plan
+from planner.analysis.analyse import analyse
+from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
 from planner.maps.grids import read_map, read_scen
-from planner.maps.robot_maps import read_ros_map
+from planner.maps.ros_maps import read_ros_map
 from planner.params import PRESETS, resolve_params
+from planner.plans.planning import Plan, plan
 from planner.render import render_episode, render_plan
 from planner.stepping.simulation import run_episode, simulate, warm_up
+
+T = TypeVar("T", int, float)
 
 __all__ = ["main"]
 
@@ -189,23 +191,23 @@ def _plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cell_arg(values: list[str], name: str) -> tuple[int, int]:
+def _two(values: list[str], name: str, number: Callable[[str], T], what: str) -> tuple[T, T]:
+    """Two numbers given as two words or ``A,B``, else InvalidInput saying what ``--name`` takes."""
     parts = [p for v in values for p in v.split(",") if p]
     try:
-        r, c = (int(p) for p in parts)
+        a, b = (number(p) for p in parts)
     except ValueError:
-        msg = f"--{name} takes a cell R C (two integers) on a .map file; got {' '.join(values)!r}"
+        msg = f"--{name} takes {what}; got {' '.join(values)!r}"
         raise InvalidInput(msg, field=name) from None
-    return r, c
+    return a, b
+
+
+def _cell_arg(values: list[str], name: str) -> tuple[int, int]:
+    return _two(values, name, int, "a cell R C (two integers) on a .map file")
 
 
 def _point_arg(values: list[str], name: str) -> dict[str, float]:
-    parts = [p for v in values for p in v.split(",") if p]
-    try:
-        x, y = (float(p) for p in parts)
-    except ValueError:
-        msg = f"--{name} takes a point X,Y in meters on a ROS map; got {' '.join(values)!r}"
-        raise InvalidInput(msg, field=name) from None
+    x, y = _two(values, name, float, "a point X,Y in meters on a ROS map")
     return {"x": x, "y": y}
 
 

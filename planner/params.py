@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner._errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 
 __all__ = [
     "PARAMETER_RANGES",

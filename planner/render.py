@@ -21,9 +21,10 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image, ImageDraw, ImageFont
 
-from planner._errors import InvalidInput, quote
-from planner.analysis.fields import Analysis, Wave
-from planner.analysis.planning import Plan
+from planner.analysis.analyse import Analysis
+from planner.errors import InvalidInput, quote
+from planner.plans.planning import Plan
+from planner.plans.whole_wave import Wave
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 

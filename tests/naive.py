@@ -44,6 +44,7 @@ def classify(grid: np.ndarray) -> tuple[np.ndarray, int, int]:
 
 
 def clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndarray:
+    """Ring by ring: the blocked cells at Chebyshev distance exactly d count 1 / d each."""
     H, W = state.shape
 
     def is_blocked(r: int, c: int) -> bool:
@@ -51,18 +52,21 @@ def clean(state: np.ndarray, seal: bool, weight: float, radius: int) -> np.ndarr
             return True
         return state[r, c] == BLOCKED_CELL or (seal and state[r, c] == TUNNEL)
 
-    out = np.zeros((H, W))
+    out = np.zeros((H, W), dtype=np.float32)
     for r in range(H):
         for c in range(W):
             if state[r, c] == BLOCKED_CELL:
                 continue
             total = 0.0
-            for dr in range(-radius, radius + 1):
-                for dc in range(-radius, radius + 1):
-                    d = max(abs(dr), abs(dc))
-                    if d >= 1 and is_blocked(r + dr, c + dc):
-                        total += weight / d
-            out[r, c] = total
+            for d in range(1, radius + 1):
+                ring = [
+                    (r + dr, c + dc)
+                    for dr in range(-d, d + 1)
+                    for dc in range(-d, d + 1)
+                    if max(abs(dr), abs(dc)) == d
+                ]
+                total += sum(is_blocked(y, x) for y, x in ring) / d
+            out[r, c] = weight * total
     return out
 
 
@@ -76,6 +80,19 @@ def legal(passable: np.ndarray, r: int, c: int, dr: int, dc: int) -> bool:
     if not ok(r + dr, c + dc):
         return False
     return not (dr and dc) or (ok(r + dr, c) and ok(r, c + dc))
+
+
+def move_masks(passable: np.ndarray) -> np.ndarray:
+    """Bit i of each passable cell set when move i from it is legal; 0 off the grid."""
+    H, W = passable.shape
+    out = np.zeros((H, W), dtype=np.uint8)
+    for r in range(H):
+        for c in range(W):
+            if passable[r, c]:
+                out[r, c] = sum(
+                    1 << i for i, (dr, dc) in enumerate(MOVES) if legal(passable, r, c, dr, dc)
+                )
+    return out
 
 
 def wave(

@@ -1,2 +1,2 @@
-"""The map's analysis (gates, tight tunnels, the ``clean`` penalty), goal waves (whole-map
-and resumable), the numba kernels, and plans."""
+"""The map's analysis: cell states (gates, tight tunnels), the ``clean`` penalty, and a robot's
+configuration space on a map in meters."""

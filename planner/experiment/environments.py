@@ -18,8 +18,9 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
-from planner.analysis.fields import analyse, goal_wave
+from planner.analysis.analyse import analyse
+from planner.errors import InvalidInput, quote
+from planner.plans.whole_wave import goal_wave
 
 __all__ = ["DESCRIPTIONS", "SIZE", "TABLE1", "Pair", "connected", "environment"]
 
@@ -72,7 +73,7 @@ def environment(number: int, *, seed: int = 0) -> Grid:
     >>> environment(7)
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: environment number must be one of 1-6; got 7
+    planner.errors.InvalidInput: environment number must be one of 1-6; got 7
     """
     if isinstance(number, bool) or number not in _GENERATORS:
         raise InvalidInput(f"environment number must be one of 1-6; got {quote(number)}")

@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from planner._errors import InvalidInput, quote
-from planner.analysis.planning import plan
+from planner.errors import InvalidInput, quote
 from planner.experiment.environments import TABLE1, environment
 from planner.params import PRESETS
+from planner.plans.planning import plan
 from planner.stepping.simulation import run_episode
 
 __all__ = [

@@ -1,1 +1,1 @@
-"""Maps and their frames: grids and map text, ROS robot maps in meters, configuration space."""
+"""Maps in: grids and Moving AI map text, ROS robot maps in meters and their frames."""

@@ -1,8 +1,5 @@
-"""Occupancy grids in and out: numpy 0/1 arrays, Moving AI ``.map`` text and ``.scen`` files.
-
-Cells are ``[row, col]`` everywhere, row 0 at the top. Moving AI files say ``x`` for the column
-and ``y`` for the row; they are converted here, at the edge, and nowhere else.
-"""
+"""Occupancy grids in and out: numpy 0/1 arrays, Moving AI ``.map`` text and ``.scen`` files
+(whose ``x`` is the column, ``y`` the row: converted here to ``[row, col]``, and nowhere else)."""
 
 from __future__ import annotations
 
@@ -15,9 +12,9 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
-from planner._errors import InvalidInput, quote
-from planner.analysis import _kernels as K
+from planner.errors import InvalidInput, quote
 
 __all__ = [
     "MAP_BLOCKED",
@@ -53,7 +50,7 @@ def grid_array(grid: Any, *, name: str = "grid") -> npt.NDArray[Any]:
     >>> grid_array([[0, 1], [0]])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: grid must be a rectangular 2-D array: grid[1] has 1 cells; grid[0] has 2
+    planner.errors.InvalidInput: grid must be a rectangular 2-D array: grid[1] has 1 cells; grid[0] has 2
     """  # noqa: E501
     try:
         arr = np.asarray(grid)
@@ -99,7 +96,7 @@ def as_grid(grid: Any, *, name: str = "grid") -> Grid:
     >>> as_grid([[0, 2]])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: grid must hold only 0 (free) and 1 (blocked); found 2 at [0, 1]
+    planner.errors.InvalidInput: grid must hold only 0 (free) and 1 (blocked); found 2 at [0, 1]
     """
     arr = grid_array(grid, name=name)
     bad = (arr != 0) & (arr != 1)
@@ -119,7 +116,7 @@ def as_cell(cell: Any, shape: tuple[int, int], *, name: str) -> tuple[int, int]:
     >>> as_cell([3, 0], (3, 3), name="goal")
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: goal [3, 0] is outside the 3 x 3 map
+    planner.errors.InvalidInput: goal [3, 0] is outside the 3 x 3 map
     """
     if isinstance(cell, str | bytes) or not isinstance(cell, Sequence | np.ndarray):
         raise InvalidInput(f"{name} must be a [row, col] pair; got {quote(cell)}", field=name)
@@ -137,6 +134,24 @@ def as_cell(cell: Any, shape: tuple[int, int], *, name: str) -> tuple[int, int]:
 
 def _is_int(value: Any) -> bool:
     return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+@njit(cache=True, nogil=True)
+def _decode_cells(data: np.ndarray, lookup: np.ndarray) -> tuple[np.ndarray, int]:
+    """``lookup[data]`` (bytes to cells) and the index of the first byte it maps to 255 (not a
+    map character), or -1: one pass where numpy takes two (the lookup, then the search)."""
+    n = data.shape[0]
+    out = np.empty(n, dtype=np.uint8)
+    bad = 0
+    for i in range(n):
+        v = lookup[data[i]]
+        out[i] = v
+        bad |= v == 255
+    if bad:
+        for i in range(n):
+            if out[i] == 255:
+                return out, i
+    return out, -1
 
 
 def parse_rows(rows: Sequence[str], *, name: str = "rows") -> Grid:
@@ -165,7 +180,7 @@ def parse_rows(rows: Sequence[str], *, name: str = "rows") -> Grid:
             f"{flat % width}; map characters are {MAP_FREE!r} (free) and {MAP_BLOCKED!r} (blocked)"
         )
         raise InvalidInput(msg, field=name) from None
-    cells, bad = K._decode_cells(np.frombuffer(data, dtype=np.uint8), _LOOKUP)
+    cells, bad = _decode_cells(np.frombuffer(data, dtype=np.uint8), _LOOKUP)
     if bad >= 0:
         flat = int(bad)
         msg = (

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner._errors import InvalidInput, quote
+from planner.errors import InvalidInput, quote
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
@@ -506,7 +506,7 @@ def smooth_path(
     >>> smooth_path([[0, 0], [0, 2]], p.analysis.clearance)
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: path steps must each go to one of the 8 neighbouring cells; \
+    planner.errors.InvalidInput: path steps must each go to one of the 8 neighbouring cells; \
 step 0 goes from [0, 0] to [0, 2]
     """
     D = np.asarray(distance)

@@ -1,139 +1,26 @@
-"""Stepping among dynamic obstacles (docs/algorithm.md): one decision per reported step.
-
-A :class:`Session` pairs a :class:`~planner.analysis.planning.Plan` (heavy, cacheable arrays) with a
-:class:`SessionState` (small, plain data that a store can keep as JSON), so a session can be
-rebuilt anywhere from the plan's inputs and its state.
-"""
+"""Stepping among dynamic obstacles (docs/algorithm.md, "Dynamic obstacles and stepping"): one
+decision per reported step, from a
+plan (heavy, cacheable) and a session state (small, plain data a store keeps as JSON)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, SequenceConflict, quote
-from planner.analysis import _kernels as K
-from planner.analysis.fields import WaveView
-from planner.analysis.planning import Plan, cell_of, free_cell
-from planner.analysis.search import ResumableWave
+from planner.analysis.analyse import Analysis
+from planner.analysis.cells import BLOCKED_CELL
+from planner.errors import InvalidInput, SequenceConflict, quote
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
+from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
+from planner.plans.detour import detour_cells
+from planner.plans.moves import DC, DR, OPEN_UNSEALED
+from planner.plans.planning import Plan, cell_of, free_cell, route
+from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
-
-# The field argument of a detour over the unsealed grid, which reads none.
-_NO_FIELD = np.zeros((1, 1), dtype=np.float64)
-
-#: Move names by kernel move index; ``WAIT`` stays put.
-MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
-
-Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
-
-
-@dataclass(frozen=True, slots=True)
-class Step:
-    """The answer to one step: where the robot goes now and how the episode stands."""
-
-    seq: int
-    previous: tuple[int, int]
-    position: tuple[int, int]
-    move: str
-    status: Status
-    iteration: int
-    path_length: float
-    arc_cost: float
-    remaining: float | None
-    """Plain cost-to-go ``k`` from ``position`` (None when the goal cannot be reached); off the
-    plan's sealed grid, the length of the narrow route the robot follows out."""
-    narrow_fallback: bool = False
-    """The robot follows a route through tight tunnels: the plan's own narrow fallback, or a
-    detour that only the unsealed grid allows (a sealed pocket left, or the wide way parked)."""
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "seq": self.seq,
-            "previous": list(self.previous),
-            "position": list(self.position),
-            "move": self.move,
-            "status": self.status,
-            "iteration": self.iteration,
-            "path_length": self.path_length,
-            "arc_cost": self.arc_cost,
-            "remaining": self.remaining,
-            "narrow_fallback": self.narrow_fallback,
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Step:
-        (pr, pc), (r, c) = d["previous"], d["position"]
-        return cls(
-            d["seq"], (pr, pc), (r, c), d["move"], d["status"], d["iteration"],
-            d["path_length"], d["arc_cost"], d["remaining"], d.get("narrow_fallback", False),
-        )  # fmt: skip
-
-
-@dataclass(slots=True)
-class SessionState:
-    """Everything that changes as the robot steps; JSON-ready through :meth:`as_dict` (cells as
-    tuples, which every JSON encoder writes as arrays: the trajectory grows with the episode,
-    and a service writes the state back after every step)."""
-
-    position: tuple[int, int]
-    status: Status = "ready"
-    iteration: int = 0
-    path_length: float = 0.0
-    arc_cost: float = 0.0
-    held_up: int = 0
-    replan_at: int = 0
-    waits: int = 0
-    replans: int = 0
-    detour: list[int] = field(default_factory=list)
-    narrow_fallback: bool = False
-    """The current ``detour`` crosses cells that sealing closed."""
-    trajectory: list[tuple[int, int]] = field(default_factory=list)
-    last_seq: int | None = None
-    last_step: Step | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "position": list(self.position),
-            "status": self.status,
-            "iteration": self.iteration,
-            "path_length": self.path_length,
-            "arc_cost": self.arc_cost,
-            "held_up": self.held_up,
-            "replan_at": self.replan_at,
-            "waits": self.waits,
-            "replans": self.replans,
-            "detour": list(self.detour),
-            "narrow_fallback": self.narrow_fallback,
-            "trajectory": list(self.trajectory),
-            "last_seq": self.last_seq,
-            "last_step": None if self.last_step is None else self.last_step.as_dict(),
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> SessionState:
-        last = d.get("last_step")
-        r, c = d["position"]
-        get = d.get  # a key left out (a record from an older version): the field's default
-        return cls(  # the fields in order (a step reads its state back every time)
-            (r, c), get("status", "ready"), get("iteration", 0), get("path_length", 0.0),
-            get("arc_cost", 0.0), get("held_up", 0), get("replan_at", 0), get("waits", 0),
-            get("replans", 0), list(get("detour", ())), get("narrow_fallback", False),
-            [(r, c) for r, c in get("trajectory", ())], get("last_seq"),
-            None if last is None else Step.from_dict(last),
-        )  # fmt: skip
-
-    def copy(self) -> SessionState:
-        """A copy with lists of its own (a step changes them in place; a step is immutable)."""
-        return SessionState(
-            self.position, self.status, self.iteration, self.path_length, self.arc_cost,
-            self.held_up, self.replan_at, self.waits, self.replans, list(self.detour),
-            self.narrow_fallback, list(self.trajectory), self.last_seq, self.last_step,
-        )  # fmt: skip
 
 
 class Session:
@@ -155,10 +42,10 @@ class Session:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
         self._width = plan.analysis.shape[1]
-        self._mode = K.MODE_PAPER if plan.params.decision == "paper" else K.MODE_WIDE
+        self._rule = Rule.of(plan.params)
         # The tabu list: only the paper's decision reads it.
         self._visited: set[int] | None = None
-        if self._mode == K.MODE_PAPER:
+        if self._rule.mode == MODE_PAPER:
             w = self._width
             self._visited = {r * w + c for r, c in state.trajectory}
 
@@ -256,17 +143,17 @@ class Session:
         p = plan.params
         on_plan = self._on_plan(previous)
         searching = self._may_search(st.held_up, st.replan_at, bool(st.detour) or on_plan)
-        i, outcome = -1, K.WAIT
+        i, outcome = -1, WAIT
         if on_plan and (not st.detour or self._route_clear(previous, obstacles)):
             i, outcome = self._decide(previous, obstacles, -1)
-            if outcome == K.MOVE and st.detour:
+            if outcome == MOVE and st.detour:
                 # The blockage that made the detour is gone: back to the plan's better route.
                 st.detour = []
                 st.narrow_fallback = False
-        if st.detour and outcome != K.MOVE:
+        if st.detour and outcome != MOVE:
             i, outcome = self._decide(previous, obstacles, st.detour[0])
         status: Status = "moving"
-        if outcome in (K.WAIT, K.BLOCKED) and searching:
+        if outcome in (WAIT, BLOCKED) and searching:
             found = self._search(previous, obstacles, on_plan)
             if found is None:
                 st.status = "blocked"
@@ -276,19 +163,19 @@ class Session:
             cells, narrow = found
             if cells.size:
                 i = MOVES.index(_move_name(previous, divmod(int(cells[0]), self._width)))
-                outcome = K.MOVE
+                outcome = MOVE
                 st.detour = [int(x) for x in cells]
                 st.narrow_fallback = narrow
                 st.replans += 1
                 status = "replanned"
             else:
                 st.replan_at = st.held_up + max(p.patience, 1)
-        if outcome in (K.WAIT, K.BLOCKED):
+        if outcome in (WAIT, BLOCKED):
             st.held_up += 1
             st.waits += 1
             st.status = "waiting"
             return self._answer(seq, previous, "WAIT")
-        if outcome == K.EVADE:
+        if outcome == EVADE:
             st.detour = []
             st.narrow_fallback = False
         elif st.detour:
@@ -310,16 +197,11 @@ class Session:
         tabu = self._tabu(r, c) if self._visited is not None else 0
         # The hook of resumable waves: the view settles what the decision reads, around (r, c).
         v = wave.view(r, c, plan.analysis.clean)
-        # A window of the map (not the map itself): cells and flat indices are relative to it.
-        if v.top or v.left or v.passable.shape != plan.analysis.shape:
-            obstacles = obstacles - np.array([v.top, v.left], dtype=np.int64)
-            target = _local(target, self._width, v)
-        i, outcome = K._decide(
-            v.passable, v.k, v.kw, v.clean, r - v.top, c - v.left, obstacles, p.dynamic_margin,
-            tabu, plan.goal[0] - v.top, plan.goal[1] - v.left, self._mode, p.alpha, p.beta,
-            p.diagonal_cost, target,
+        next_cell = None if target < 0 else divmod(target, self._width)
+        return decide(
+            v, cell, self._rule, obstacles, goal=plan.goal, margin=p.dynamic_margin, tabu=tabu,
+            target=next_cell,
         )  # fmt: skip
-        return int(i), int(outcome)
 
     def _on_plan(self, cell: tuple[int, int]) -> bool:
         """Whether the plan's grid leads from ``cell`` to the goal (not a pocket sealing shut)."""
@@ -328,7 +210,7 @@ class Session:
         r, c = cell[0] - v.top, cell[1] - v.left
         if v.passable[r, c] and v.kw[r, c] < np.inf:  # the usual case, without a kernel call
             return True
-        value = K._cost_here(v.passable, v.kw, v.clean, r, c, wave.diagonal_cost, True)
+        value = cost_here(v, cell, diagonal_cost=wave.diagonal_cost, use_clean=True)
         return bool(np.isfinite(value))
 
     def _route_clear(self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64]) -> bool:
@@ -339,19 +221,12 @@ class Session:
         plan = self.plan
         wave, p, W = plan.wave, plan.params, self._width
         H = plan.analysis.shape[0]
-        if isinstance(wave, ResumableWave):  # the walk over what it has settled
-            route = wave.walk(cell, K.MODE_WIDE, p.alpha, p.beta, 4 * H * W + 8)
-        else:
-            route = K._walk(
-                wave.passable, wave.k, wave.kw, plan.analysis.clean, cell[0] * W + cell[1],
-                plan.goal[0] * W + plan.goal[1], K.MODE_WIDE, p.alpha, p.beta, p.diagonal_cost,
-                4 * H * W + 8,
-            )  # fmt: skip
-        if route.size == 0:
+        way = route(wave, plan.analysis, cell, plan.goal, Rule.of(p, wide=True))
+        if way.size == 0:
             return False
-        rows, cols = np.divmod(route, W)
+        rows, cols = np.divmod(way, W)
         # The cells entered, and the two cells beside each diagonal move (never squeezed past).
-        passed = np.concatenate((route[1:], rows[:-1] * W + cols[1:], rows[1:] * W + cols[:-1]))
+        passed = np.concatenate((way[1:], rows[:-1] * W + cols[1:], rows[1:] * W + cols[:-1]))
         return not np.isin(passed, _blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
 
     def _search(
@@ -373,19 +248,13 @@ class Session:
             return (np.empty(0, dtype=np.int64), False) if on_plan else None
         # Over the unsealed grid with the octile heuristic: the wave's fields are not read (a
         # resumable wave stays resumable).
-        unsealed = a.passable(narrow=True)
-        cells = K._detour(
-            unsealed, _NO_FIELD, a.clean, start, goal, p.diagonal_cost, obstacles,
-            p.dynamic_margin, False,
-        )  # fmt: skip
+        cells = _unsealed_detour(a, start, goal, obstacles, p.dynamic_margin, p.diagonal_cost)
         if cells.size:
             sealed = ~wave.on_grid(np.append(cells, start))
             return cells, bool(sealed.any())
         if not on_plan:
             none = np.empty((0, 2), dtype=np.int64)
-            way = K._detour(
-                unsealed, _NO_FIELD, a.clean, start, goal, p.diagonal_cost, none, 0, False
-            )
+            way = _unsealed_detour(a, start, goal, none, 0, p.diagonal_cost)
             if way.size == 0:
                 return None
         return np.empty(0, dtype=np.int64), False
@@ -396,7 +265,7 @@ class Session:
         assert visited is not None
         tabu = 0
         for i in range(8):
-            yr, yc = r + int(K.DR[i]), c + int(K.DC[i])
+            yr, yc = r + int(DR[i]), c + int(DC[i])
             if 0 <= yr < H and 0 <= yc < W and yr * W + yc in visited:
                 tabu |= 1 << i
         return tabu
@@ -404,7 +273,7 @@ class Session:
     def _move(self, i: int) -> None:
         st = self.state
         r, c = st.position
-        nr, nc = r + int(K.DR[i]), c + int(K.DC[i])
+        nr, nc = r + int(DR[i]), c + int(DC[i])
         st.position = (nr, nc)
         st.trajectory.append((nr, nc))
         if self._visited is not None:
@@ -442,9 +311,7 @@ class Session:
         r, c = st.position
         # The hook of resumable waves: the view settles what is read, around (r, c).
         v = wave.view(r, c, self.plan.analysis.clean)
-        value = K._cost_here(
-            v.passable, v.k, v.clean, r - v.top, c - v.left, wave.diagonal_cost, False
-        )
+        value = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=False)
         if np.isfinite(value):
             return value
         if st.detour:
@@ -479,7 +346,7 @@ def detour(
     """
     a, wave, params = plan.analysis, plan.wave, plan.params
     r, c = as_cell(cell, a.shape, name="cell")
-    if a.state[r, c] == K.BLOCKED_CELL:
+    if a.state[r, c] == BLOCKED_CELL:
         raise InvalidInput(f"cell [{r}, {c}] is on an obstacle", field="cell")
     obstacles = _obstacles(dynamic_obstacles, a.shape)
     if margin is None:
@@ -492,10 +359,8 @@ def detour(
     if not narrow or wave.narrow or not a.sealed:  # over the wave's grid (a resumable one's own)
         cells = wave.detour(r * W + c, obstacles, a.clean, margin)
     else:
-        cells = K._detour(
-            a.passable(narrow=True), _NO_FIELD, a.clean, r * W + c,
-            plan.goal[0] * W + plan.goal[1], params.diagonal_cost, obstacles, margin, False,
-        )  # fmt: skip
+        goal = plan.goal[0] * W + plan.goal[1]
+        cells = _unsealed_detour(a, r * W + c, goal, obstacles, margin, params.diagonal_cost)
     out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
     return out
 
@@ -548,18 +413,26 @@ def _blocked_cells(
     return out
 
 
-def _local(target: int, width: int, v: WaveView) -> int:
-    """A flat map index as the flat index into the view's window (one past it when outside)."""
-    if target < 0:
-        return target
-    h, w = int(v.passable.shape[0]), int(v.passable.shape[1])
-    r, c = target // width - v.top, target % width - v.left
-    return r * w + c if 0 <= r < h and 0 <= c < w else h * w
-
-
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:
     dr, dc = b[0] - a[0], b[1] - a[1]
     for i in range(8):
-        if int(K.DR[i]) == dr and int(K.DC[i]) == dc:
+        if int(DR[i]) == dr and int(DC[i]) == dc:
             return MOVES[i]
     raise AssertionError(f"{a} -> {b} is not a move")
+
+
+def _unsealed_detour(
+    a: Analysis,
+    start: int,
+    goal: int,
+    obstacles: npt.NDArray[np.int64],
+    margin: int,
+    diagonal_cost: float,
+) -> npt.NDArray[np.int64]:
+    """The detour over the unsealed grid, with the octile heuristic: no wave ran over it (a
+    resumable wave stays resumable)."""
+    cells, _ = detour_cells(
+        a.state, OPEN_UNSEALED, goal, a.clean, start, obstacles, margin=margin,
+        diagonal_cost=diagonal_cost,
+    )  # fmt: skip
+    return cells

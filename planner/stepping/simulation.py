@@ -1,16 +1,6 @@
-"""The paper's simulated experiment (docs/algorithm.md): one episode among random dynamic obstacles.
-
-Each obstacle starts on a random free cell (not the start, not the goal) and every tick moves to
-a random legal neighbouring cell or stays (never onto another obstacle or the robot's cell). Two
-orders of play (``obstacle_motion``):
-
-- ``turns`` (the paper's): the obstacles move, then the robot is told where they are and steps;
-- ``simultaneous`` (the real world): the robot decides from where the obstacles are at the tick's
-  start, then they all move at once, the robot's move unknown to them and theirs to it.
-
-A collision is the robot ending a tick on an obstacle's cell, or swapping cells with one, in
-either mode. Everything is drawn from one seeded generator, so an episode is reproducible.
-"""
+"""The paper's simulated experiment (docs/algorithm.md, the experiment, docs/experiment.md): one
+seeded, reproducible episode of a
+robot among randomly moving dynamic obstacles, and its metrics."""
 
 from __future__ import annotations
 
@@ -21,13 +11,14 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
-from planner._errors import InvalidInput, quote
-from planner.analysis import _kernels as K
-from planner.analysis.planning import Plan, clearance_metrics, plan
+from planner.errors import InvalidInput, quote
+from planner.plans.moves import DC, DR
+from planner.plans.planning import Plan, clearance_metrics, plan
 from planner.stepping.session import Session
 
-__all__ = ["Episode", "ObstacleMotion", "run_episode", "simulate", "warm_up"]
+__all__ = ["Episode", "ObstacleMotion", "move_obstacles", "run_episode", "simulate", "warm_up"]
 
 MAX_DYNAMIC = 10_000
 STOP_EVERY = 256
@@ -91,6 +82,14 @@ def run_episode(
 ) -> Episode:
     """Run one seeded episode of ``plan`` among ``dynamic_count`` randomly moving obstacles.
 
+    Each obstacle starts on a random free cell (not the start, not the goal) and every tick
+    moves to a random legal neighbouring cell or stays (never onto another obstacle or the
+    robot's cell). Two orders of play (``obstacle_motion``): ``turns`` (the paper's), the
+    obstacles move, then the robot is told where they are and steps; ``simultaneous`` (the real
+    world), the robot decides from where the obstacles are at the tick's start, then they all
+    move at once. A collision is the robot ending a tick on an obstacle's cell, or swapping
+    cells with one. Everything is drawn from one seeded generator.
+
     ``max_steps`` (default ``4 * (H + W) + 4 * len(path)``) bounds the episode. With ``record``
     off, the obstacles' cells at each step are not kept (``Episode.dynamic_obstacles`` is empty).
     ``obstacle_motion`` is ``turns`` (obstacles move, then the robot) or ``simultaneous``.
@@ -140,13 +139,13 @@ def run_episode(
         r, c = session.state.position
         before = dynamic_obstacles.copy()
         if not simultaneous:
-            K._move_obstacles(grid, occupied, dynamic_obstacles, r, c, rng.random(dynamic_count))
+            move_obstacles(grid, occupied, dynamic_obstacles, (r, c), rng.random(dynamic_count))
         t0 = time.perf_counter()
         step = session.step(dynamic_obstacles)
         step_seconds += time.perf_counter() - t0
         if simultaneous:
             # They move at once with the robot: away from the cell it stood on at the start.
-            K._move_obstacles(grid, occupied, dynamic_obstacles, r, c, rng.random(dynamic_count))
+            move_obstacles(grid, occupied, dynamic_obstacles, (r, c), rng.random(dynamic_count))
         if record:
             history.append(dynamic_obstacles.copy())
         steps += 1
@@ -186,6 +185,64 @@ def run_episode(
     shape = (len(history), dynamic_count, 2)
     obstacle_cells = np.stack(history) if history else np.empty(shape, dtype=np.int64)
     return Episode(plan, trajectory, obstacle_cells, metrics, obstacle_motion)
+
+
+@njit(cache=True, nogil=True)
+def _move_obstacles(
+    grid: np.ndarray,
+    occupied: np.ndarray,
+    obstacles: np.ndarray,
+    robot_r: int,
+    robot_c: int,
+    u: np.ndarray,
+) -> None:
+    """Move each obstacle in place to a uniformly drawn option among staying and its legal moves
+    (free static cell, no corner cutting, not another obstacle's cell, not the robot's cell).
+
+    ``occupied`` counts obstacles per cell and is kept up to date; ``u`` holds one uniform
+    [0, 1) number per obstacle, drawn by the caller's seeded generator.
+    """
+    H, W = grid.shape
+    m = obstacles.shape[0]
+    options = np.empty(9, dtype=np.int64)
+    for j in range(m):
+        r = obstacles[j, 0]
+        c = obstacles[j, 1]
+        count = 1
+        options[0] = -1
+        for i in range(8):
+            yr = r + DR[i]
+            yc = c + DC[i]
+            if yr < 0 or yr >= H or yc < 0 or yc >= W or grid[yr, yc] != 0:
+                continue
+            if i & 1 and (grid[r, yc] != 0 or grid[yr, c] != 0):
+                continue
+            if (yr == robot_r and yc == robot_c) or occupied[yr, yc]:
+                continue
+            options[count] = i
+            count += 1
+        pick = options[min(int(u[j] * count), count - 1)]
+        if pick >= 0:
+            occupied[r, c] -= 1
+            obstacles[j, 0] = r + DR[pick]
+            obstacles[j, 1] = c + DC[pick]
+            occupied[r + DR[pick], c + DC[pick]] += 1
+
+
+def move_obstacles(
+    grid: npt.NDArray[np.uint8],
+    occupied: npt.NDArray[np.int32],
+    obstacles: npt.NDArray[np.int64],
+    robot: tuple[int, int],
+    u: npt.NDArray[np.float64],
+) -> None:
+    """One tick of the paper's random obstacles, in place (see ``_move_obstacles``)."""
+    if occupied.shape != grid.shape or obstacles.shape != (u.shape[0], 2):
+        shapes = (grid.shape, occupied.shape, obstacles.shape, u.shape)
+        raise TypeError(
+            f"grid and occupied must match, obstacles be (len(u), 2); {shapes!r} given."
+        )
+    _move_obstacles(grid, occupied, obstacles, robot[0], robot[1], u)
 
 
 def warm_up() -> None:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner.analysis.planning import clearance_metrics
+from planner import clearance_metrics
 from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
 from service.resources.maps import MapView
 from service.resources.plans import PlanView, StepView

@@ -14,7 +14,7 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from planner.maps.robot_maps import MapFrame, RobotMap
+from planner import MapFrame, RobotMap
 
 __all__ = [
     "Cells",

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import orjson
 
-from planner.maps.robot_maps import RobotMap
+from planner import RobotMap
 from service.edge.tenants import TENANT, scoped
 from service.errors import InsufficientStorage
 from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, Update, pack, unpack

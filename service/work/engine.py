@@ -28,9 +28,7 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner import quote
-from planner.analysis.fields import params_key
-from planner.analysis.search import Unsettled
+from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import planner
-from planner.analysis import _kernels as K
+from planner.analysis.cells import TUNNEL
 from tests import naive
 from tests.conftest import grid_from
 
@@ -27,7 +27,7 @@ CORRIDOR = grid_from(
 def test_one_cell_corridor_is_a_tunnel_and_sealed() -> None:
     a = planner.analyse(CORRIDOR)
     assert a.tunnels == 1
-    assert a.state[2, 3] == K.TUNNEL
+    assert a.state[2, 3] == TUNNEL
     assert a.passable()[2, 3] == 0
     assert a.passable(narrow=True)[2, 3] == 1
     assert a.sealed == 1

@@ -50,7 +50,7 @@ def test_wide_clean_decays_to_zero_at_the_distance() -> None:
     robot_map = planner.grid_map([[1] + [0] * 30], resolution=0.05)
     cs = planner.configuration_space(robot_map, robot_radius=0.2, unknown="free")
     clean = planner.wide_clean(cs, weight=4.0, wide_distance=0.5)
-    from planner.maps.cspace import WIDE_EXPONENT
+    from planner.analysis.cspace import WIDE_EXPONENT
 
     for c in range(31):
         s = c * 0.05 - 0.2

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import planner
-from planner.analysis import _kernels as K
+from planner.analysis.cells import BLOCKED_CELL
+from planner.plans import decide as D
 from tests import naive
 
-OUTCOMES = {K.MOVE: "move", K.EVADE: "evade", K.WAIT: "wait", K.BLOCKED: "blocked"}
+OUTCOMES = {D.MOVE: "move", D.EVADE: "evade", D.WAIT: "wait", D.BLOCKED: "blocked"}
 
 
 def random_case(seed: int) -> tuple[planner.Plan, np.random.Generator]:
@@ -33,7 +34,7 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
     p, rng = random_case(seed)
     a, w = p.analysis, p.wave
     H, W = a.shape
-    free = np.argwhere(a.state != K.BLOCKED_CELL)
+    free = np.argwhere(a.state != BLOCKED_CELL)
     for _ in range(60):
         r, c = (int(v) for v in free[rng.integers(len(free))])
         m = int(rng.integers(0, 6))
@@ -51,11 +52,9 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
             if 0 <= r + dr < H and 0 <= c + dc < W:
                 target = (r + dr, c + dc)
         paper = p.params.decision == "paper"
-        flat_target = -1 if target is None else target[0] * W + target[1]
-        got = K._decide(
-            w.passable, w.k, w.kw, a.clean, r, c, np.ascontiguousarray(obstacles), margin, tabu,
-            p.goal[0], p.goal[1], K.MODE_PAPER if paper else K.MODE_WIDE, p.params.alpha,
-            p.params.beta, p.params.diagonal_cost, flat_target,
+        got = D.decide(
+            w.view(r, c, a.clean), (r, c), D.Rule.of(p.params), np.ascontiguousarray(obstacles),
+            goal=p.goal, margin=margin, tabu=tabu, target=target,
         )  # fmt: skip
         want = naive.decide(
             w.passable, w.k, w.kw, a.clean, (r, c), [(int(o[0]), int(o[1])) for o in obstacles],
@@ -69,7 +68,7 @@ def test_decide_matches_the_naive_rules(seed: int) -> None:
 def test_detour_is_an_optimal_legal_way_round_the_obstacles(seed: int) -> None:
     p, rng = random_case(seed)
     a, w = p.analysis, p.wave
-    free = np.argwhere(a.state != K.BLOCKED_CELL)
+    free = np.argwhere(a.state != BLOCKED_CELL)
     for _ in range(10):
         sr, sc = (int(v) for v in free[rng.integers(len(free))])
         start = (sr, sc)

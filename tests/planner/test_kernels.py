@@ -9,7 +9,10 @@ import numpy as np
 import pytest
 
 import planner
-from planner.analysis import _kernels as K
+from planner.analysis.cells import classify, gate_cells
+from planner.plans.decide import cost_here, legal_moves
+from planner.plans.whole_wave import WaveView, _move_masks
+from planner.stepping.simulation import move_obstacles
 from tests import naive
 
 
@@ -23,29 +26,27 @@ def random_grid(seed: int, density: float | None = None) -> np.ndarray:
 @pytest.mark.parametrize("seed", range(30))
 def test_gate_cells(seed: int) -> None:
     grid = random_grid(seed)
-    got = {frozenset({(r1, c1), (r2, c2)}) for r1, c1, r2, c2 in K._gate_cells(grid).tolist()}
+    got = {frozenset({(r1, c1), (r2, c2)}) for r1, c1, r2, c2 in gate_cells(grid).tolist()}
     assert got == naive.gate_cells(grid)
-    assert len(got) == K._classify(grid)[1]  # the analysis counts the same gates
+    assert len(got) == classify(grid)[1]  # the analysis counts the same gates
 
 
 @pytest.mark.parametrize("seed", range(30))
 def test_move_masks_and_legal_moves(seed: int) -> None:
     passable = 1 - random_grid(seed)
-    masks = K._move_masks(passable)
+    masks = _move_masks(passable)
     rng = np.random.default_rng(seed)
     H, W = passable.shape
     for r in range(H):
         for c in range(W):
             legal = naive.legal_moves(passable, r, c, set())
             assert masks[r, c] == (legal if passable[r, c] else 0)
-            assert K._legal_moves(passable, r, c, 0) == legal
+            assert legal_moves(passable, r, c, 0) == legal
             dynamic = {(r + dr, c + dc) for dr, dc in naive.MOVES if rng.random() < 0.3}
             bits = sum(
                 1 << i for i, (dr, dc) in enumerate(naive.MOVES) if (r + dr, c + dc) in dynamic
             )
-            assert K._legal_moves(passable, r, c, bits) == naive.legal_moves(
-                passable, r, c, dynamic
-            )
+            assert legal_moves(passable, r, c, bits) == naive.legal_moves(passable, r, c, dynamic)
 
 
 @pytest.mark.parametrize("seed", range(30))
@@ -57,9 +58,11 @@ def test_cost_here(seed: int) -> None:
     diagonal = [math.sqrt(2), 1.4][seed % 2]
     for r, c in np.ndindex(passable.shape):
         want = naive.cost_here(passable, field, np.zeros_like(clean), r, c, diagonal)
-        assert K._cost_here(passable, field, clean, r, c, diagonal, False) == pytest.approx(want)
+        view = WaveView(passable, field, field, clean, 0, 0)
+        got = cost_here(view, (r, c), diagonal_cost=diagonal, use_clean=False)
+        assert got == pytest.approx(want)
         want = naive.cost_here(passable, field, clean, r, c, diagonal)
-        got = K._cost_here(passable, field, clean, r, c, diagonal, True)
+        got = cost_here(view, (r, c), diagonal_cost=diagonal, use_clean=True)
         assert got == pytest.approx(want, rel=1e-6)
 
 
@@ -73,13 +76,13 @@ def test_move_obstacles(seed: int) -> None:
     picks = rng.choice(len(free), size=min(len(free), 1 + seed % 6), replace=False)
     robot, cells = free[picks[0]], [free[i] for i in picks[1:]]
     obstacles = np.array(cells, dtype=np.int64).reshape(-1, 2)
-    occupied = np.zeros(grid.shape, dtype=np.int64)
+    occupied = np.zeros(grid.shape, dtype=np.int32)
     for cell in cells:
         occupied[cell] += 1
     for _ in range(5):
         u = rng.random(len(cells))
         want = naive.move_obstacles(grid, cells, robot, u.tolist())
-        K._move_obstacles(grid, occupied, obstacles, robot[0], robot[1], u)
+        move_obstacles(grid, occupied, obstacles, robot, u)
         cells = [tuple(map(int, cell)) for cell in obstacles]
         assert cells == want
         assert occupied.sum() == len(cells)
@@ -88,7 +91,7 @@ def test_move_obstacles(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", range(40))
 def test_walk_follows_the_naive_decision_to_the_goal(seed: int) -> None:
-    """``Plan.path`` (the ``_walk`` kernel) is the naive decision applied step by step."""
+    """``Plan.path`` (the walk kernel) is the naive decision applied step by step."""
     grid = random_grid(seed, density=0.2)
     free = [tuple(map(int, cell)) for cell in np.argwhere(grid == 0)]
     if len(free) < 2:

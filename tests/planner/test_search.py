@@ -1,4 +1,4 @@
-"""The resumable goal wave (``planner.analysis.search``) against the whole-map wave and the
+"""The resumable goal wave (``planner.plans.resumable_wave``) against the whole-map wave and the
 naive Dijkstra: exact values wherever a decision reads, the same plans and the same sessions
 (strays and dynamic obstacles included), the same paths wherever no tie allowed another."""
 
@@ -13,8 +13,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import planner
-from planner.analysis import _kernels as K
-from planner.analysis.search import ResumableWave, resumable_wave
+from planner.analysis.cells import FREE, TUNNEL
+from planner.plans.decide import cost_here
+from planner.plans.resumable_wave import ResumableWave, resumable_wave
 from tests import naive
 
 Case = tuple[np.ndarray, tuple[int, int], tuple[int, int]]
@@ -94,7 +95,7 @@ def test_settled_values_are_the_whole_map_waves_to_the_bit(ros: Path, name: str)
     m = planner.read_ros_map(ros / f"{name}.yaml")
     p = planner.resolve_params("wide", robot_radius=0.22)
     a = planner.analyse_map(m, p)
-    free = np.argwhere(a.state == K.FREE)
+    free = np.argwhere(a.state == FREE)
     rng = np.random.default_rng(5)
     for goal in free[rng.integers(len(free), size=4)]:
         whole = planner.goal_wave(a, goal, diagonal_cost=p.diagonal_cost)
@@ -159,10 +160,8 @@ def test_plans_match_the_whole_map_wave(case: Case, preset: str) -> None:
         steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
         cost = np.where(steps == 2, lazy.params.diagonal_cost, 1.0)
         cost += clean[path[1:, 0], path[1:, 1]]
-        here = K._cost_here(
-            whole.wave.passable, whole.wave.kw, clean, start[0], start[1],
-            lazy.params.diagonal_cost, True,
-        )  # fmt: skip
+        view = whole.wave.view(start[0], start[1], clean)
+        here = cost_here(view, start, diagonal_cost=lazy.params.diagonal_cost, use_clean=True)
         assert cost.sum() == pytest.approx(here, rel=1e-9, abs=1e-9)
 
 
@@ -320,7 +319,7 @@ def test_robot_map_plans_are_resumable_and_follow_the_whole_map_waves_path(ros: 
     m = planner.read_ros_map(ros / "depot.yaml")
     p = planner.resolve_params("wide", robot_radius=0.22)
     a = planner.analyse_map(m, p)
-    free = np.argwhere(a.state == K.FREE)
+    free = np.argwhere(a.state == FREE)
     rng = np.random.default_rng(2)
     planned = 0
     for _ in range(12):
@@ -344,7 +343,7 @@ def test_the_narrow_fallback_and_detour_keep_the_wave_resumable() -> None:
     p = planner.plan(grid, (70, 20), (90, 80), dynamic_margin=0)
     assert isinstance(p.wave, ResumableWave)
     assert not p.narrow_fallback
-    assert p.analysis.state[10, 50] == K.TUNNEL
+    assert p.analysis.state[10, 50] == TUNNEL
     session = planner.Session(p)
     step = session.step([], position=(5, 50))  # in the pocket: searched out at once
     assert step.status == "replanned"

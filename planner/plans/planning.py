@@ -13,15 +13,18 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, NoValidPath, quote
-from planner.analysis import _kernels as K
-from planner.analysis.fields import Analysis, Wave, analyse, analyse_map, goal_wave, params_key
-from planner.analysis.search import ResumableWave, resumable_wave
+from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
+from planner.analysis.cells import BLOCKED_CELL
+from planner.errors import InvalidInput, NoValidPath, quote
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
+from planner.plans.decide import Rule, cost_here
+from planner.plans.resumable_wave import ResumableWave, resumable_wave
+from planner.plans.walk import walk_fields
+from planner.plans.whole_wave import Wave, goal_wave
 
-__all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches"]
+__all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
 WaveSource = Callable[[bool], Wave]
 """Gives the goal wave for ``narrow`` (False: the sealed grid): lets a caller cache waves."""
@@ -49,19 +52,11 @@ class Plan:
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
         """The cells the decision visits with no dynamic obstacles, start to goal."""
-        a, w, p, s, g = self.analysis, self.wave, self.params, self.start, self.goal
-        W = a.shape[1]
-        mode = K.MODE_PAPER if p.decision == "paper" else K.MODE_WIDE
-        if isinstance(w, ResumableWave):
-            flat = w.walk(s, mode, p.alpha, p.beta, 4 * a.shape[0] * W + 8)
-        else:
-            flat = K._walk(
-                w.passable, w.k, w.kw, a.clean, s[0] * W + s[1], g[0] * W + g[1], mode,
-                p.alpha, p.beta, p.diagonal_cost, 4 * a.shape[0] * W + 8,
-            )  # fmt: skip
+        s, g = self.start, self.goal
+        flat = route(self.wave, self.analysis, s, g, Rule.of(self.params))
         if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
             raise NoValidPath(f"the decision did not reach goal {list(g)} from start {list(s)}")
-        path: npt.NDArray[np.int64] = np.stack(np.divmod(flat, W), axis=1)
+        path: npt.NDArray[np.int64] = np.stack(np.divmod(flat, self.analysis.shape[1]), axis=1)
         return path
 
     @cached_property
@@ -175,7 +170,7 @@ def plan(
     ``waves`` source. Without one, the plan's wave is a :class:`~planner.ResumableWave`,
     settled only as far as the robot needs (its time and memory grow with the region explored;
     its values are the whole-map wave's to the bit, so the path is the same), or, with
-    ``whole``, a whole-map :func:`~planner.analysis.fields.goal_wave`.
+    ``whole``, a whole-map :func:`~planner.plans.whole_wave.goal_wave`.
 
     >>> p = plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="shortest")
     >>> p.path.tolist(), round(p.length, 3)
@@ -183,7 +178,7 @@ def plan(
     >>> plan([[0, 1], [1, 0]], [0, 0], [1, 1])
     Traceback (most recent call last):
     ...
-    planner._errors.NoValidPath: NO_VALID_PATH: goal [1, 1] cannot be reached from start [0, 0]
+    planner.errors.NoValidPath: NO_VALID_PATH: goal [1, 1] cannot be reached from start [0, 0]
     """
     t0 = time.perf_counter()
     p = resolve_params(preset, **params)
@@ -277,7 +272,7 @@ def free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
     ``{NAME}_OCCUPIED``) within its clearance margin; the message quotes a point as sent."""
     point = isinstance(cell, Mapping)
     r, c = cell_of(analysis, cell, name)
-    if analysis.state[r, c] != K.BLOCKED_CELL:
+    if analysis.state[r, c] != BLOCKED_CELL:
         return r, c
     where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
     cs = analysis.cspace
@@ -301,14 +296,14 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     >>> reaches(goal_wave(a, [0, 0]), a, [-1, 0])
     Traceback (most recent call last):
     ...
-    planner._errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
+    planner.errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
     """
     r, c = as_cell(cell, analysis.shape, name="cell")
     if wave.shape != analysis.shape:
         msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
         raise InvalidInput(msg, field="wave")
     v = wave.view(r, c, analysis.clean)
-    here = K._cost_here(v.passable, v.kw, v.clean, r - v.top, c - v.left, wave.diagonal_cost, True)
+    here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
     return bool(np.isfinite(here))
 
 
@@ -328,3 +323,21 @@ def clearance_metrics(
     clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
     contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
     return float(clearance.min()), float(clearance.mean()), contact
+
+
+def route(
+    wave: Wave,
+    analysis: Analysis,
+    start: tuple[int, int],
+    goal: tuple[int, int],
+    rule: Rule,
+) -> npt.NDArray[np.int64]:
+    """The cells (flat) the decision of ``rule`` visits from ``start`` with no dynamic
+    obstacles, down ``wave``'s fields (a resumable wave settling what it reads); empty when it
+    does not reach ``goal``."""
+    H, W = analysis.shape
+    if isinstance(wave, ResumableWave):
+        return wave.walk(start, rule, 4 * H * W + 8)
+    view = wave.view(start[0], start[1], analysis.clean)
+    flat_goal = goal[0] * W + goal[1]
+    return walk_fields(view, start[0] * W + start[1], flat_goal, rule, max_steps=4 * H * W + 8)

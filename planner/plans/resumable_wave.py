@@ -1,15 +1,5 @@
-"""The resumable goal wave: ``k`` and ``kw`` settled only where the robot needs them.
-
-:class:`ResumableWave` is a :class:`~planner.Wave` whose two fields come from A* searches
-rooted at the goal and aimed at the robot (RRA*). A decision at a cell reads the cost-to-go of
-the cell and its neighbours; :meth:`ResumableWave.ensure` resumes both searches until exactly
-those are settled, so a plan's memory and time grow with the region explored, not the map.
-Settled values are the whole-map wave's to the last bit, whatever robots the searches were aimed
-at: robots sharing a goal may share one wave, each growing it where it goes (one thread at a
-time; :meth:`ResumableWave.hold` lets a caller read without waiting and without resuming). The
-whole-map arrays (``k``, ``kw``, ``passable``) are still there for pictures and simulations: the
-first read computes the whole wave once.
-"""
+"""The resumable goal wave: ``k`` and ``kw`` settled by the goal's searches only where a robot
+needs them, exact to the bit, handing over to the whole-map wave past a budget."""
 
 from __future__ import annotations
 
@@ -22,17 +12,30 @@ from typing import Any, Concatenate, ParamSpec, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
-from planner.analysis import _kernels as K
-from planner.analysis import _search as S
-from planner.analysis.fields import Analysis, Wave, WaveView, goal_wave
-from planner.maps.grids import as_cell
-from planner.params import PARAMETER_RANGES, SQRT2
+from planner.analysis.analyse import Analysis
+from planner.errors import InvalidInput
+from planner.params import SQRT2
+from planner.plans.decide import MODE_PAPER, MOVE, Rule, decide
+from planner.plans.detour import detour_cells
+from planner.plans.moves import DC, DR, OPEN_SEALED, OPEN_UNSEALED, octile, on_grid
+from planner.plans.search import SETTLED_COUNT, GoalSearch
+from planner.plans.walk import (
+    WALK_ARRIVED,
+    WALK_UNSETTLED,
+    neighbourhood,
+    settled_around,
+    walk_fields,
+    walk_settled,
+    window,
+)
+from planner.plans.whole_wave import Cells, Clean, Wave, WaveView, goal_wave, wave_goal
 
 __all__ = ["ResumableWave", "Unsettled", "resumable_wave"]
 
 P = ParamSpec("P")
 R = TypeVar("R")
+DR_ = [int(v) for v in DR]
+DC_ = [int(v) for v in DC]
 
 
 class Unsettled(Exception):
@@ -53,11 +56,6 @@ def _locked(
     return wrapper
 
 
-# The open list is re-keyed for a new robot cell only when the robot has moved this far (octile)
-# from the cell it was keyed for: settled values are exact under any consistent heuristic, so an
-# older aim costs only some extra expansions, and re-keying costs a pass over the open list.
-_REAIM = 8.0
-
 # A search that has settled 1/64 of the map (at least 4096 cells) hands over to the whole-map
 # wave: per cell, A* with its binary heap costs about five times the whole wave's bucket queue
 # (benchmarks/RESULTS.md), so a far goal costs at most ~20 % more than the whole wave would.
@@ -70,122 +68,13 @@ _PROBE = 4096
 _POCKETS = 4
 
 
-class _Search:
-    """One field's search (``k`` or, with ``use_clean``, ``kw``) and its tiled memory."""
-
-    def __init__(
-        self,
-        analysis: Analysis,
-        goal: int,
-        *,
-        sealed: bool,
-        use_clean: bool,
-        diagonal_cost: float,
-        root: int | None = None,
-    ) -> None:
-        """A search over the cells on the grid and ``goal`` (always passable), from ``root``
-        (default: the goal)."""
-        H, W = analysis.shape
-        self.state = analysis.state
-        self.clean = analysis.clean
-        self.width = W
-        self.goal = goal
-        self.sealed = sealed
-        self.use_clean = use_clean
-        self.diagonal_cost = diagonal_cost
-        tiles = ((H + S.TILE_MASK) >> S.SHIFT) * ((W + S.TILE_MASK) >> S.SHIFT)
-        self.tile_of = np.full(tiles, -1, dtype=np.int32)
-        cap = min(4, tiles)
-        self.g = np.empty((cap, S.TILE_CELLS), dtype=np.float64)
-        self.status = np.empty((cap, S.TILE_CELLS), dtype=np.uint8)
-        self.keys = np.empty((1024, 2), dtype=np.float64)  # rows: f, g
-        self.cells = np.empty(1024, dtype=np.int64)
-        self.meta = np.zeros(3, dtype=np.int64)
-        self.exhausted = False
-        self.aim = divmod(goal, W)
-        self.slack = 0.0
-        S._start(
-            self.state, goal if root is None else root, self.tile_of, self.g, self.status,
-            self.keys, self.cells, self.meta,
-        )  # fmt: skip
-
-    @property
-    def nbytes(self) -> int:
-        arrays = (self.tile_of, self.g, self.status, self.keys, self.cells, self.meta)
-        return sum(int(a.nbytes) for a in arrays)
-
-    def seen(self, cell: int) -> bool:
-        """Whether the search has reached ``cell`` (a flat index): queued or settled."""
-        r, c = divmod(cell, self.width)
-        tiles_w = (self.width + S.TILE_MASK) >> S.SHIFT
-        slot = int(self.tile_of[(r >> S.SHIFT) * tiles_w + (c >> S.SHIFT)])
-        offset = ((r & S.TILE_MASK) << S.SHIFT) | (c & S.TILE_MASK)
-        return slot >= 0 and int(self.status[slot, offset]) != S.UNSEEN
-
-    def done(self, targets: npt.NDArray[np.int64]) -> bool:
-        """Whether :meth:`settle` would have nothing to do for ``targets``."""
-        return self.exhausted or S._all_settled(self.width, self.tile_of, self.status, targets)
-
-    def values(self, targets: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
-        out: npt.NDArray[np.float64] = S._settled_values(
-            self.width, self.tile_of, self.g, self.status, targets
-        )
-        return out
-
-    def settle(
-        self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float, limit: int
-    ) -> bool:
-        """Resume until every cell of ``targets`` (on the grid, within ``slack`` of ``aim``) is
-        settled or the open list is empty; False, the search left where it was, when that would
-        settle more than ``limit`` cells in all."""
-        if self.exhausted or S._all_settled(self.width, self.tile_of, self.status, targets):
-            return True
-        d = self.aim[0] - aim[0], self.aim[1] - aim[1]
-        if max(abs(d[0]), abs(d[1])) > _REAIM:
-            self.aim, self.slack = aim, slack
-            S._rekey(
-                self.width, self.diagonal_cost, self.tile_of, self.g, self.status, self.keys,
-                self.cells, self.meta, aim[0], aim[1], slack,
-            )  # fmt: skip
-        tr, tc = self.aim
-        while True:
-            outcome = S._resume(
-                self.state, self.clean, self.sealed, self.use_clean, self.diagonal_cost,
-                self.goal, self.tile_of, self.g, self.status, self.keys, self.cells, self.meta,
-                targets, tr, tc, self.slack, limit,
-            )  # fmt: skip
-            if outcome == S.NEED_SPACE:
-                self._grow()
-                continue
-            self.exhausted = outcome == S.EXHAUSTED
-            return outcome != S.OVER_BUDGET
-
-    def release(self) -> None:
-        """Drop the memory: the whole-map wave answers from now on."""
-        self.tile_of = np.empty(0, dtype=np.int32)
-        self.g = np.empty((0, S.TILE_CELLS), dtype=np.float64)
-        self.status = np.empty((0, S.TILE_CELLS), dtype=np.uint8)
-        self.keys = np.empty((0, 2), dtype=np.float64)
-        self.cells = np.empty(0, dtype=np.int64)
-
-    def _grow(self) -> None:
-        if self.meta[S.HEAP_SIZE] + 8 > self.keys.shape[0]:
-            n = 2 * self.keys.shape[0]
-            self.keys = np.concatenate([self.keys, np.empty_like(self.keys)])
-            self.cells = np.concatenate([self.cells, np.empty_like(self.cells)])
-            assert self.keys.shape[0] == n
-        used, cap = int(self.meta[S.TILES_USED]), self.g.shape[0]
-        if used + 4 > cap and cap < self.tile_of.shape[0]:
-            grown = min(2 * cap, self.tile_of.shape[0])
-            g = np.empty((grown, S.TILE_CELLS), dtype=np.float64)
-            status = np.empty((grown, S.TILE_CELLS), dtype=np.uint8)
-            g[:used] = self.g[:used]
-            status[:used] = self.status[:used]
-            self.g, self.status = g, status
-
-
 class ResumableWave(Wave):
-    """A goal wave settled on demand: see the module's docstring.
+    """A goal wave settled on demand.
+
+    :meth:`ensure` resumes both searches until what a decision at a cell reads is settled, so a
+    plan's memory and time grow with the region explored, not the map. Robots sharing a goal
+    may share one wave, each growing it where it goes (one thread at a time; :meth:`hold` lets
+    a caller read without waiting and without resuming).
 
     >>> from planner import analyse
     >>> a = analyse([[0] * 40 for _ in range(40)], seal_tunnels=False, clean_weight=0)
@@ -207,19 +96,19 @@ class ResumableWave(Wave):
         self.analysis = analysis
         W = analysis.shape[1]
         self._flat_goal = goal[0] * W + goal[1]
-        self._sealed = analysis.seal_tunnels and not narrow
-        self._k_search = _Search(
-            analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
+        self._open = OPEN_SEALED if analysis.seal_tunnels and not narrow else OPEN_UNSEALED
+        self._k_search = GoalSearch(
+            analysis, self._flat_goal, open_=self._open, use_clean=False,
             diagonal_cost=diagonal_cost,
         )  # fmt: skip
         self._kw_search = self._k_search
         if analysis.penalised:
-            self._kw_search = _Search(
-                analysis, self._flat_goal, sealed=self._sealed, use_clean=True,
+            self._kw_search = GoalSearch(
+                analysis, self._flat_goal, open_=self._open, use_clean=True,
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
-        self._pockets: list[_Search] = []
+        self._pockets: list[GoalSearch] = []
         self._lock = threading.RLock()
         self._held = 0
         self.on_resize: Callable[[], None] | None = None
@@ -242,22 +131,22 @@ class ResumableWave(Wave):
         for i, (r, c) in enumerate(arr.tolist()):
             if not (0 <= r < H and 0 <= c < W):
                 raise InvalidInput(f"cells[{i}] [{r}, {c}] is outside the {H} x {W} map")
-        on_grid = [
+        targets = [
             r * W + c
             for r, c in arr.tolist()
-            if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c)
+            if on_grid(self.analysis.state, self._open, self._flat_goal, r, c)
         ]
-        if on_grid:
-            flat = np.array(on_grid, dtype=np.int64)
+        if targets:
+            flat = np.array(targets, dtype=np.int64)
             r0, c0 = int(arr[0, 0]), int(arr[0, 1])
-            slack = max(S._octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist())
+            slack = max(octile(r, c, r0, c0, self.diagonal_cost, 0.0) for r, c in arr.tolist())
             self._settle(flat, (r0, c0), slack)
 
     @_locked
     def ensure(self, r: int, c: int) -> None:
         """Settle what a decision at (r, c) reads: the cell and its statically legal
         neighbours (or find them cut off from the goal: their values are then +inf)."""
-        targets = S._neighbourhood(self.analysis.state, self._sealed, self._flat_goal, r, c)
+        targets = neighbourhood(self.analysis.state, self._open, self._flat_goal, r, c)
         if targets.size == 0 or self._whole is not None:
             return
         kw = self._kw_search
@@ -273,8 +162,8 @@ class ResumableWave(Wave):
         if any(pocket.seen(flat) for pocket in self._pockets):
             return True
         self._searching()
-        probe = _Search(
-            self.analysis, self._flat_goal, sealed=self._sealed, use_clean=False,
+        probe = GoalSearch(
+            self.analysis, self._flat_goal, open_=self._open, use_clean=False,
             diagonal_cost=self.diagonal_cost, root=flat,
         )  # fmt: skip
         probe.settle(np.array([self._flat_goal], dtype=np.int64), self.goal, 0.0, _PROBE)
@@ -321,7 +210,7 @@ class ResumableWave(Wave):
         once the whole-map wave took over."""
         if self._whole is not None:
             return self.analysis.shape[0] * self.analysis.shape[1]
-        return int(self._kw_search.meta[S.SETTLED_COUNT])
+        return int(self._kw_search.meta[SETTLED_COUNT])
 
     def hold(self) -> bool:
         """Take the wave if no other thread has it, without waiting: True, and until
@@ -344,8 +233,7 @@ class ResumableWave(Wave):
 
     def on_grid(self, cells: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
         """Whether each cell (flat indices) is on the wave's grid, without the whole wave."""
-        state = self.analysis.state.ravel()[cells]
-        on = state == K.FREE if self._sealed else state != K.BLOCKED_CELL
+        on = (self._open >> self.analysis.state.ravel()[cells]) & 1 == 1
         out: npt.NDArray[np.bool_] = on | (cells == self._flat_goal)
         return out
 
@@ -357,42 +245,31 @@ class ResumableWave(Wave):
         if self._last_view is not None and self._last_view[0] == (r, c):
             return self._last_view[1]  # settled values never change
         k, kw = self._k_search, self._kw_search
-        if self._whole is None and not S._settled_around(
-            self.analysis.state, self._sealed, self._flat_goal, r, c, k.tile_of, k.status,
-            kw.tile_of, kw.status,
-        ):  # fmt: skip
+        state, goal = self.analysis.state, self._flat_goal
+        if self._whole is None and not settled_around(state, self._open, goal, r, c, (k, kw)):
             self.ensure(r, c)
         if self._whole is not None:
             return self._whole.view(r, c, clean)
-        passable, kv, kwv, cl = S._window(
-            self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal, r, c,
-            k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status,
-        )  # fmt: skip
+        passable, kv, kwv, cl = window(state, self.analysis.clean, self._open, goal, r, c, (k, kw))
         view = WaveView(passable, kv, kwv, cl, r - 1, c - 1)
         self._last_view = ((r, c), view)
         return view
 
     @_locked
-    def detour(
-        self,
-        start: int,
-        obstacles: npt.NDArray[np.int64],
-        clean: npt.NDArray[np.float32],
-        margin: int = 0,
-    ) -> npt.NDArray[np.int64]:
-        """The replan over what the searches have settled (see ``_search._detour``); past the
-        budget of expansions, or on a map no larger than the budget (whose whole-map wave takes
-        no more memory than the searches may), over the whole-map wave."""
+    def detour(self, start: int, obstacles: Cells, clean: Clean, margin: int = 0) -> Cells:
+        """The replan over what the searches have settled (:mod:`planner.plans.detour`); past
+        the budget of expansions, or on a map no larger than the budget (whose whole-map wave
+        takes no more memory than the searches may), over the whole-map wave."""
         H, W = self.analysis.shape
         if self._whole is None:
             self._searching()
         if self._whole is None and self.budget < H * W:
             kw = self._kw_search
             out: npt.NDArray[np.int64]
-            out, gave_up = S._detour(
-                self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal,
-                kw.tile_of, kw.g, kw.status, kw.exhausted, start, self.diagonal_cost,
-                obstacles, margin, self.budget,
+            out, gave_up = detour_cells(
+                self.analysis.state, self._open, self._flat_goal, self.analysis.clean, start,
+                obstacles, margin=margin, diagonal_cost=self.diagonal_cost,
+                tiles=(kw.tile_of, kw.g, kw.status), exhausted=kw.exhausted, limit=self.budget,
             )  # fmt: skip
             if not gave_up:
                 return out
@@ -406,7 +283,7 @@ class ResumableWave(Wave):
             value = float(self._k_search.values(flat)[0])
             if value < np.inf:
                 return value  # settled: exact
-        if S._passable_at(self.analysis.state, self._sealed, self._flat_goal, r, c):
+        if on_grid(self.analysis.state, self._open, self._flat_goal, r, c):
             k = self._k_search
             unseen = self._whole is None and not k.exhausted and not k.seen(r * W + c)
             if unseen and self._cut_off(r, c):
@@ -429,43 +306,37 @@ class ResumableWave(Wave):
         return values
 
     @_locked
-    def walk(
-        self, start: tuple[int, int], mode: int, alpha: float, beta: float, max_steps: int
-    ) -> npt.NDArray[np.int64]:
+    def walk(self, start: tuple[int, int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
         """The path (flat indices) the decision follows with no dynamic obstacles, as
-        ``_kernels._walk`` does over whole fields; empty if the goal is not reached."""
+        :func:`~planner.plans.walk.walk_fields` does over whole fields; empty if the goal is
+        not reached."""
         W = self.analysis.shape[1]
-        if mode == K.MODE_WIDE:
-            return self._walk_wide(start[0] * W + start[1], max_steps)
-        gr, gc = self.goal
-        clean = self.analysis.clean
-        contact = np.zeros(8, dtype=np.int64)
+        if rule.mode != MODE_PAPER:
+            return self._walk_wide(start[0] * W + start[1], rule, max_steps)
         r, c = start
         path = [r * W + c]
-        visited = {path[0]}
+        visited = set(path)
         while (r, c) != self.goal:
             if len(path) > max_steps:
                 return np.empty(0, dtype=np.int64)
-            v = self.view(r, c, clean)
-            if self._whole is not None:
-                return self._walk_whole(path, visited, mode, alpha, beta, max_steps)
-            tabu = 0
-            if mode == K.MODE_PAPER:
-                for i in range(8):
-                    if (r + int(K.DR[i])) * W + c + int(K.DC[i]) in visited:
-                        tabu |= 1 << i
-            i, outcome = K._decide_core(
-                v.passable, v.k, v.kw, v.clean, 1, 1, 0, 0, False, contact, tabu, gr - v.top,
-                gc - v.left, mode, alpha, beta, self.diagonal_cost, -1,
-            )  # fmt: skip
-            if outcome != K.MOVE:
+            if self._whole is not None and len(path) == 1:
+                return self._walk_whole(path, rule, max_steps)
+            # The paper's tabu list: the cells visited (a move off the map is never legal).
+            tabu = sum(1 << i for i in range(8) if (r + DR_[i]) * W + c + DC_[i] in visited)
+            i, outcome = self._step(r, c, rule, tabu)
+            if outcome != MOVE:
                 return np.empty(0, dtype=np.int64)
-            r, c = r + int(K.DR[i]), c + int(K.DC[i])
+            r, c = r + DR_[i], c + DC_[i]
             path.append(r * W + c)
             visited.add(r * W + c)
         return np.array(path, dtype=np.int64)
 
-    def _walk_wide(self, start: int, max_steps: int) -> npt.NDArray[np.int64]:
+    def _step(self, r: int, c: int, rule: Rule, tabu: int) -> tuple[int, int]:
+        """The decision at (r, c) over what the wave settled there (or its whole fields)."""
+        v = self.view(r, c, self.analysis.clean)
+        return decide(v, (r, c), rule, goal=self.goal, tabu=tabu)
+
+    def _walk_wide(self, start: int, rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
         """The wide walk in a kernel over the settled cells, the searches resumed wherever it
         finds a neighbourhood unsettled."""
         W = self.analysis.shape[1]
@@ -474,95 +345,44 @@ class ResumableWave(Wave):
         steps = 0
         while True:
             if self._whole is not None:
-                rest = self._walk_whole([x], {x}, K.MODE_WIDE, 0.0, 0.0, max_steps - steps)
+                rest = self._walk_whole([x], rule, max_steps - steps)
                 if rest.size == 0:
                     return rest
                 pieces.append(rest)
                 break
-            k, kw = self._k_search, self._kw_search
-            piece, why = S._walk_settled(
-                self.analysis.state, self.analysis.clean, self._sealed, self._flat_goal,
-                k.tile_of, k.g, k.status, kw.tile_of, kw.g, kw.status, x,
-                self.diagonal_cost, max_steps - steps,
+            piece, why = walk_settled(
+                self.analysis.state, self.analysis.clean, self._open, self._flat_goal,
+                (self._k_search, self._kw_search), x, diagonal_cost=self.diagonal_cost,
+                max_steps=max_steps - steps,
             )  # fmt: skip
             pieces.append(piece[:-1])
             steps += piece.size - 1
             x = int(piece[-1])
-            if why == S.WALK_ARRIVED:
+            if why == WALK_ARRIVED:
                 pieces.append(piece[-1:])
                 break
-            if why != S.WALK_UNSETTLED:
+            if why != WALK_UNSETTLED:
                 return np.empty(0, dtype=np.int64)
             # One step as a session takes it (settling, then deciding over the window): the
             # kernel resumes from the next cell.
             r, c = divmod(x, W)
-            v = self.view(r, c, self.analysis.clean)
-            i, outcome = K._decide_core(
-                v.passable, v.k, v.kw, v.clean, r - v.top, c - v.left, 0, 0, False,
-                np.zeros(8, dtype=np.int64), 0, self.goal[0] - v.top, self.goal[1] - v.left,
-                K.MODE_WIDE, 0.0, 0.0, self.diagonal_cost, -1,
-            )  # fmt: skip
-            if outcome != K.MOVE or steps >= max_steps:
+            i, outcome = self._step(r, c, rule, 0)
+            if outcome != MOVE or steps >= max_steps:
                 return np.empty(0, dtype=np.int64)
             pieces.append(np.array([x], dtype=np.int64))
             steps += 1
-            x = (r + int(K.DR[i])) * W + c + int(K.DC[i])
+            x = (r + DR_[i]) * W + c + DC_[i]
         return np.concatenate(pieces)
 
-    def _walk_whole(
-        self,
-        path: list[int],
-        visited: set[int],
-        mode: int,
-        alpha: float,
-        beta: float,
-        max_steps: int,
-    ) -> npt.NDArray[np.int64]:
-        """The walk's rest over the whole-map wave; the paper decision's tabu list carries
-        over (its cells stay visited)."""
-        w = self.whole()
-        if mode == K.MODE_PAPER and len(visited) > 1:
-            # The kernel keeps its own tabu list from the start only: continue step by step.
-            return self._walk_slow(path, visited, mode, alpha, beta, max_steps)
-        rest = K._walk(
-            w.passable, w.k, w.kw, self.analysis.clean, path[-1], self._flat_goal, mode, alpha,
-            beta, self.diagonal_cost, max_steps - len(path) + 1,
-        )  # fmt: skip
+    def _walk_whole(self, path: list[int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
+        """The walk's rest from ``path[-1]`` over the whole-map wave (the paper decision's
+        kernel keeps its tabu list from there: called with one cell visited)."""
+        view = self.whole().view(0, 0, self.analysis.clean)
+        steps = max_steps - len(path) + 1
+        rest = walk_fields(view, path[-1], self._flat_goal, rule, max_steps=steps)
         if rest.size == 0:
             return rest
         return np.concatenate([np.array(path[:-1], dtype=np.int64), rest])
-
-    def _walk_slow(
-        self,
-        path: list[int],
-        visited: set[int],
-        mode: int,
-        alpha: float,
-        beta: float,
-        max_steps: int,
-    ) -> npt.NDArray[np.int64]:
-        w = self.whole()
-        W = self.analysis.shape[1]
-        gr, gc = self.goal
-        contact = np.zeros(8, dtype=np.int64)
-        r, c = divmod(path[-1], W)
-        while (r, c) != self.goal:
-            if len(path) > max_steps:
-                return np.empty(0, dtype=np.int64)
-            tabu = 0
-            for i in range(8):
-                if (r + int(K.DR[i])) * W + c + int(K.DC[i]) in visited:
-                    tabu |= 1 << i
-            i, outcome = K._decide_core(
-                w.passable, w.k, w.kw, self.analysis.clean, r, c, 0, 0, False, contact, tabu, gr,
-                gc, mode, alpha, beta, self.diagonal_cost, -1,
-            )  # fmt: skip
-            if outcome != K.MOVE:
-                return np.empty(0, dtype=np.int64)
-            r, c = r + int(K.DR[i]), c + int(K.DC[i])
-            path.append(r * W + c)
-            visited.add(r * W + c)
-        return np.array(path, dtype=np.int64)
 
     # -- the whole-map fields, on demand -----------------------------------------------------
 
@@ -617,11 +437,5 @@ def resumable_wave(
     >>> w.settle([[1, 1]]); round(w.k_at(1, 1), 3)
     1.414
     """
-    r, c = as_cell(goal, analysis.shape, name="goal")
-    if analysis.state[r, c] == K.BLOCKED_CELL:
-        raise InvalidInput(f"goal [{r}, {c}] is on an obstacle", field="goal")
-    low, high = PARAMETER_RANGES["diagonal_cost"]
-    if not low <= diagonal_cost <= high:
-        msg = f"diagonal_cost must be in [{low}, {high}]; got {quote(diagonal_cost)}"
-        raise InvalidInput(msg, field="params.diagonal_cost")
+    r, c = wave_goal(analysis, goal, diagonal_cost)
     return ResumableWave(analysis, (r, c), diagonal_cost=float(diagonal_cost), narrow=narrow)

@@ -1,9 +1,5 @@
-"""The robot's configuration space on a map in meters, the metric wall term of ``wide``, and
-dynamic obstacles given as circles.
-
-A cell is *traversable* when it is free and the distance from its center to the nearest blocked
-cell's center is more than the robot's radius (Nav2's inscribed rule); distances come from an
-exact Euclidean distance transform (``edt``).
+"""The robot's configuration space on a map in meters (Nav2's inscribed rule, over an exact
+distance transform), the metric wall term of ``wide``, and dynamic obstacles given as circles.
 
 >>> from planner.maps.robot_maps import grid_map
 >>> m = grid_map([[0, 0, 0, 0, 0], [0, 0, 0, 0, 1]], resolution=0.1)
@@ -22,8 +18,9 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-from planner._errors import InvalidInput, quote
-from planner.maps.robot_maps import MapFrame, RobotMap, point_xy
+from planner.errors import InvalidInput, quote
+from planner.maps.frames import MapFrame, point_xy
+from planner.maps.robot_maps import RobotMap
 from planner.params import Unknown
 
 __all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]

@@ -1,0 +1,226 @@
+"""ROS ``map_server`` maps: the YAML and the image it names, decoded to occupancy exactly as
+Nav2's ``map_server`` (``map_io.cpp``, ``loadMapFromFile``) does, vectorised."""
+
+from __future__ import annotations
+
+import io
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+import yaml
+from PIL import Image, UnidentifiedImageError
+
+from planner.errors import InvalidInput, quote
+from planner.maps.frames import MapFrame, _number, _origin, _resolution
+from planner.maps.robot_maps import RobotMap
+
+__all__ = [
+    "DEFAULT_FREE_THRESH",
+    "DEFAULT_OCCUPIED_THRESH",
+    "MapMode",
+    "MapYaml",
+    "decode_map_image",
+    "image_size",
+    "parse_map_yaml",
+    "parse_ros_map",
+    "read_ros_map",
+]
+
+MapMode = Literal["trinary", "scale", "raw"]
+
+#: map_server's customary thresholds, used when a YAML leaves them out.
+DEFAULT_OCCUPIED_THRESH = 0.65
+DEFAULT_FREE_THRESH = 0.196
+
+
+@dataclass(frozen=True, slots=True)
+class MapYaml:
+    """A ROS ``map_server`` map YAML, validated."""
+
+    image: str
+    resolution: float
+    origin: tuple[float, float, float]
+    negate: bool = False
+    occupied_thresh: float = DEFAULT_OCCUPIED_THRESH
+    free_thresh: float = DEFAULT_FREE_THRESH
+    mode: MapMode = "trinary"
+
+
+def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
+    """Read a map YAML (``yaml.safe_load``): ``image``, ``resolution``, ``origin`` required;
+    ``negate`` (0), ``occupied_thresh`` (0.65), ``free_thresh`` (0.196), ``mode`` (trinary).
+
+    >>> meta = parse_map_yaml("image: m.pgm\\nresolution: 0.05\\norigin: [-1, 2, 0]\\nmode: scale")
+    >>> meta.origin, meta.negate, meta.occupied_thresh, meta.free_thresh, meta.mode
+    ((-1.0, 2.0, 0.0), False, 0.65, 0.196, 'scale')
+    >>> parse_map_yaml("resolution: 0.05\\norigin: [0, 0, 0]\\nmode: colour")
+    Traceback (most recent call last):
+    ...
+    planner.errors.InvalidInput: yaml.mode must be trinary, scale or raw; got 'colour'
+    """
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise InvalidInput(f"{name} is not valid YAML: {quote(str(exc))}", field=name) from None
+    if not isinstance(doc, dict):
+        raise InvalidInput(f"{name} must be a mapping of keys; got {quote(doc)}", field=name)
+    image = doc.get("image", "")
+    if not isinstance(image, str):
+        raise InvalidInput(
+            f"{name}.image must be a file name; got {quote(image)}", field=f"{name}.image"
+        )
+    for key in ("resolution", "origin"):
+        if key not in doc:
+            raise InvalidInput(f"{name} has no '{key}'", field=f"{name}.{key}")
+    resolution = _resolution(doc["resolution"], f"{name}.resolution")
+    origin = _origin(doc["origin"], f"{name}.origin")
+    negate = doc.get("negate", 0)
+    if negate not in (0, 1) or not isinstance(negate, int):  # bool is an int too
+        msg = f"{name}.negate must be 0 or 1; got {quote(negate)}"
+        raise InvalidInput(msg, field=f"{name}.negate")
+    thresholds = {}
+    for key, default in (
+        ("occupied_thresh", DEFAULT_OCCUPIED_THRESH),
+        ("free_thresh", DEFAULT_FREE_THRESH),
+    ):
+        value = _number(doc.get(key, default), f"{name}.{key}")
+        if not 0.0 <= value <= 1.0:
+            msg = f"{name}.{key} must be in [0, 1]; got {quote(doc[key])}"
+            raise InvalidInput(msg, field=f"{name}.{key}")
+        thresholds[key] = value
+    if thresholds["free_thresh"] >= thresholds["occupied_thresh"]:
+        msg = (
+            f"{name}.free_thresh must be less than occupied_thresh; got free_thresh "
+            f"{thresholds['free_thresh']!r} and occupied_thresh {thresholds['occupied_thresh']!r}"
+        )
+        raise InvalidInput(msg, field=f"{name}.free_thresh")
+    mode = doc.get("mode", "trinary")
+    if mode not in ("trinary", "scale", "raw"):
+        msg = f"{name}.mode must be trinary, scale or raw; got {quote(mode)}"
+        raise InvalidInput(msg, field=f"{name}.mode")
+    return MapYaml(
+        image=image,
+        resolution=resolution,
+        origin=origin,
+        negate=bool(negate),
+        occupied_thresh=thresholds["occupied_thresh"],
+        free_thresh=thresholds["free_thresh"],
+        mode=mode,
+    )
+
+
+def image_size(data: bytes, *, name: str = "image") -> tuple[int, int]:
+    """``(width, height)`` of an image from its header, without decoding its pixels (a size
+    check before the work)."""
+    with _open_image(data, name) as image:
+        return int(image.width), int(image.height)
+
+
+def _open_image(data: bytes, name: str) -> Image.Image:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            return Image.open(io.BytesIO(data))
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
+        head = quote(bytes(data[:16]))
+        msg = f"{name} is not an image Pillow can read (first bytes {head}): {quote(str(exc))}"
+        raise InvalidInput(msg, field=name) from None
+
+
+def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> RobotMap:
+    """Decode an occupancy image as ``map_server`` does, in numpy: a pixel's shade is the mean
+    of its colour channels (in ``trinary`` mode with an alpha channel, the alpha too: opaque
+    counts as white), ``p = 1 - shade`` (``shade`` with ``negate``); ``trinary``: 100 if
+    ``p > occupied_thresh``, 0 if ``p < free_thresh``, else -1; ``scale``: the same, with the
+    values between scaled to 1..99 and any pixel not fully opaque unknown; ``raw``: the value
+    ``round(shade * 255)`` if it is in 0..100, else -1."""
+    try:
+        with _open_image(data, name) as image, warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            image.load()
+            channels, alpha, top = _channels(image)
+    except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
+        msg = f"{name} does not decode: {quote(str(exc))}"
+        raise InvalidInput(msg, field=name) from None
+    if alpha is not None and meta.mode == "trinary":
+        channels = np.concatenate([channels, alpha[..., None]], axis=2)
+    shade = channels.sum(axis=2, dtype=np.float64) / channels.shape[2] / top
+    occ = shade if meta.negate else 1.0 - shade
+    out = np.full(shade.shape, -1, dtype=np.int8)
+    occupied = meta.occupied_thresh < occ
+    free = occ < meta.free_thresh
+    if meta.mode == "raw":
+        value = np.floor(shade * 255 + 0.5)  # std::round: shade * 255 is never negative
+        inside = value <= 100
+        out[inside] = value[inside].astype(np.int8)
+    else:
+        out[free] = 0
+        out[occupied] = 100
+        if meta.mode == "scale":
+            between = ~free & ~occupied
+            scaled = np.rint(
+                (occ - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh) * 100
+            )
+            out[between] = scaled[between].astype(np.int8)
+            if alpha is not None:
+                out[alpha != top] = -1
+    H, W = out.shape
+    return RobotMap(out, MapFrame((H, W), meta.resolution, meta.origin))
+
+
+def _channels(
+    image: Image.Image,
+) -> tuple[npt.NDArray[Any], npt.NDArray[Any] | None, float]:
+    """(H x W x C colour channels, the alpha channel or None, the channels' full scale)."""
+    if image.mode in ("I;16", "I;16B", "I;16L", "I;16N", "I"):
+        grey = np.asarray(image).astype(np.float64)
+        # 16-bit greys (a PGM with maxval 65535 opens as "I" in recent Pillow) span 0..65535.
+        top = 65535.0 if grey.max() <= 65535 else float(grey.max())
+        return grey[..., None], None, top
+    has_alpha = image.mode in ("LA", "La", "PA", "RGBA", "RGBa") or "transparency" in image.info
+    if image.mode == "L":
+        return np.asarray(image)[..., None], None, 255.0
+    if image.mode == "LA":  # grey counts three times, as red, green and blue
+        arr = np.asarray(image)
+        return np.repeat(arr[..., :1], 3, axis=2), arr[..., 1], 255.0
+    rgb = np.asarray(image.convert("RGBA" if has_alpha else "RGB"))
+    if has_alpha:
+        return rgb[..., :3], rgb[..., 3], 255.0
+    return rgb, None, 255.0
+
+
+def parse_ros_map(yaml_text: str | bytes, image: bytes) -> RobotMap:
+    """A ROS map from its YAML text and the bytes of the image it describes."""
+    return decode_map_image(image, parse_map_yaml(yaml_text))
+
+
+def read_ros_map(path: str | os.PathLike[str]) -> RobotMap:
+    """Read a ROS ``map_server`` map: the YAML file and the image it names (relative to the
+    YAML's folder unless absolute)."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InvalidInput(f"map file {str(p)!r} does not exist", field="map") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidInput(f"map file {str(p)!r} cannot be read: {exc}", field="map") from None
+    meta = parse_map_yaml(text)
+    if not meta.image:
+        raise InvalidInput(
+            f"{p.name} names no image file ('image' is missing or empty)", field="yaml.image"
+        )
+    image_path = p.parent / meta.image
+    try:
+        data = image_path.read_bytes()
+    except FileNotFoundError:
+        msg = f"the image file {str(image_path)!r} named in {p.name} does not exist"
+        raise InvalidInput(msg, field="yaml.image") from None
+    except OSError as exc:
+        msg = f"the image file {str(image_path)!r} named in {p.name} cannot be read: {exc}"
+        raise InvalidInput(msg, field="yaml.image") from None
+    return decode_map_image(data, meta, name=str(image_path))
