@@ -1,7 +1,7 @@
 """Poses on every shared ROS map: how often every rule holds, how much shorter and straighter the
 poses are than the grid path, and what the smoothing adds to a warm plan's time.
 
-For each map (``../shared/maps/ros/*.yaml``), a robot radius (0.22 m; 0.1 m on a map under
+For each shared ROS map (beside the repository), a robot radius (0.22 m; 0.1 m on a map under
 2 m a side) and seeded far-apart start/goal pairs (points off their cells' centers, a goal
 yaw on every other one), it plans with ``wide`` on the cached analysis (a warm plan: the wave,
 the path and its clearance), smooths with :func:`planner.poses.smooth_path`, and checks every
