@@ -7,14 +7,18 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit, types
-from numba.typed import Dict
+from numba import njit
 
 from planner.plans.heap import heap_pop, heap_push
 from planner.plans.moves import DC, DR, octile, on_grid
 from planner.plans.search import SETTLED, SHIFT, TILE_MASK
 
 __all__ = ["detour_cells"]
+
+# The search's own tiles: 16 x 16 cells (a detour touches few cells: small tiles, little to fill).
+_SHIFT = 4
+_MASK = (1 << _SHIFT) - 1
+_CELLS = 1 << (2 * _SHIFT)
 
 _NO_FIELD = np.zeros((0, 0), dtype=np.float64)
 _NO_TILES = (
@@ -58,27 +62,73 @@ def _detour(
     gc = goal - gr * W
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
-    blocked = Dict.empty(key_type=types.int64, value_type=types.boolean)
+    # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
+    own_w = (W + _MASK) >> _SHIFT
+    own = np.full(((H + _MASK) >> _SHIFT) * own_w, -1, dtype=np.int32)
+    g = np.empty(16 * _CELLS, dtype=np.float64)  # tile s holds cells s * _CELLS + offset
+    parent = np.empty(16 * _CELLS, dtype=np.int64)
+    blocked = np.empty(16 * _CELLS, dtype=np.uint8)
+    used = 0
+    # The cells to touch first: each obstacle's square, then the goal and the start.
+    first = []
     for j in range(obstacles.shape[0]):
-        orow = obstacles[j, 0]
-        ocol = obstacles[j, 1]
-        for r in range(max(orow - margin, 0), min(orow + margin + 1, H)):
-            for c in range(max(ocol - margin, 0), min(ocol + margin + 1, W)):
-                blocked[r * W + c] = True
-    if goal in blocked:
-        return np.empty(0, dtype=np.int64), False
-    g = Dict.empty(key_type=types.int64, value_type=types.float64)
-    parent = Dict.empty(key_type=types.int64, value_type=types.int64)
+        for r in range(max(obstacles[j, 0] - margin, 0), min(obstacles[j, 0] + margin + 1, H)):
+            for c in range(max(obstacles[j, 1] - margin, 0), min(obstacles[j, 1] + margin + 1, W)):
+                first.append(r * W + c)
+    marked = len(first)
+    first.append(goal)
+    first.append(start)
+    ok = np.empty(8, dtype=np.bool_)
+    at = np.empty(9, dtype=np.int64)  # where x's neighbours are in the tiles, x last
     keys = np.empty((1024, 2), dtype=np.float64)
     cells = np.empty(1024, dtype=np.int64)
-    g[start] = 0.0
-    size = heap_push(keys, cells, 0, 0.0, 0.0, start)
-    ok = np.empty(8, dtype=np.bool_)
+    size = 0
     expansions = 0
     found = False
-    while size > 0:
-        x, gx, size = heap_pop(keys, cells, size)
-        if gx > g[x]:
+    j = 0
+    while j < len(first) or size > 0:
+        if (used + 9) * _CELLS > g.shape[0]:  # room for the tiles of a 3 x 3 square, and some
+            g = np.concatenate((g, np.empty_like(g)))
+            parent = np.concatenate((parent, np.empty_like(parent)))
+            blocked = np.concatenate((blocked, np.empty_like(blocked)))
+        if j < len(first):  # touching the first cells, one a turn
+            x = first[j]
+            gx = 0.0
+            count = 1
+        else:
+            x, gx, size = heap_pop(keys, cells, size)
+            count = 9
+        xr = x // W
+        xc = x - xr * W
+        for i in range(count):
+            k = 8 if i == count - 1 else i
+            yr = xr + DR[k] if k < 8 else xr
+            yc = xc + DC[k] if k < 8 else xc
+            if k < 8:
+                ok[k] = on_grid(codes, open_, goal, yr, yc)
+                if not ok[k]:
+                    continue
+            ti = (yr >> _SHIFT) * own_w + (yc >> _SHIFT)
+            s = own[ti]
+            if s < 0:
+                s = used
+                used += 1
+                own[ti] = s
+                g[s * _CELLS : (s + 1) * _CELLS] = np.inf
+                parent[s * _CELLS : (s + 1) * _CELLS] = -1
+                blocked[s * _CELLS : (s + 1) * _CELLS] = 0
+            at[k] = s * _CELLS + (((yr & _MASK) << _SHIFT) | (yc & _MASK))
+        if j < len(first):
+            if j < marked:
+                blocked[at[8]] = 1
+            elif x == goal and blocked[at[8]]:
+                return np.empty(0, dtype=np.int64), False
+            elif x == start:
+                g[at[8]] = 0.0
+                size = heap_push(keys, cells, 0, 0.0, 0.0, start)
+            j += 1
+            continue
+        if gx > g[at[8]]:
             continue  # stale: reached more cheaply since
         if x == goal:
             found = True
@@ -86,17 +136,14 @@ def _detour(
         expansions += 1
         if expansions > limit:
             break
-        xr = x // W
-        xc = x - xr * W
         for i in range(8):
-            y = (xr + DR[i]) * W + xc + DC[i]
-            ok[i] = on_grid(codes, open_, goal, xr + DR[i], xc + DC[i]) and y not in blocked
+            if ok[i]:
+                ok[i] = blocked[at[i]] == 0
         for i in range(8):
             if not ok[i] or (i & 1 and not (ok[i - 1] and ok[(i + 1) & 7])):
                 continue
             yr = xr + DR[i]
             yc = xc + DC[i]
-            y = yr * W + yc
             if has_field:
                 h = field[yr, yc]
                 if h == np.inf:
@@ -111,9 +158,9 @@ def _detour(
                 else:
                     h = octile(yr, yc, gr, gc, diagonal_cost, 0.0)
             ng = gx + (diagonal_cost if i & 1 else 1.0) + clean[yr, yc]
-            if ng < g.get(y, np.inf):
-                g[y] = ng
-                parent[y] = x
+            if ng < g[at[i]]:
+                g[at[i]] = ng
+                parent[at[i]] = x
                 if size + 1 > cells.shape[0]:
                     grown_keys = np.empty((2 * cells.shape[0], 2), dtype=np.float64)
                     grown_keys[:size] = keys[:size]
@@ -121,19 +168,18 @@ def _detour(
                     grown_cells = np.empty(2 * cells.shape[0], dtype=np.int64)
                     grown_cells[:size] = cells[:size]
                     cells = grown_cells
-                size = heap_push(keys, cells, size, ng + h, ng, y)
+                size = heap_push(keys, cells, size, ng + h, ng, yr * W + yc)
     if not found:
         return np.empty(0, dtype=np.int64), expansions > limit
-    count = 0
-    x = goal
-    while x != start:
-        count += 1
-        x = parent[x]
-    out = np.empty(count, dtype=np.int64)
-    x = goal
-    for j in range(count - 1, -1, -1):
-        out[j] = x
-        x = parent[x]
+    path = [goal]
+    while path[-1] != start:
+        r = path[-1] // W
+        c = path[-1] - r * W
+        s = own[(r >> _SHIFT) * own_w + (c >> _SHIFT)]
+        path.append(parent[s * _CELLS + (((r & _MASK) << _SHIFT) | (c & _MASK))])
+    out = np.empty(len(path) - 1, dtype=np.int64)
+    for j in range(len(path) - 1):
+        out[j] = path[len(path) - 2 - j]
     return out, False
 
 
