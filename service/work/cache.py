@@ -1,11 +1,5 @@
-"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once.
-
-It is used from the event loop (:meth:`ByteLRU.get_or_compute`, whose waiters wait without
-holding a worker) and from worker threads (:meth:`ByteLRU.get_or_compute_sync`, so that a
-planner call running in the pool can fetch what it needs as it goes); both share one table of
-entries and one table of computations under way. A value that grows in place (a resumable goal
-wave) is measured again when it says so (:meth:`ByteLRU.recharge`).
-"""
+"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once,
+from the event loop or from worker threads alike."""
 
 from __future__ import annotations
 
