@@ -8,8 +8,8 @@ import hmac
 
 from starlette.types import Scope
 
-from service.edge.tenants import tenant_of
 from service.errors import Unauthorized
+from service.tenants import tenant_of
 
 __all__ = ["OPEN_PATHS", "ApiKeys"]
 

@@ -21,7 +21,6 @@ from redis.backoff import NoBackoff
 from redis.commands.core import AsyncScript
 
 from planner import RobotMap, quote
-from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import (
     Cells,
@@ -36,6 +35,7 @@ from service.stores.base import (
     pack,
     unpack,
 )
+from service.tenants import scoped
 
 __all__ = ["CACHED_PLANS", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
 

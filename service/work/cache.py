@@ -10,7 +10,7 @@ from collections.abc import Awaitable, Callable, Hashable
 from concurrent.futures import Future
 from typing import Any, Protocol, TypeVar, cast
 
-from service.edge.tenants import TENANT
+from service.tenants import TENANT
 
 __all__ = ["ByteLRU", "Sized"]
 
@@ -25,7 +25,7 @@ T = TypeVar("T", bound=Sized)
 
 class ByteLRU:
     """Values that know their ``nbytes``, at most ``max_bytes`` of them in all, and at most
-    ``max_bytes // shares`` for each tenant (:mod:`service.edge.tenants`): a tenant over its share
+    ``max_bytes // shares`` for each tenant (:mod:`service.tenants`): a tenant over its share
     evicts its own least recently used entries, never another tenant's.
 
     >>> import asyncio, numpy as np
