@@ -21,7 +21,7 @@ import math
 import threading
 import weakref
 from collections import OrderedDict
-from collections.abc import Hashable, Mapping
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -261,10 +261,8 @@ class Engine:
         params: planner.Params,
         analysis: planner.Analysis,
     ) -> planner.Plan:
-        # The waves are cached by the goal's cell: a point is resolved first.
-        cell = analysis.frame.cell_of(goal, name="goal") if isinstance(goal, Mapping) else goal
-
-        def wave(narrow: bool) -> planner.Wave:
+        # The waves are cached by the goal's cell.
+        def wave(cell: tuple[int, int], narrow: bool) -> planner.Wave:
             return self._wave(map_id, params, analysis, cell, narrow)
 
         plan = planner.plan(
