@@ -6,6 +6,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 from schemas.errors import ErrorPublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
+from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
@@ -20,6 +21,7 @@ from schemas.plans import (
     PlanDetail,
     PlanPublic,
     Point,
+    Pose,
     Preset,
     PreviewPublic,
     TrajectoryMetrics,
@@ -31,6 +33,8 @@ from schemas.steps import StepCreate, StepPublic
 __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
+    "FRAME_ID_MAX",
+    "FRAME_ID_PATTERN",
     "MULTIPART_FIELDS",
     "PRESET_NAMES",
     "UNION_TAGS",
@@ -44,12 +48,14 @@ __all__ = [
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "NavPath",
     "Obstacle",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
     "Point",
     "PoolStats",
+    "Pose",
     "Preset",
     "PreviewPublic",
     "ReadyPublic",

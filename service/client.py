@@ -44,6 +44,7 @@ from pydantic import BaseModel
 from schemas import (
     AnalysisPublic,
     MapPublic,
+    NavPath,
     PlanDetail,
     PlanPublic,
     PreviewPublic,
@@ -58,6 +59,7 @@ __all__ = [
     "BadRequestError",
     "ConflictError",
     "MapInfo",
+    "NavPath",
     "NoValidPathError",
     "NotFoundError",
     "PayloadTooLargeError",
@@ -77,7 +79,8 @@ __all__ = [
 ]
 
 CellIn = Sequence[int] | Mapping[str, float]
-"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters where the API takes one."""
+"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
+``"yaw"`` in radians) where the API takes one."""
 
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
@@ -191,6 +194,7 @@ class PlanFields(TypedDict, total=False):
     allow_narrow: bool | None
     robot_radius: float | None
     unknown: str | None
+    goal_tolerance: float | None
 
 
 class UploadMapFields(PlanFields, total=False):
@@ -319,6 +323,11 @@ def _get_plan(plan_id: str) -> _Call[PlanDetail]:
     return _Call("GET", f"/plan/{plan_id}", _decode(PlanDetail))
 
 
+def _path(plan_id: str, frame_id: str | None) -> _Call[NavPath]:
+    query = {} if frame_id is None else {"frame_id": frame_id}
+    return _Call("GET", f"/plan/{plan_id}/path", _decode(NavPath), {"params": query})
+
+
 def _delete_plan(plan_id: str) -> _Call[None]:
     return _Call("DELETE", f"/plan/{plan_id}", lambda response: None)
 
@@ -411,6 +420,11 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def get_plan(self, plan_id: str) -> PlanDetail:
         return self._call(_get_plan(plan_id))
 
+    def path(self, plan_id: str, frame_id: str | None = None) -> NavPath:
+        """The plan's poses as a ``nav_msgs/Path`` (rosbridge's JSON), in ``frame_id`` (the
+        server's default: ``map``)."""
+        return self._call(_path(plan_id, frame_id))
+
     def delete_plan(self, plan_id: str) -> None:
         self._call(_delete_plan(plan_id))
 
@@ -475,6 +489,9 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def get_plan(self, plan_id: str) -> PlanDetail:
         return await self._call(_get_plan(plan_id))
+
+    async def path(self, plan_id: str, frame_id: str | None = None) -> NavPath:
+        return await self._call(_path(plan_id, frame_id))
 
     async def delete_plan(self, plan_id: str) -> None:
         await self._call(_delete_plan(plan_id))

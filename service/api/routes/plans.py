@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import time
 from typing import Annotated, Any, Literal
 
 import orjson
 from fastapi import APIRouter, Query, Request, Response, status
 
-from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
+from schemas import (
+    FRAME_ID_MAX,
+    FRAME_ID_PATTERN,
+    NavPath,
+    PlanCreate,
+    PlanDetail,
+    PlanPublic,
+    StepCreate,
+    StepPublic,
+)
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute, json_body
 from service.errors import responses
@@ -93,6 +103,35 @@ async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
     """The plan as created, with the robot's `position`, `status`, `iteration`, `trajectory`
     and the trajectory's metrics."""
     return present.plan_detail(await plans.get_plan(engine, plan_id))
+
+
+@router.get(
+    "/plan/{plan_id}/path",
+    response_model=NavPath,
+    summary="The plan's poses as a nav_msgs/Path",
+    responses=responses(404, 422),
+)
+async def get_path(
+    plan_id: str,
+    engine: EngineDep,
+    frame_id: Annotated[
+        str,
+        Query(
+            min_length=1,
+            max_length=FRAME_ID_MAX,
+            pattern=FRAME_ID_PATTERN,
+            description="The header's `frame_id`: letters, digits, `_ . / -` (default `map`).",
+        ),
+    ] = "map",
+) -> Response:
+    """The `preview.poses` as a rosbridge-style `nav_msgs/Path`: a header (`frame_id`, `stamp`
+    now) and, per pose, a `geometry_msgs/PoseStamped` whose position is `(x, y, 0)` and whose
+    orientation is the yaw's quaternion `(0, 0, sin(yaw/2), cos(yaw/2))`."""
+    plan = await plans.plan_path(engine, plan_id)
+    answer = present.nav_path(plan, frame_id, time.time())
+    # Built and encoded directly (thousands of poses): `response_model` documents it, and
+    # tests/service/test_poses.py checks that its answers validate as NavPath.
+    return Response(orjson.dumps(answer), media_type="application/json")
 
 
 @router.delete(
