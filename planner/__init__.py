@@ -56,6 +56,7 @@ from planner.maps.ros_maps import (
 from planner.params import PRESETS, Params, resolve_params
 from planner.plans.planning import Plan, clearance_metrics, plan, reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
+from planner.plans.route import MAX_WAYPOINTS, Route, route_of
 from planner.plans.whole_wave import Wave, WaveView, goal_wave
 from planner.poses import smooth_path
 from planner.render import render_episode, render_map, render_plan
@@ -63,6 +64,7 @@ from planner.stepping.session import MOVES, Session, SessionState, Step, detour
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
 __all__ = [
+    "MAX_WAYPOINTS",
     "MOVES",
     "PRESETS",
     "QUOTE_LIMIT",
@@ -80,6 +82,7 @@ __all__ = [
     "PlannerError",
     "ResumableWave",
     "RobotMap",
+    "Route",
     "Scenario",
     "SequenceConflict",
     "Session",
@@ -122,6 +125,7 @@ __all__ = [
     "resolve_params",
     "resolve_wall_cost",
     "resumable_wave",
+    "route_of",
     "run_episode",
     "run_experiment",
     "simulate",

@@ -15,6 +15,7 @@ from schemas.plans import (
     CellOrPoint,
     PlanOptions,
     PlanPublic,
+    Waypoints,
 )
 
 __all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]
@@ -49,6 +50,7 @@ MULTIPART_FIELDS: dict[str, Any] = {
         "allow_narrow": {"type": "string", "description": "`true` or `false`."},
         "robot_radius": {"type": "string", "description": "Meters, e.g. `0.22`."},
         "unknown": {"type": "string", "description": "`blocked` or `free`."},
+        "waypoints": {"type": "string", "description": "JSON list of cells or points."},
     },
 }
 """The ``multipart/form-data`` form of ``POST /maps``, for ``/docs``: parts ``yaml`` and
@@ -141,12 +143,15 @@ class MapCreate(PlanOptions, MapEncoding):
 
     start: CellOrPoint | None = None
     goal: CellOrPoint | None = None
+    waypoints: Waypoints = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _both_ends(self) -> MapCreate:
         if (self.start is None) != (self.goal is None):
             missing = "goal" if self.goal is None else "start"
             raise ValueError(f"'start' and 'goal' go together; {missing!r} is missing")
+        if self.waypoints and self.start is None:
+            raise ValueError("'waypoints' need a 'start' and a 'goal'")
         return self
 
 

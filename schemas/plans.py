@@ -11,6 +11,7 @@ __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
     "GOAL_TOLERANCE_MAX",
+    "MAX_WAYPOINTS",
     "PRESET_NAMES",
     "STRICT",
     "UNION_TAGS",
@@ -34,6 +35,7 @@ __all__ = [
     "TrajectoryMetrics",
     "Unknown",
     "UnknownPolicy",
+    "Waypoints",
     "XYPublic",
 ]
 
@@ -131,6 +133,22 @@ Unknown = Literal["blocked", "free"]
 
 GOAL_TOLERANCE_MAX = 100.0
 """Meters of ``goal_tolerance`` at most."""
+
+MAX_WAYPOINTS = 64
+"""Waypoints a plan takes at most (the planner's ``MAX_WAYPOINTS``: a test compares)."""
+
+Waypoints = Annotated[
+    list[CellOrPoint],
+    Field(
+        max_length=MAX_WAYPOINTS,
+        description="Cells or points (a point with an optional `yaw`) the path passes through, in "
+        "order, at most 64: each leg (start, each waypoint, the goal) is planned with the same "
+        "preset and parameters; the poses include each waypoint's point "
+        "(`preview.waypoint_indices`), and stepping follows the whole route.",
+        examples=[[[2, 1], {"x": 4.5, "y": 3.5, "yaw": 0.0}]],
+    ),
+]
+"""A plan's waypoints."""
 
 RobotRadius = Annotated[
     float | None,
@@ -238,7 +256,9 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "length_poses_m": 6.823201,
         "goal_used": None,
         "goal_offset_m": 0.0,
+        "waypoint_indices": [],
     },
+    "waypoints": [],
 }  # fmt: skip
 EXAMPLE_PLAN["position_xy"] = [0.5, 4.5]
 
@@ -313,6 +333,7 @@ class PlanCreate(PlanOptions, PlanEnds):
     )
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
+    waypoints: Waypoints = Field(default_factory=list)
 
 
 class AnalysisPublic(BaseModel):
@@ -361,6 +382,11 @@ class PreviewPublic(BaseModel):
     goal_offset_m: float = Field(
         default=0.0, ge=0, description="How far `goal_used` is from the goal, meters (else 0)."
     )
+    waypoint_indices: list[int] = Field(
+        default_factory=list,
+        description="The index in `poses` of each waypoint's pose, in order (empty without "
+        "waypoints).",
+    )
 
 
 class PlanPublic(BaseModel):
@@ -385,6 +411,9 @@ class PlanPublic(BaseModel):
     )
     analysis: AnalysisPublic
     preview: PreviewPublic
+    waypoints: list[Cell] = Field(
+        default_factory=list, description="The cells of the route's waypoints, in order."
+    )
 
 
 class TrajectoryMetrics(BaseModel):
@@ -423,6 +452,7 @@ class PlanDetail(PlanPublic):
                     "status": "moving",
                     "position": [1, 0],
                     "iteration": 1,
+                    "leg": 0,
                     "position_xy": [0.5, 3.5],
                     "trajectory": [[0, 0], [1, 0]],
                     "trajectory_xy": [[0.5, 4.5], [0.5, 3.5]],
@@ -433,6 +463,12 @@ class PlanDetail(PlanPublic):
     )
 
     iteration: int = Field(ge=0)
+    leg: int = Field(
+        default=0,
+        ge=0,
+        description="Through waypoints: the leg the robot is on (it goes to `waypoints[leg]`, "
+        "the goal after the last).",
+    )
     trajectory: list[Cell]
     trajectory_xy: list[XY] = Field(description="The trajectory's cell centers, meters.")
     metrics: TrajectoryMetrics

@@ -36,7 +36,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Generic, Required, Self, TypedDict, TypeVar, Unpack
+from typing import Any, Generic, Self, TypeVar, Unpack
 
 import httpx
 from pydantic import BaseModel
@@ -50,6 +50,14 @@ from schemas import (
     PreviewPublic,
     SimulationPublic,
     StepPublic,
+)
+from service.client_fields import (
+    CellIn,
+    PlanFields,
+    RouteFields,
+    SimulateFields,
+    StepFields,
+    UploadMapFields,
 )
 
 __all__ = [
@@ -68,6 +76,7 @@ __all__ = [
     "PlanFields",
     "PlannerClient",
     "Preview",
+    "RouteFields",
     "ServerError",
     "SimulateFields",
     "Simulation",
@@ -77,10 +86,6 @@ __all__ = [
     "UploadMapFields",
     "ValidationError",
 ]
-
-CellIn = Sequence[int] | Mapping[str, float]
-"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
-``"yaw"`` in radians) where the API takes one."""
 
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
@@ -182,50 +187,6 @@ def _raise_for(response: httpx.Response) -> None:
     raise error
 
 
-# The fields a call sends besides its positional arguments (None: not sent, the server's default);
-# a test checks them against the request models of ``schemas``.
-
-
-class PlanFields(TypedDict, total=False):
-    """``plan``'s options, ``schemas.plans.PlanOptions``: the preset, overrides, the robot."""
-
-    preset: str | None
-    params: Mapping[str, Any] | None
-    allow_narrow: bool | None
-    robot_radius: float | None
-    unknown: str | None
-    goal_tolerance: float | None
-
-
-class UploadMapFields(PlanFields, total=False):
-    """``upload_map``'s fields: one map, its frame, and the plan's ends and options."""
-
-    grid: Sequence[Sequence[int]] | None
-    rows: Sequence[str] | None
-    occupancy_grid: Mapping[str, Any] | None
-    yaml: str | Path | None
-    resolution: float | None
-    origin: Sequence[float] | None
-    start: CellIn | None
-    goal: CellIn | None
-
-
-class SimulateFields(PlanFields, total=False):
-    """``simulate``'s fields besides the ends, as ``schemas.SimulationCreate``."""
-
-    dynamic_count: Required[int]
-    seed: Required[int]
-    max_steps: int | None
-    obstacle_motion: str | None
-
-
-class StepFields(TypedDict, total=False):
-    """``step``'s fields besides the obstacles: ``seq``, and where the robot really is."""
-
-    seq: int | None
-    position: CellIn | None
-
-
 # Calls, built the same for both clients: a request and how to read its answer.
 
 R = TypeVar("R")
@@ -270,6 +231,8 @@ def _body(fields: Mapping[str, Any]) -> dict[str, Any]:
             continue
         if name in ("start", "goal", "position"):
             value = _cell(value)
+        elif name == "waypoints":
+            value = [_cell(point) for point in value]
         elif name == "grid":
             value = [list(row) for row in value]
         elif isinstance(value, Mapping):
@@ -314,7 +277,7 @@ def _get_map(map_id: str) -> _Call[MapInfo]:
     return _Call("GET", f"/maps/{map_id}", _decode(MapInfo))
 
 
-def _plan(map_id: str, start: CellIn, goal: CellIn, options: PlanFields) -> _Call[Plan]:
+def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> _Call[Plan]:
     body = _body({"map_id": map_id, "start": start, "goal": goal, **options})
     return _Call("POST", "/plan", _decode(Plan), {"json": body})
 
@@ -413,8 +376,11 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def get_map(self, map_id: str) -> MapInfo:
         return self._call(_get_map(map_id))
 
-    def plan(self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[PlanFields]) -> Plan:
-        """Plan on an uploaded map; ``options`` are ``PlanCreate``'s, ``None`` not sent."""
+    def plan(
+        self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[RouteFields]
+    ) -> Plan:
+        """Plan on an uploaded map; ``options`` are ``PlanCreate``'s (``waypoints`` among them),
+        ``None`` not sent."""
         return self._call(_plan(map_id, start, goal, options))
 
     def get_plan(self, plan_id: str) -> PlanDetail:
@@ -483,7 +449,7 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
         return await self._call(_get_map(map_id))
 
     async def plan(
-        self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[PlanFields]
+        self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[RouteFields]
     ) -> Plan:
         return await self._call(_plan(map_id, start, goal, options))
 

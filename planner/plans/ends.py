@@ -10,12 +10,22 @@ from typing import Any
 import numpy as np
 
 from planner.analysis.analyse import Analysis
+from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import point_xy
+from planner.maps.grids import as_cell
 from planner.plans.whole_wave import goal_wave
 from planner.poses.smooth import smooth_path
 
-__all__ = ["end_point", "end_yaw", "nearest_reachable", "stand_on", "tolerance_m"]
+__all__ = [
+    "cell_of",
+    "end_point",
+    "end_yaw",
+    "free_cell",
+    "nearest_reachable",
+    "stand_on",
+    "tolerance_m",
+]
 
 
 def end_yaw(value: Any, name: str) -> float | None:
@@ -51,6 +61,34 @@ def end_point(
     return float(x), float(y)
 
 
+def cell_of(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
+    """A ``[row, col]`` cell, or the cell containing a point ``{"x", "y"}`` in meters."""
+    if isinstance(cell, Mapping):
+        return analysis.frame.cell_of(cell, name=name)
+    return as_cell(cell, analysis.shape, name=name)
+
+
+def free_cell(analysis: Analysis, cell: Any, name: str, code: str | None = None) -> tuple[int, int]:
+    """:func:`cell_of`, refused when the robot cannot stand there: on an obstacle, or (named
+    ``code``, by default ``{NAME}_OCCUPIED``) within its clearance margin; the message quotes a
+    point as sent."""
+    point = isinstance(cell, Mapping)
+    r, c = cell_of(analysis, cell, name)
+    if analysis.state[r, c] != BLOCKED_CELL:
+        return r, c
+    where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
+    cs = analysis.cspace
+    if cs is None or cs.blocked[r, c]:
+        raise InvalidInput(f"{where} is on an obstacle", field=name)
+    clearance = float(cs.distance[r, c]) * cs.resolution
+    code = code or f"{name.upper()}_OCCUPIED"
+    msg = (
+        f"{code}: {where} is not traversable: its clearance {clearance:.3f} m "
+        f"is not more than robot_radius {cs.robot_radius:g} m"
+    )
+    raise InvalidInput(msg, field=name, code=code)
+
+
 def _smoothing_args(analysis: Analysis) -> dict[str, Any]:
     frame, cs = analysis.frame, analysis.cspace
     return {
@@ -81,9 +119,12 @@ def _point_clearance(analysis: Analysis, xy: tuple[float, float], cell: tuple[in
     return float(np.hypot(centers[:, 0] - xy[0], centers[:, 1] - xy[1]).min())
 
 
-def stand_on(analysis: Analysis, value: Any, cell: tuple[int, int], name: str) -> None:
+def stand_on(
+    analysis: Analysis, value: Any, cell: tuple[int, int], name: str, code: str | None = None
+) -> None:
     """Refuse an off-center point (``{"x", "y"}``) the robot cannot stand on though its cell is
-    traversable: ``{NAME}_OCCUPIED`` when it, or the way between it and its cell's center, comes
+    traversable: ``code`` (by default ``{NAME}_OCCUPIED``; a name other than ``start`` is
+    checked as a goal) when it, or the way between it and its cell's center, comes
     within the robot's radius (or half a cell's diagonal) of a blocked cell's center: the rule
     of the poses (see :func:`~planner.poses.smooth_path`)."""
     if not isinstance(value, Mapping):
@@ -94,21 +135,22 @@ def stand_on(analysis: Analysis, value: Any, cell: tuple[int, int], name: str) -
             [list(cell)], analysis.clearance, start=start, goal=goal, **_smoothing_args(analysis)
         )
     except InvalidInput as error:
-        if error.code != f"{name.upper()}_OCCUPIED":
+        if error.code not in ("START_OCCUPIED", "GOAL_OCCUPIED"):
             raise
         xy = point_xy(value, name=name)
         args = _smoothing_args(analysis)
         res = args["resolution"]
         clearance = _point_clearance(analysis, xy, cell)
         way = "to" if name == "start" else "from"
+        code = code or f"{name.upper()}_OCCUPIED"
         msg = (
-            f"{name.upper()}_OCCUPIED: {name} {quote(value)} (cell [{cell[0]}, {cell[1]}]) is too "
+            f"{code}: {name} {quote(value)} (cell [{cell[0]}, {cell[1]}]) is too "
             f"near an obstacle: its clearance is {clearance:.4f} m; the robot there and on its "
             f"way {way} its cell's center needs more than robot_radius "
             f"{args['robot_radius']:g} m and than half a cell's diagonal "
             f"{res * math.sqrt(0.5):.4f} m"
         )
-        raise InvalidInput(msg, field=name, code=error.code) from None
+        raise InvalidInput(msg, field=name, code=code) from None
 
 
 def nearest_reachable(

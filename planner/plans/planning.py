@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -14,14 +14,22 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
-from planner.analysis.cells import BLOCKED_CELL
-from planner.errors import InvalidInput, NoValidPath, quote
+from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
-from planner.plans.ends import end_point, end_yaw, nearest_reachable, stand_on, tolerance_m
+from planner.plans.ends import (
+    cell_of,
+    end_point,
+    end_yaw,
+    free_cell,
+    nearest_reachable,
+    stand_on,
+    tolerance_m,
+)
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
+from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
@@ -46,6 +54,9 @@ class Plan:
     None: the cell's center), ``start_yaw`` / ``goal_yaw`` their headings (radians) if given;
     ``goal_used`` the center of the cell planned to instead of ``goal_point`` when that could not
     be stood on or reached (within ``goal_tolerance``), else None.
+
+    Through waypoints (:attr:`route`), the path, its figures and the poses are the whole
+    route's.
     """
 
     start: tuple[int, int]
@@ -62,10 +73,15 @@ class Plan:
     goal_yaw: float | None = None
     goal_used: tuple[float, float] | None = None
     goal_tolerance: float = 0.0
+    route: Route | None = None
+    """The legs of a plan through waypoints (the plan's ``wave`` is then the last leg's), else
+    None."""
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
         """The cells the decision visits with no dynamic obstacles, start to goal."""
+        if self.route is not None:
+            return self.route.path
         s, g = self.start, self.goal
         flat = route(self.wave, self.analysis, s, g, Rule.of(self.params))
         if flat.size == 0:  # cannot happen: a finite kw always has a descending neighbour
@@ -75,6 +91,8 @@ class Plan:
 
     @cached_property
     def _cost(self) -> tuple[float, float]:
+        if self.route is not None:
+            return self.route.cost
         return path_cost(self.path, self.wave)
 
     @property
@@ -134,7 +152,10 @@ class Plan:
         """``(m, 3)`` ``[x, y, yaw]`` in meters: the path a robot controller follows, from the
         start point to the goal point (or ``goal_used``), smoothed by
         :func:`~planner.poses.smooth_path` keeping the path's clearance, the last yaw
-        ``goal_yaw`` when given (docs/api.md, "Poses")."""
+        ``goal_yaw`` when given (docs/api.md, "Poses"); through waypoints, the legs' poses
+        joined (:func:`~planner.plans.route.join_poses`)."""
+        if self.route is not None:
+            return self.route.poses
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -156,6 +177,16 @@ class Plan:
             goal_yaw=self.goal_yaw,
             outside_blocked=cs is None or cs.unknown == "blocked",
         )
+
+    @property
+    def waypoints(self) -> list[tuple[int, int]]:
+        """The cells of the waypoints the route passes, in order (none without a route)."""
+        return [] if self.route is None else self.route.waypoints
+
+    @property
+    def waypoint_indices(self) -> list[int]:
+        """The index in :attr:`poses` of each waypoint's pose."""
+        return [] if self.route is None else list(self.route.waypoint_indices)
 
     @property
     def length_poses_m(self) -> float:
@@ -206,6 +237,8 @@ class Plan:
             "length_poses_m": round(self.length_poses_m, 6),
             "goal_used": None if self.goal_used is None else list(self.goal_used),
             "goal_offset_m": round(self.goal_offset_m, 6),
+            "waypoints": [list(cell) for cell in self.waypoints],
+            "waypoint_indices": self.waypoint_indices,
             "analysis_ms": round(self.analysis.elapsed_ms, 3),
             "wave_ms": round(self.wave.elapsed_ms, 3),
             "elapsed_ms": round(self.elapsed_ms, 3),
@@ -222,6 +255,7 @@ def plan(
     waves: WaveSource | None = None,
     whole: bool = False,
     goal_tolerance: Any = 0.0,
+    waypoints: Any = None,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -232,6 +266,8 @@ def plan(
     wall though its cell is traversable) is refused as ``START_OCCUPIED`` / ``GOAL_OCCUPIED``.
     With ``goal_tolerance`` (meters, >= 0) a goal that cannot be stood on or reached gives way to
     the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
+    ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
+    passes through each in order, each leg planned on its own (``Plan.route``).
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -277,6 +313,17 @@ def plan(
                 f"for {wanted!r}"
             )
             raise InvalidInput(msg, field="params")
+    through = waypoint_list(waypoints)
+    if through:
+        given = analysis
+
+        def leg(a: Any, b: Any, tolerance: Any) -> Plan:
+            return plan(
+                None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
+                goal_tolerance=tolerance, **params,
+            )  # fmt: skip
+
+        return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
     start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
     tolerance = tolerance_m(goal_tolerance)
@@ -372,32 +419,6 @@ def _margin_cells(meters: float, analysis: Analysis) -> int:
         )
         raise InvalidInput(msg, field="params.dynamic_margin_m")
     return cells
-
-
-def cell_of(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
-    """A ``[row, col]`` cell, or the cell containing a point ``{"x", "y"}`` in meters."""
-    if isinstance(cell, Mapping):
-        return analysis.frame.cell_of(cell, name=name)
-    return as_cell(cell, analysis.shape, name=name)
-
-
-def free_cell(analysis: Analysis, cell: Any, name: str) -> tuple[int, int]:
-    """:func:`cell_of`, refused when the robot cannot stand there: on an obstacle, or (named
-    ``{NAME}_OCCUPIED``) within its clearance margin; the message quotes a point as sent."""
-    point = isinstance(cell, Mapping)
-    r, c = cell_of(analysis, cell, name)
-    if analysis.state[r, c] != BLOCKED_CELL:
-        return r, c
-    where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
-    cs = analysis.cspace
-    if cs is None or cs.blocked[r, c]:
-        raise InvalidInput(f"{where} is on an obstacle", field=name)
-    clearance = float(cs.distance[r, c]) * cs.resolution
-    msg = (
-        f"{name.upper()}_OCCUPIED: {where} is not traversable: its clearance {clearance:.3f} m "
-        f"is not more than robot_radius {cs.robot_radius:g} m"
-    )
-    raise InvalidInput(msg, field=name, code=f"{name.upper()}_OCCUPIED")
 
 
 def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:

@@ -4,6 +4,7 @@ plan (heavy, cacheable) and a session state (small, plain data a store keeps as 
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -16,8 +17,9 @@ from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
+from planner.plans.ends import cell_of, free_cell
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
-from planner.plans.planning import Plan, cell_of, free_cell, route
+from planner.plans.planning import Plan, route
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -37,17 +39,22 @@ class Session:
     """
 
     def __init__(self, plan: Plan, state: SessionState | None = None) -> None:
-        self.plan = plan
+        self.route = plan
+        """The plan as given: through waypoints, :attr:`plan` is the leg the robot is on, and
+        on arriving at a waypoint the robot goes on with the next leg (``state.leg``)."""
         if state is None:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
+        if plan.route is not None:
+            plan = plan.route.legs[min(state.leg, len(plan.route.legs) - 1)]
+        self.plan = plan
         self._width = plan.analysis.shape[1]
         self._rule = Rule.of(plan.params)
         # The tabu list: only the paper's decision reads it.
         self._visited: set[int] | None = None
         if self._rule.mode == MODE_PAPER:
             w = self._width
-            self._visited = {r * w + c for r, c in state.trajectory}
+            self._visited = {r * w + c for r, c in state.trajectory[state.leg_start :]}
 
     @property
     def may_replan(self) -> bool:
@@ -70,7 +77,9 @@ class Session:
             if cell != st.position:
                 held = replan_at = 0
                 on_detour = False
-        if cell == self.plan.goal or (st.status == "blocked" and cell == st.position):
+        if cell == self.plan.goal:
+            return not self._last_leg  # on to the next leg: it may search
+        if st.status == "blocked" and cell == st.position:
             return False
         return self._may_search(held, replan_at, on_detour or self._on_plan(cell))
 
@@ -111,10 +120,37 @@ class Session:
         obstacles = _obstacles(dynamic_obstacles, self.plan.analysis.shape)
         if position is not None:
             self._relocate(position)
+        self._next_leg()
         step = self._advance(seq, obstacles)
+        if step.status == "arrived" and self._next_leg():
+            step = dataclasses.replace(step, status=st.status)
         st.last_seq = seq
         st.last_step = step
         return step
+
+    @property
+    def _last_leg(self) -> bool:
+        route = self.route.route
+        return route is None or self.state.leg >= len(route.legs) - 1
+
+    def _next_leg(self) -> bool:
+        """At a waypoint (the current leg's goal) with legs left: on to the next leg (True)."""
+        st = self.state
+        route = self.route.route
+        went = False
+        while route is not None and not self._last_leg and st.position == self.plan.goal:
+            st.leg += 1
+            st.leg_start = len(st.trajectory) - 1
+            self.plan = route.legs[st.leg]
+            if self._visited is not None:
+                self._visited = {st.position[0] * self._width + st.position[1]}
+            st.detour = []
+            st.narrow_fallback = False
+            st.held_up = st.replan_at = 0
+            if st.status in ("arrived", "blocked"):
+                st.status = "moving"
+            went = True
+        return went
 
     def _relocate(self, position: Any) -> None:
         st = self.state
@@ -299,9 +335,17 @@ class Session:
             iteration=st.iteration,
             path_length=st.path_length,
             arc_cost=st.arc_cost,
-            remaining=self.remaining(),
+            remaining=self._to_go(),
             narrow_fallback=self.plan.narrow_fallback or narrow,
         )
+
+    def _to_go(self) -> float | None:
+        """:meth:`remaining`, and through waypoints the legs after this one too."""
+        value = self.remaining()
+        route = self.route.route
+        if value is None or route is None:
+            return value
+        return value + sum(route.costs[self.state.leg + 1 :])
 
     def remaining(self) -> float | None:
         """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach;

@@ -77,6 +77,12 @@ class SessionState:
     trajectory: list[tuple[int, int]] = field(default_factory=list)
     last_seq: int | None = None
     last_step: Step | None = None
+    leg: int = 0
+    """Through waypoints: the leg the robot is on (it goes to ``waypoints[leg]``, the goal
+    after the last)."""
+    leg_start: int = 0
+    """The ``trajectory``'s index where the current leg began: the paper decision's tabu list
+    holds the cells visited since."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -94,6 +100,8 @@ class SessionState:
             "trajectory": list(self.trajectory),
             "last_seq": self.last_seq,
             "last_step": None if self.last_step is None else self.last_step.as_dict(),
+            "leg": self.leg,
+            "leg_start": self.leg_start,
         }
 
     @classmethod
@@ -106,7 +114,7 @@ class SessionState:
             get("arc_cost", 0.0), get("held_up", 0), get("replan_at", 0), get("waits", 0),
             get("replans", 0), list(get("detour", ())), get("narrow_fallback", False),
             [(r, c) for r, c in get("trajectory", ())], get("last_seq"),
-            None if last is None else Step.from_dict(last),
+            None if last is None else Step.from_dict(last), get("leg", 0), get("leg_start", 0),
         )  # fmt: skip
 
     def copy(self) -> SessionState:
@@ -114,5 +122,6 @@ class SessionState:
         return SessionState(
             self.position, self.status, self.iteration, self.path_length, self.arc_cost,
             self.held_up, self.replan_at, self.waits, self.replans, list(self.detour),
-            self.narrow_fallback, list(self.trajectory), self.last_seq, self.last_step,
+            self.narrow_fallback, list(self.trajectory), self.last_seq, self.last_step, self.leg,
+            self.leg_start,
         )  # fmt: skip

@@ -98,6 +98,7 @@ def plan_detail(view: PlanView) -> PlanDetail:
         {
             **_plan_fields(view),
             "iteration": state.iteration,
+            "leg": state.leg,
             "trajectory": trajectory.tolist(),
             "trajectory_xy": frame.centers(trajectory).round(6).tolist(),
             "metrics": metrics,
@@ -177,7 +178,9 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
             **{key: s[key] for key in PREVIEW_KEYS},
             "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in s["poses"]],
             "goal_used": _xy(s["goal_used"]),
+            "waypoint_indices": s["waypoint_indices"],
         },
+        "waypoints": s["waypoints"],
     }
 
 

@@ -43,6 +43,7 @@ async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
             robot_radius=body.robot_radius,
             unknown=body.unknown,
             goal_tolerance=body.goal_tolerance,
+            waypoints=body.waypoints,
         )
         plan = await plans.create_plan(engine, request)
     return MapView(map_id, robot_map, plan), created

@@ -20,7 +20,15 @@ from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
 from service.stores.base import Event, Update
-from service.work.engine import Engine, cell_size, frame_map, overrides, plan_ends, where
+from service.work.engine import (
+    Engine,
+    cell_size,
+    frame_map,
+    overrides,
+    plan_ends,
+    plan_legs,
+    where,
+)
 
 __all__ = [
     "PlanView",
@@ -61,6 +69,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
     plan, cache_hit = await engine.build_plan(
         body.map_id, where(body.start), where(body.goal), body.preset, overrides(body),
         goal_tolerance=body.goal_tolerance,
+        waypoints=[where(point) for point in body.waypoints],
     )  # fmt: skip
     plan_id = secrets.token_hex(16)
     state = planner.Session(plan).state
@@ -74,6 +83,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "narrow_fallback": plan.narrow_fallback,
         "plain": plan.analysis.plain,
         "ends": plan_ends(plan),
+        "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
     }

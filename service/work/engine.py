@@ -48,6 +48,7 @@ __all__ = [
     "overrides",
     "plan_ends",
     "plan_key",
+    "plan_legs",
     "wave_key",
     "where",
 ]
@@ -93,6 +94,7 @@ def plan_key(record: PlanRecord) -> Hashable:
         record["preset"], tuple(record["params"].items()), record["narrow_fallback"],
         record.get("plain", True),
         tuple((k, tuple(v) if isinstance(v, list) else v) for k, v in sorted(ends.items())),
+        repr(record.get("legs")),
     )  # fmt: skip
 
 
@@ -111,6 +113,24 @@ def plan_ends(plan: planner.Plan) -> dict[str, Any]:
         "goal_used": point(plan.goal_used),
         "goal_tolerance": plan.goal_tolerance,
     }
+
+
+def plan_legs(plan: planner.Plan) -> list[dict[str, Any]] | None:
+    """What a record keeps of a route's legs (None: no waypoints), to rebuild each over its
+    cached wave: its start and goal cells, narrow fallback, ends in meters and plain cost-to-go
+    from its start (so that a step reads no other leg's wave)."""
+    if plan.route is None:
+        return None
+    return [
+        {
+            "start": list(leg.start),
+            "goal": list(leg.goal),
+            "narrow_fallback": leg.narrow_fallback,
+            "ends": plan_ends(leg),
+            "cost": cost,
+        }
+        for leg, cost in zip(plan.route.legs, plan.route.costs, strict=True)
+    ]
 
 
 def where(value: list[int] | Point) -> Any:
@@ -191,7 +211,8 @@ class Engine:
         with self._plans_lock:
             stale = [
                 k
-                for k, (p, _) in self._plans.items()
+                for k, (plan, _) in self._plans.items()
+                for p in (plan, *(plan.route.legs if plan.route is not None else ()))
                 if p.wave is value or p.analysis is value or (whole is not None and p.wave is whole)
             ]
             for k in stale:
@@ -200,9 +221,10 @@ class Engine:
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
         wave = plan.wave
         p, plain = plan.params, plan.analysis.plain
+        last = plan if plan.route is None else plan.route.legs[-1]  # whose wave the plan's is
         keys = (
             analysis_key(map_id, p, plain=plain),
-            wave_key(map_id, p, plan.goal, plan.narrow_fallback, plain=plain),
+            wave_key(map_id, p, last.goal, last.narrow_fallback, plain=plain),
         )
         if self.cache.peek(keys[0]) is not plan.analysis or self.cache.peek(keys[1]) is not wave:
             # Evicted while the plan was built (a growing wave may even evict itself): not kept,
@@ -261,22 +283,23 @@ class Engine:
         preset: str,
         overrides: dict[str, Any],
         goal_tolerance: float = 0.0,
+        waypoints: Any = None,
     ) -> tuple[planner.Plan, bool]:
         """A new plan with its preview computed, and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
-        the worker running the plan on a miss.
+        the worker running the plan on a miss. Through ``waypoints``, each leg's wave too.
         """
         params = planner.resolve_params(preset, **overrides)
         analysis, hit = await self.analysis(map_id, params)
         plan = await self.pool.run(
-            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance
+            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance, waypoints
         )
         record = {
             "map_id": map_id, "start": plan.start, "goal": plan.goal, "preset": plan.preset,
             "params": plan.params.as_dict(), "narrow_fallback": plan.narrow_fallback,
-            "plain": analysis.plain, "ends": plan_ends(plan),
+            "plain": analysis.plain, "ends": plan_ends(plan), "legs": plan_legs(plan),
         }  # fmt: skip
         self._remember_plan(plan_key(record), map_id, plan)
         return plan, hit
@@ -290,6 +313,7 @@ class Engine:
         params: planner.Params,
         analysis: planner.Analysis,
         goal_tolerance: float,
+        waypoints: Any = None,
     ) -> planner.Plan:
         # The waves are cached by the goal's cell.
         def wave(cell: tuple[int, int], narrow: bool) -> planner.Wave:
@@ -297,9 +321,11 @@ class Engine:
 
         plan = planner.plan(
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
-            goal_tolerance=goal_tolerance, **params.as_dict(),
+            goal_tolerance=goal_tolerance, waypoints=waypoints, **params.as_dict(),
         )  # fmt: skip
         plan.summary()  # the preview, now in the pool: responses are built on the event loop
+        if plan.route is not None:
+            plan.route.costs  # noqa: B018 - read now, in the pool: a record keeps them
         return plan
 
     def _wave(
@@ -353,12 +379,23 @@ class Engine:
 
     async def _rebuild(self, record: PlanRecord) -> planner.Plan:
         params = planner.Params(**record["params"])
-        map_id, goal, narrow = record["map_id"], record["goal"], record["narrow_fallback"]
+        map_id = record["map_id"]
         plain = record.get("plain", True)  # a record from before maps had frames: a plain map
         analysis = self.cache.peek(analysis_key(map_id, params, plain=plain))
         if analysis is None:
             analysis, _ = await self.analysis(map_id, params)
         assert isinstance(analysis, planner.Analysis)
+        legs = record.get("legs")
+        if not legs:
+            return self._rebuild_leg(record, params, analysis)
+        plans = [self._rebuild_leg({**record, **leg}, params, analysis) for leg in legs]
+        return planner.route_of(plans, [leg["cost"] for leg in legs])
+
+    def _rebuild_leg(
+        self, record: PlanRecord, params: planner.Params, analysis: planner.Analysis
+    ) -> planner.Plan:
+        """A plan (or a route's leg) from its record, over the cached analysis and wave."""
+        map_id, goal, narrow = record["map_id"], record["goal"], record["narrow_fallback"]
         wave = self._wave(map_id, params, analysis, goal, narrow)
         ends = record.get("ends") or {}  # a record from before poses: the cells' centers
 
@@ -403,7 +440,7 @@ class Engine:
                 # (a whole-map wave has every cell settled: no copy needed).
                 trial = session
                 if wave.resumable:
-                    trial = planner.Session(session.plan, session.state.copy())
+                    trial = planner.Session(session.route, session.state.copy())
                 if not trial.may_replan_at(position):
                     step = trial.step(obstacles, position=position, seq=seq)
                     session.state = trial.state

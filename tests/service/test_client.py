@@ -29,6 +29,7 @@ from service.client import (
     NoValidPathError,
     PlanFields,
     PlannerClient,
+    RouteFields,
     SimulateFields,
     StepFields,
     UnavailableError,
@@ -448,8 +449,10 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     assert simulate == set(schemas.SimulationCreate.model_fields)
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
     assert step == set(schemas.StepCreate.model_fields)
+    route = set(get_type_hints(RouteFields))
+    assert route - plan_fields == {"waypoints"}
     plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}
-    assert plan | plan_fields == set(schemas.PlanCreate.model_fields)
+    assert plan | route == set(schemas.PlanCreate.model_fields)
 
 
 def test_both_clients_have_the_same_methods() -> None:
