@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, NoValidPath, quote
-from planner.plans.ends import end_yaw, free_cell, stand_on
+from planner.plans.ends import end_yaw, free_cell, stand_on, tolerance_m
 from planner.poses.smooth import MAX_TURN
 
 if TYPE_CHECKING:
@@ -109,6 +109,7 @@ def plan_route(
     tolerance)`` plans each leg (the goal's tolerance on the last only). A waypoint the robot
     cannot stand on is refused as the goal would be, named ``waypoints[i]`` (code
     ``WAYPOINT_OCCUPIED``); one it cannot reach is ``NO_VALID_PATH``, named so too."""
+    tolerance_m(goal_tolerance)  # refused before any leg is planned
     names = [f"waypoints[{i}]" for i in range(len(waypoints))]
     for name, point in zip(names, waypoints, strict=True):
         cell = free_cell(analysis, point, name, code="WAYPOINT_OCCUPIED")

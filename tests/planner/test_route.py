@@ -264,3 +264,41 @@ def test_a_waypoint_too_near_a_wall_is_waypoint_occupied() -> None:
     with pytest.raises(InvalidInput, match="WAYPOINT_OCCUPIED") as refused:
         planner.plan(m, [0, 0], [7, 15], waypoints=[{"x": 0.31, "y": 0.55}])
     assert (refused.value.field, refused.value.code) == ("waypoints[0]", "WAYPOINT_OCCUPIED")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_routes_on_random_maps_keep_every_rule(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((14, 18)) < 0.18).astype(np.uint8)
+    m = planner.grid_map(grid, resolution=0.05, origin=(1.0, -2.0, 0.3 * seed))
+    cs = planner.configuration_space(m, robot_radius=0.04)
+    cells = np.argwhere(cs.traversable == 1)
+    made = 0
+    codes: set[str] = set()
+    for _ in range(30):
+        picks = cells[rng.integers(len(cells), size=2 + int(rng.integers(1, 4)))].tolist()
+        start, *middle, goal = picks
+        waypoints: list[Any] = []
+        for cell in middle:
+            kind = rng.integers(3)
+            if kind == 0:
+                waypoints.append(cell)
+            else:
+                x, y = (m.frame.centers([cell])[0] + rng.uniform(-0.02, 0.02, size=2)).tolist()
+                point: dict[str, float] = {"x": x, "y": y}
+                if kind == 2:
+                    point["yaw"] = float(rng.uniform(-math.pi, math.pi))
+                waypoints.append(point)
+        try:
+            p = planner.plan(m, start, goal, robot_radius=0.04, waypoints=waypoints)
+        except NoValidPath:
+            continue
+        except InvalidInput as error:  # an off-center point too near a wall
+            codes.add(error.code)
+            continue
+        check_route(p, waypoints)
+        made += 1
+        if made == 4:
+            break
+    assert made >= 2
+    assert codes <= {"WAYPOINT_OCCUPIED"}
