@@ -283,9 +283,12 @@ class Engine:
         preset: str,
         overrides: dict[str, Any],
         goal_tolerance: float = 0.0,
+        *,
+        preview: bool = True,
         waypoints: Any = None,
     ) -> tuple[planner.Plan, bool]:
-        """A new plan with its preview computed, and whether its analysis was cached.
+        """A new plan (with its preview computed, unless ``preview`` is false: a simulation
+        needs none), and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
@@ -294,7 +297,16 @@ class Engine:
         params = planner.resolve_params(preset, **overrides)
         analysis, hit = await self.analysis(map_id, params)
         plan = await self.pool.run(
-            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance, waypoints
+            self._plan,
+            map_id,
+            start,
+            goal,
+            preset,
+            params,
+            analysis,
+            goal_tolerance,
+            preview,
+            waypoints,
         )
         record = {
             "map_id": map_id, "start": plan.start, "goal": plan.goal, "preset": plan.preset,
@@ -313,6 +325,7 @@ class Engine:
         params: planner.Params,
         analysis: planner.Analysis,
         goal_tolerance: float,
+        preview: bool,
         waypoints: Any = None,
     ) -> planner.Plan:
         # The waves are cached by the goal's cell.
@@ -323,7 +336,8 @@ class Engine:
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
             goal_tolerance=goal_tolerance, waypoints=waypoints, **params.as_dict(),
         )  # fmt: skip
-        plan.summary()  # the preview, now in the pool: responses are built on the event loop
+        if preview:  # now, in the pool: responses are built on the event loop
+            plan.summary()
         if plan.route is not None:
             plan.route.costs  # noqa: B018 - read now, in the pool: a record keeps them
         return plan

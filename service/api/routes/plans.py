@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 
 import orjson
 from fastapi import APIRouter, Query, Request, Response, status
+from fastapi.routing import APIRoute
 
 from schemas import (
     FRAME_ID_MAX,
@@ -19,7 +20,14 @@ from schemas import (
     StepPublic,
 )
 from service.api import present
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute, json_body
+from service.api.deps import (
+    PNG_RESPONSE,
+    CellQuery,
+    EngineDep,
+    OrjsonRoute,
+    check_query,
+    json_body,
+)
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
@@ -38,19 +46,14 @@ STEP_BODY = {
 """The step's body in ``/docs``: the route reads it itself (:func:`json_body`)."""
 
 
-@router.post(
-    "/plan/{plan_id}/step",
-    response_model=StepPublic,
-    summary="Report the dynamic obstacles; get the move to make now",
-    responses=responses(404, 409, 413, 422),
-    openapi_extra=STEP_BODY,
-)
 async def step(plan_id: str, request: Request) -> Response:
     """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
     optionally where the robot really is, a cell or a point); the answer is the cell to move
     to (and its center `position_xy`), which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
+    if request.scope["query_string"]:
+        check_query(request, NO_QUERY)
     body = await json_body(request, StepCreate)
     state = request.app.state
     engine: Engine = state.engine
@@ -74,6 +77,23 @@ async def step(plan_id: str, request: Request) -> Response:
     # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
+
+
+# A plain APIRoute: the step reads and checks its body itself (json_body, check_query), so
+# OrjsonRoute's second Request and second look at the body would be work done twice.
+router.add_api_route(
+    "/plan/{plan_id}/step",
+    step,
+    methods=["POST"],
+    response_model=StepPublic,
+    summary="Report the dynamic obstacles; get the move to make now",
+    responses=responses(404, 409, 413, 422),
+    openapi_extra=STEP_BODY,
+    route_class_override=APIRoute,
+)
+NO_QUERY: frozenset[str] = frozenset()
+"""The step takes no query parameter: any is refused (422), as every route refuses those it
+does not take."""
 
 
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:

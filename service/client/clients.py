@@ -1,32 +1,5 @@
-"""A typed Python client of the planner's HTTP API, on httpx.
-
->>> from service.client import PlannerClient
->>> with PlannerClient("http://127.0.0.1:8000") as planner:  # doctest: +SKIP
-...     info = planner.upload_map(rows=["....", ".@@.", "...."], start=[0, 0], goal=[2, 3])
-...     step = planner.step(info.plan.plan_id, [[1, 0]], seq=0)
-...     step.position, step.move
-([0, 1], 'E')
-
-:class:`PlannerClient` and :class:`AsyncPlannerClient` have the same methods. Results are the
-API's response models from :mod:`schemas` themselves (``Plan`` is ``schemas.PlanPublic``, ...),
-decoded by one function: they have every field of this version's answers (a newer server's extra
-fields are left out); :class:`MapInfo` adds ``created``. Every error answer raises an
-:class:`APIError`:
-
-APIError                 .status_code, .code, .detail, .field, .response
-├── BadRequestError      400
-├── NotFoundError        404  unknown map or plan (NOT_FOUND)
-├── ConflictError        409  a step's seq out of order (SEQUENCE_CONFLICT)
-├── PayloadTooLargeError 413  body or map over the service's limits (TOO_LARGE)
-├── ValidationError      422  a bad request (INVALID_INPUT)
-│   └── NoValidPathError 422  the goal cannot be reached (NO_VALID_PATH)
-├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
-└── ServerError          other 5xx
-
-Network failures stay httpx's own (``httpx.TransportError``); a success answer that is not its
-model's shape (a server of another version) raises ``pydantic.ValidationError``. This module
-imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
-"""
+"""The planner's clients, sync and async, on httpx: each call is built once (a request and how
+to read its answer) and sent by either client."""
 
 from __future__ import annotations
 
@@ -36,7 +9,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Generic, Self, TypeVar, Unpack
+from typing import Any, Generic, Required, Self, TypedDict, TypeVar, Unpack
 
 import httpx
 from pydantic import BaseModel
@@ -51,41 +24,29 @@ from schemas import (
     SimulationPublic,
     StepPublic,
 )
-from service.client_fields import (
-    CellIn,
-    PlanFields,
-    RouteFields,
-    SimulateFields,
-    StepFields,
-    UploadMapFields,
-)
+from service.client.errors import raise_for
 
 __all__ = [
-    "APIError",
     "Analysis",
     "AsyncPlannerClient",
-    "BadRequestError",
-    "ConflictError",
     "MapInfo",
     "NavPath",
-    "NoValidPathError",
-    "NotFoundError",
-    "PayloadTooLargeError",
     "Plan",
     "PlanDetail",
     "PlanFields",
     "PlannerClient",
     "Preview",
     "RouteFields",
-    "ServerError",
     "SimulateFields",
     "Simulation",
     "Step",
     "StepFields",
-    "UnavailableError",
     "UploadMapFields",
-    "ValidationError",
 ]
+
+CellIn = Sequence[int] | Mapping[str, float]
+"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
+``"yaw"`` in radians) where the API takes one."""
 
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
@@ -102,89 +63,56 @@ class MapInfo(MapPublic):
     """From ``upload_map``: True for a map the service did not know (``201``), else False."""
 
 
-# Errors
+# The fields a call sends besides its positional arguments (None: not sent, the server's default);
+# a test checks them against the request models of ``schemas``.
 
 
-class APIError(Exception):
-    """An error answer of the service."""
+class PlanFields(TypedDict, total=False):
+    """``plan``'s options, ``schemas.plans.PlanOptions``: the preset, overrides, the robot."""
 
-    def __init__(self, response: httpx.Response) -> None:
-        self.response = response
-        self.status_code = response.status_code
-        body: Any
-        try:
-            body = response.json()
-        except ValueError:
-            body = None
-        if not isinstance(body, dict):
-            body = {"detail": response.text or response.reason_phrase}
-        detail = body.get("detail")
-        self.detail: str = detail if isinstance(detail, str) else json.dumps(detail)
-        self.code: str = str(body.get("code") or f"HTTP_{response.status_code}")
-        self.field: str | None = body.get("field")
-        super().__init__(f"{self.status_code} {self.code}: {self.detail}")
+    preset: str | None
+    params: Mapping[str, Any] | None
+    allow_narrow: bool | None
+    robot_radius: float | None
+    unknown: str | None
+    goal_tolerance: float | None
 
 
-class BadRequestError(APIError):
-    """400."""
+class RouteFields(PlanFields, total=False):
+    """``plan``'s fields besides the ends: the options, and the ``waypoints`` (cells or points)
+    the path passes through, in order."""
+
+    waypoints: Sequence[CellIn] | None
 
 
-class NotFoundError(APIError):
-    """404: no map or plan with that id (unknown, deleted or expired)."""
+class UploadMapFields(RouteFields, total=False):
+    """``upload_map``'s fields: one map, its frame, and the plan's ends, waypoints and
+    options."""
+
+    grid: Sequence[Sequence[int]] | None
+    rows: Sequence[str] | None
+    occupancy_grid: Mapping[str, Any] | None
+    yaml: str | Path | None
+    resolution: float | None
+    origin: Sequence[float] | None
+    start: CellIn | None
+    goal: CellIn | None
 
 
-class ConflictError(APIError):
-    """409: a step's ``seq`` is neither the last one nor the next one."""
+class SimulateFields(PlanFields, total=False):
+    """``simulate``'s fields besides the ends, as ``schemas.SimulationCreate``."""
+
+    dynamic_count: Required[int]
+    seed: Required[int]
+    max_steps: int | None
+    obstacle_motion: str | None
 
 
-class PayloadTooLargeError(APIError):
-    """413: a body or a map over the service's limits."""
+class StepFields(TypedDict, total=False):
+    """``step``'s fields besides the obstacles: ``seq``, and where the robot really is."""
 
-
-class ValidationError(APIError):
-    """422: a request the service cannot accept; ``field`` names the input at fault."""
-
-
-class NoValidPathError(ValidationError):
-    """422 ``NO_VALID_PATH``: the goal cannot be reached from the start."""
-
-
-class UnavailableError(APIError):
-    """503: the store is out of reach for now; retry after ``retry_after`` seconds."""
-
-    @property
-    def retry_after(self) -> float | None:
-        value = self.response.headers.get("retry-after")
-        try:
-            return float(value) if value is not None else None
-        except ValueError:
-            return None
-
-
-class ServerError(APIError):
-    """Any other 5xx."""
-
-
-_ERRORS: dict[int, type[APIError]] = {
-    400: BadRequestError,
-    404: NotFoundError,
-    409: ConflictError,
-    413: PayloadTooLargeError,
-    422: ValidationError,
-    503: UnavailableError,
-}
-
-
-def _raise_for(response: httpx.Response) -> None:
-    if response.is_success:
-        return
-    kind = _ERRORS.get(response.status_code)
-    if kind is None:
-        kind = ServerError if response.status_code >= 500 else APIError
-    error = kind(response)
-    if kind is ValidationError and error.code == "NO_VALID_PATH":
-        error = NoValidPathError(response)
-    raise error
+    seq: int | None
+    position: CellIn | None
 
 
 # Calls, built the same for both clients: a request and how to read its answer.
@@ -362,7 +290,7 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
 
     def _call(self, call: _Call[R]) -> R:
         response = self._http.request(call.method, call.url, **call.content)
-        _raise_for(response)
+        raise_for(response)
         return call.answer(response)
 
     def upload_map(self, **fields: Unpack[UploadMapFields]) -> MapInfo:
@@ -439,7 +367,7 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def _call(self, call: _Call[R]) -> R:
         response = await self._http.request(call.method, call.url, **call.content)
-        _raise_for(response)
+        raise_for(response)
         return call.answer(response)
 
     async def upload_map(self, **fields: Unpack[UploadMapFields]) -> MapInfo:
