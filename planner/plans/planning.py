@@ -73,7 +73,7 @@ class Plan:
     goal_yaw: float | None = None
     goal_used: tuple[float, float] | None = None
     goal_tolerance: float = 0.0
-    route: Route | None = None
+    route: Route[Plan] | None = None
     """The legs of a plan through waypoints (the plan's ``wave`` is then the last leg's), else
     None."""
 

@@ -9,7 +9,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import Any, Generic, Protocol, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -17,12 +17,18 @@ import numpy.typing as npt
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, NoValidPath, quote
 from planner.plans.ends import end_yaw, free_cell, stand_on, tolerance_m
+from planner.plans.whole_wave import Wave
 from planner.poses.smooth import MAX_TURN
 
-if TYPE_CHECKING:
-    from planner.plans.planning import Plan
-
-__all__ = ["MAX_WAYPOINTS", "Route", "join_poses", "plan_route", "route_of", "waypoint_list"]
+__all__ = [
+    "MAX_WAYPOINTS",
+    "Leg",
+    "Route",
+    "join_poses",
+    "plan_route",
+    "route_of",
+    "waypoint_list",
+]
 
 MAX_WAYPOINTS = 64
 """Waypoints a route takes at most."""
@@ -30,14 +36,47 @@ MAX_WAYPOINTS = 64
 _TURN_STEP = math.radians(14.9)  # below MAX_TURN, as the smoother's turns in place
 
 
+class Leg(Protocol):
+    """What a route reads of its legs: a :class:`~planner.Plan` (this module does not import
+    it: ``planning`` imports this one)."""
+
+    @property
+    def start(self) -> tuple[int, int]: ...
+    @property
+    def goal(self) -> tuple[int, int]: ...
+    @property
+    def wave(self) -> Wave: ...
+    @property
+    def path(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def poses(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def arc_cost(self) -> float: ...
+    @property
+    def start_point(self) -> tuple[float, float] | None: ...
+    @property
+    def start_yaw(self) -> float | None: ...
+    @property
+    def goal_yaw(self) -> float | None: ...
+    @property
+    def narrow_fallback(self) -> bool: ...
+    @property
+    def elapsed_ms(self) -> float: ...
+
+
+L = TypeVar("L", bound=Leg)
+
+
 @dataclass(frozen=True, eq=False)
-class Route:
+class Route(Generic[L]):
     """The legs of a plan through waypoints: ``legs[i]`` goes to ``waypoints[i]`` (its goal
     cell and point), the last to the goal. ``known_costs``, when given: each leg's plain
     cost-to-go ``k`` from its start, as :attr:`costs` would compute it (a stored plan keeps
     them, so that a step reads no wave but its own leg's)."""
 
-    legs: tuple[Plan, ...]
+    legs: tuple[L, ...]
     known_costs: tuple[float, ...] = ()
 
     @property
@@ -102,9 +141,9 @@ def plan_route(
     start: Any,
     waypoints: list[Any],
     goal: Any,
-    leg: Callable[[Any, Any, Any], Plan],
+    leg: Callable[[Any, Any, Any], L],
     goal_tolerance: Any,
-) -> Plan:
+) -> L:
     """The plan from ``start`` through each of ``waypoints`` in order to ``goal``: ``leg(a, b,
     tolerance)`` plans each leg (the goal's tolerance on the last only). A waypoint the robot
     cannot stand on is refused as the goal would be, named ``waypoints[i]`` (code
@@ -117,7 +156,7 @@ def plan_route(
         stand_on(analysis, point, cell, name, code="WAYPOINT_OCCUPIED")
     ends = [start, *waypoints, goal]
     labels = ["start", *names, "goal"]
-    legs: list[Plan] = []
+    legs: list[L] = []
     for i in range(len(ends) - 1):
         last = i == len(ends) - 2
         try:
@@ -131,12 +170,12 @@ def plan_route(
     return route_of(legs)
 
 
-def route_of(legs: Sequence[Plan], costs: Sequence[float] = ()) -> Plan:
+def route_of(legs: Sequence[L], costs: Sequence[float] = ()) -> L:
     """The plan of a route from its legs (each a :class:`~planner.Plan` whose start is the
     previous one's goal): the first leg's start, the last leg's goal, wave and parameters."""
     first, last = legs[0], legs[-1]
-    return dataclasses.replace(
-        last,
+    plan: L = dataclasses.replace(
+        cast(Any, last),
         start=first.start,
         start_point=first.start_point,
         start_yaw=first.start_yaw,
@@ -144,6 +183,7 @@ def route_of(legs: Sequence[Plan], costs: Sequence[float] = ()) -> Plan:
         elapsed_ms=sum(leg.elapsed_ms for leg in legs),
         route=Route(tuple(legs), tuple(float(c) for c in costs)),
     )
+    return plan
 
 
 def _wrap(a: float) -> float:
@@ -165,7 +205,7 @@ def _passes(p: list[float], q: list[float]) -> bool:
     return math.hypot(dx, dy) == 0.0 or _between(p[2], math.atan2(dy, dx), q[2])
 
 
-def join_poses(legs: Sequence[Plan]) -> tuple[npt.NDArray[np.float64], tuple[int, ...]]:
+def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int, ...]]:
     """The legs' poses end to end, and the index of each waypoint's pose.
 
     At a waypoint with a yaw, both legs turn in place to meet it (the one pose between them
