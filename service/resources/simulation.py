@@ -22,7 +22,7 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
         raise planner.InvalidInput(msg, field="max_steps")
     plan, _ = await engine.build_plan(
         map_id, where(body.start), where(body.goal), body.preset, overrides(body),
-        goal_tolerance=body.goal_tolerance,
+        goal_tolerance=body.goal_tolerance, preview=False,
     )  # fmt: skip
     # The episode runs in chunks, between which it stops once its request is cancelled (the
     # client went away, or PLANNER_REQUEST_TIMEOUT_SECONDS passed): its worker is freed soon.

@@ -261,8 +261,11 @@ class Engine:
         preset: str,
         overrides: dict[str, Any],
         goal_tolerance: float = 0.0,
+        *,
+        preview: bool = True,
     ) -> tuple[planner.Plan, bool]:
-        """A new plan with its preview computed, and whether its analysis was cached.
+        """A new plan with its preview computed (with ``preview``; else its path only: a
+        simulation), and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
@@ -271,7 +274,7 @@ class Engine:
         params = planner.resolve_params(preset, **overrides)
         analysis, hit = await self.analysis(map_id, params)
         plan = await self.pool.run(
-            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance
+            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance, preview
         )
         record = {
             "map_id": map_id, "start": plan.start, "goal": plan.goal, "preset": plan.preset,
@@ -290,6 +293,7 @@ class Engine:
         params: planner.Params,
         analysis: planner.Analysis,
         goal_tolerance: float,
+        preview: bool,
     ) -> planner.Plan:
         # The waves are cached by the goal's cell.
         def wave(cell: tuple[int, int], narrow: bool) -> planner.Wave:
@@ -299,7 +303,10 @@ class Engine:
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
             goal_tolerance=goal_tolerance, **params.as_dict(),
         )  # fmt: skip
-        plan.summary()  # the preview, now in the pool: responses are built on the event loop
+        if preview:  # the preview, now in the pool: responses are built on the event loop
+            plan.summary()
+        else:  # a simulation walks the path; it answers no poses
+            plan.path  # noqa: B018
         return plan
 
     def _wave(
@@ -346,7 +353,7 @@ class Engine:
         else:
             plan = await self._rebuild(record)
             self._remember_plan(key, record["map_id"], plan)
-        if preview and "path" not in vars(plan):
+        if preview and "poses" not in vars(plan):
             # The walk down the wave may resume its searches: off the event loop.
             await self.pool.run(plan.summary)
         return plan
