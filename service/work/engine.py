@@ -32,9 +32,9 @@ from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
+from service.edge.tenants import TENANT, scoped
 from service.errors import NotFound, TooLarge
 from service.stores import PlanRecord, Store
-from service.tenants import TENANT, scoped
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
 
@@ -66,7 +66,7 @@ warm plan or step builds its cache keys without reading the map from the store."
 def analysis_key(map_id: str, params: planner.Params, *, plain: bool) -> Hashable:
     """The cache key of a map's analysis for ``params``: :func:`planner.analysis_key` of the
     stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged, and the tenant's
-    (see ``service.tenants``)."""
+    (see ``service.edge.tenants``)."""
     return ("analysis", scoped(map_id), *params_key(params, plain=plain))
 
 
@@ -264,8 +264,8 @@ class Engine:
         *,
         preview: bool = True,
     ) -> tuple[planner.Plan, bool]:
-        """A new plan (with its preview computed, unless ``preview`` is false: a simulation
-        needs none), and whether its analysis was cached.
+        """A new plan with its preview computed (with ``preview``; else its path only: a
+        simulation), and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
@@ -303,8 +303,10 @@ class Engine:
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
             goal_tolerance=goal_tolerance, **params.as_dict(),
         )  # fmt: skip
-        if preview:  # now, in the pool: responses are built on the event loop
+        if preview:  # the preview, now in the pool: responses are built on the event loop
             plan.summary()
+        else:  # a simulation walks the path; it answers no poses
+            plan.path  # noqa: B018
         return plan
 
     def _wave(
@@ -351,7 +353,7 @@ class Engine:
         else:
             plan = await self._rebuild(record)
             self._remember_plan(key, record["map_id"], plan)
-        if preview and "path" not in vars(plan):
+        if preview and "poses" not in vars(plan):
             # The walk down the wave may resume its searches: off the event loop.
             await self.pool.run(plan.summary)
         return plan
