@@ -32,9 +32,9 @@ from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
-from service.edge.tenants import TENANT, scoped
 from service.errors import NotFound, TooLarge
 from service.stores import PlanRecord, Store
+from service.tenants import TENANT, scoped
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
 
@@ -66,7 +66,7 @@ warm plan or step builds its cache keys without reading the map from the store."
 def analysis_key(map_id: str, params: planner.Params, *, plain: bool) -> Hashable:
     """The cache key of a map's analysis for ``params``: :func:`planner.analysis_key` of the
     stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged, and the tenant's
-    (see ``service.edge.tenants``)."""
+    (see ``service.tenants``)."""
     return ("analysis", scoped(map_id), *params_key(params, plain=plain))
 
 
