@@ -20,7 +20,7 @@ import numpy.typing as npt
 from numba import njit
 
 from planner.errors import InvalidInput, quote
-from planner.poses.clearance import D_REL, arc_clear, shortcut
+from planner.poses.clearance import _D_REL, _arc_clear, _shortcut
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
@@ -143,7 +143,7 @@ def _smooth(
     """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), and
     -1, or the index of a step of V that is not clear (then no poses)."""
     H = D.shape[0]
-    keep, bad = shortcut(D, outside, V, T, root)
+    keep, bad = _shortcut(D, outside, V, T, root)
     if bad >= 0:
         return np.empty((0, 3)), bad
     P = V[keep]
@@ -169,18 +169,20 @@ def _smooth(
         turn[i] = theta
         t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
         # The corner is a cell center: every point within this of it is clear.
-        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - D_REL)
+        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
         safe = min(max(corner - root - 1e-9, 0.0), t_max)
         lo = safe
         if lo < t_max:
-            if arc_clear(D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root):
+            if _arc_clear(
+                D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root
+            ):
                 lo = t_max
             else:
                 hi = t_max
                 for _ in range(_BISECT):
                     mid = 0.5 * (lo + hi)
                     pts = _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, mid)
-                    if arc_clear(D, outside, pts, T, root):
+                    if _arc_clear(D, outside, pts, T, root):
                         lo = mid
                     else:
                         hi = mid
@@ -188,7 +190,7 @@ def _smooth(
                 short = t_max - _SHORT
                 if lo > short and (
                     short <= safe
-                    or arc_clear(
+                    or _arc_clear(
                         D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, short), T, root
                     )
                 ):

@@ -191,16 +191,4 @@ def _xy(point: list[float] | None) -> dict[str, float] | None:
 def nav_path(plan: planner.Plan, frame_id: str, now: float) -> dict[str, Any]:
     """The plan's poses as a rosbridge ``nav_msgs/Path`` (:class:`schemas.NavPath`), stamped
     ``now`` (seconds since the epoch), built directly: a path holds thousands of poses."""
-    sec = int(now)
-    header = {"frame_id": frame_id, "stamp": {"sec": sec, "nanosec": int((now - sec) * 1e9)}}
-    poses = [
-        {
-            "header": header,
-            "pose": {
-                "position": {"x": x, "y": y, "z": 0.0},
-                "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)},
-            },
-        }
-        for x, y, yaw in plan.poses.tolist()
-    ]
-    return {"header": header, "poses": poses}
+    return planner.nav_msgs_path(plan.poses, frame_id, now)

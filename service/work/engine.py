@@ -287,8 +287,8 @@ class Engine:
         preview: bool = True,
         waypoints: Any = None,
     ) -> tuple[planner.Plan, bool]:
-        """A new plan (with its preview computed, unless ``preview`` is false: a simulation
-        needs none), and whether its analysis was cached.
+        """A new plan with its preview computed (with ``preview``; else its path only: a
+        simulation), and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
@@ -336,8 +336,10 @@ class Engine:
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
             goal_tolerance=goal_tolerance, waypoints=waypoints, **params.as_dict(),
         )  # fmt: skip
-        if preview:  # now, in the pool: responses are built on the event loop
+        if preview:  # the preview, now in the pool: responses are built on the event loop
             plan.summary()
+        else:  # a simulation walks the path; it answers no poses
+            plan.path  # noqa: B018
         if plan.route is not None:
             plan.route.costs  # noqa: B018 - read now, in the pool: a record keeps them
         return plan
@@ -386,7 +388,7 @@ class Engine:
         else:
             plan = await self._rebuild(record)
             self._remember_plan(key, record["map_id"], plan)
-        if preview and "path" not in vars(plan):
+        if preview and "poses" not in vars(plan):
             # The walk down the wave may resume its searches: off the event loop.
             await self.pool.run(plan.summary)
         return plan

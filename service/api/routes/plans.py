@@ -181,6 +181,7 @@ async def render_plan(
     cell: CellQuery = None,
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
-    trajectory so far (green) and its cell, the start (magenta) and the goal (gold)."""
+    trajectory so far (green) and its cell, the start (magenta) and the goal (gold), and the
+    `preview.poses` the robot drives (a blue line, the goal's heading an arrow)."""
     png = await plans.render_plan(engine, plan_id, field, cell)
     return Response(png, media_type="image/png")
