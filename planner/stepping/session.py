@@ -4,6 +4,9 @@ plan (heavy, cacheable) and a session state (small, plain data a store keeps as 
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -12,12 +15,14 @@ import numpy.typing as npt
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, SequenceConflict, quote
+from planner.maps.frames import point_xy
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, cell_of, free_cell, route
+from planner.stepping.ahead import path_ahead
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -36,8 +41,12 @@ class Session:
     ('SE', 'arrived')
     """
 
-    def __init__(self, plan: Plan, state: SessionState | None = None) -> None:
+    def __init__(
+        self, plan: Plan, state: SessionState | None = None, *, poses: bool = True
+    ) -> None:
         self.plan = plan
+        self.poses = poses
+        """Whether each step answers the path ahead (``Step.poses``, ``Step.remaining_m``)."""
         if state is None:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
@@ -91,7 +100,8 @@ class Session:
         """Decide and record the next move, given the cells dynamic obstacles occupy now.
 
         ``position`` is where the robot really is, if the client knows better: a cell, or a
-        point ``{"x", "y"}`` in meters. ``seq``, when
+        point ``{"x", "y"}`` in meters, with its heading ``"yaw"`` (radians) if known: the
+        answer's ``poses`` start there. ``seq``, when
         given, must be the last step's ``seq`` + 1 (a new step) or the last ``seq`` again (a
         retry: the same answer, the robot not moved twice); the first step may take any ``seq``.
         """
@@ -109,9 +119,16 @@ class Session:
         else:
             seq = 0 if st.last_seq is None else st.last_seq + 1
         obstacles = _obstacles(dynamic_obstacles, self.plan.analysis.shape)
+        point, yaw = _pose(position)
         if position is not None:
             self._relocate(position)
         step = self._advance(seq, obstacles)
+        if self.poses:
+            poses, remaining_m = path_ahead(
+                self.plan, st, step, obstacles, reported=position is not None, point=point,
+                yaw=yaw,
+            )  # fmt: skip
+            step = dataclasses.replace(step, poses=poses, remaining_m=remaining_m)
         st.last_seq = seq
         st.last_step = step
         return step
@@ -363,6 +380,23 @@ def detour(
         cells = _unsealed_detour(a, r * W + c, goal, obstacles, margin, params.diagonal_cost)
     out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
     return out
+
+
+def _pose(position: Any) -> tuple[tuple[float, float] | None, float | None]:
+    """A reported point and its heading, if the position is a point (a cell has neither)."""
+    if not isinstance(position, Mapping):
+        return None, None
+    point = point_xy(position, name="position")
+    if "yaw" not in position or position["yaw"] is None:
+        return point, None
+    yaw = position["yaw"]
+    if isinstance(yaw, bool) or not isinstance(yaw, int | float | np.integer | np.floating):
+        msg = f"position.yaw must be a finite number of radians; got {quote(yaw)}"
+        raise InvalidInput(msg, field="position.yaw")
+    if not math.isfinite(float(yaw)):
+        msg = f"position.yaw must be a finite number of radians; got {quote(yaw)}"
+        raise InvalidInput(msg, field="position.yaw")
+    return point, float(yaw)
 
 
 def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:
