@@ -26,7 +26,7 @@ from schemas.plans import (
 )
 from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
-from schemas.steps import StepCreate, StepPublic
+from schemas.steps import StepCreate, StepPoint, StepPose, StepPosition, StepPublic
 
 __all__ = [
     "EXAMPLE_MAP",
@@ -57,6 +57,9 @@ __all__ = [
     "SimulationMetrics",
     "SimulationPublic",
     "StepCreate",
+    "StepPoint",
+    "StepPose",
+    "StepPosition",
     "StepPublic",
     "StoreHealth",
     "TrajectoryMetrics",
