@@ -377,6 +377,8 @@ def poses_ahead(
         there = (poses[:, 0] == poses[0, 0]) & (poses[:, 1] == poses[0, 1])
         run = len(poses) if there.all() else int(np.argmin(there))
         poses[:run, 0], poses[:run, 1] = start
+    if start_yaw is not None and -math.pi < start_yaw <= math.pi:
+        poses[0, 2] = start_yaw  # the heading as given, to the bit
     out: npt.NDArray[np.float64] = poses
     return out, n
 
