@@ -18,7 +18,6 @@ import numpy.typing as npt
 from numba import njit
 
 from planner.poses.smooth import (
-    _BISECT,
     _D_REL,
     _SHORT,
     _SQUARE,
@@ -34,7 +33,12 @@ from planner.poses.smooth import (
 
 __all__ = ["poses_ahead"]
 
+_HALVINGS = 6  # of a corner's tangent length while its arc is not clear (a plan's poses: 10)
 _INSIDE = 1e-9  # cells: a segment along a blocked cell's side or through its corner enters none
+
+# What the smoothing of one piece reads besides the polyline and the start's heading: T, its
+# root, the mask and its corner (top, left), the resolution and the origin (x, y, yaw).
+_Fixed = tuple[float, float, npt.NDArray[np.uint8], int, int, float, float, float, float]
 
 
 @njit(cache=True, nogil=True)
@@ -142,8 +146,17 @@ def _shortcut(
         if not _clear(D, outside, T, root, mask, top, left, ax, ay, V[j, 0], V[j, 1]):
             return keep[:k], a
         while j + 1 < n:
-            bx, by = V[j + 1, 0], V[j + 1, 1]
-            if not _clear(D, outside, T, root, mask, top, left, ax, ay, bx, by):
+            ux, uy = V[j, 0] - ax, V[j, 1] - ay
+            vx, vy = V[j + 1, 0] - V[j, 0], V[j + 1, 1] - V[j, 1]
+            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
+                # Straight on: the segment seen so far and one more step.
+                ok = _clear(
+                    D, outside, T, root, mask, top, left, V[j, 0], V[j, 1], V[j + 1, 0],
+                    V[j + 1, 1],
+                )  # fmt: skip
+            else:
+                ok = _clear(D, outside, T, root, mask, top, left, ax, ay, V[j + 1, 0], V[j + 1, 1])
+            if not ok:
                 break
             j += 1
         keep[k] = j
@@ -168,14 +181,19 @@ def _ahead(
     oyaw: float,
     start_yaw: float,
     has_start_yaw: bool,
-) -> tuple[Any, int]:
+    sx: float,
+    sy: float,
+    exact: bool,
+) -> tuple[Any, int, float]:
     """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), as
-    ``smooth._smooth`` makes them with no goal yaw, clear of ``mask`` too; and -1, or the index
-    of a step of V that is not clear (then no poses)."""
+    ``smooth._smooth`` makes them with no goal yaw, clear of ``mask`` too; -1, or the index of a
+    step of V that is not clear (then no poses); and their length in meters. With ``exact``,
+    the poses at V's first vertex stand at (sx, sy) to the bit, and the first yaw is
+    ``start_yaw`` to the bit when it is in (-pi, pi]."""
     H = D.shape[0]
     keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
     if bad >= 0:
-        return np.empty((0, 3)), bad
+        return np.empty((0, 3)), bad, 0.0
     P = V[keep]
     k = P.shape[0]
     nseg = max(k - 1, 0)
@@ -209,7 +227,7 @@ def _ahead(
             lo = t_max
         else:
             hi = t_max
-            for _ in range(_BISECT):
+            for _ in range(_HALVINGS):
                 mid = 0.5 * (lo + hi)
                 pts = _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, mid)
                 if _arc_clear(D, outside, pts, T, root, mask, top, left):
@@ -286,7 +304,49 @@ def _ahead(
         out[q, 0] = ox + cos_o * u - sin_o * v
         out[q, 1] = oy + sin_o * u + cos_o * v
         out[q, 2] = _wrap(out[q, 2])
-    return out, -1
+    if exact:
+        for q in range(n_start + 1):
+            out[q, 0], out[q, 1] = sx, sy
+    if has_start_yaw and -math.pi < start_yaw <= math.pi:
+        out[0, 2] = start_yaw
+    length = 0.0
+    for q in range(count - 1):
+        length += math.hypot(out[q + 1, 0] - out[q, 0], out[q + 1, 1] - out[q, 1])
+    return out, -1, length
+
+
+@njit(cache=True, nogil=True)
+def _piece(
+    flat: Any, W: int, D: Any, obstacles: Any, margin: int, exempt: int, X0: float, Y0: float,
+    has_start: bool, R: float,
+) -> tuple[Any, int, Any, int, int, Any, Any, float]:  # fmt: skip
+    """The route's cells (from flat indices), how many the robot reaches clear of the blocked
+    cells (:func:`_clear_prefix`), the window's mask and corner, the polyline to smooth from
+    (X0, Y0) (or the first cell's center) over those cells, its vertices' indices, and the
+    squared clearance every point must keep (as :func:`~planner.poses.smooth_path` says)."""
+    H = D.shape[0]
+    m = flat.shape[0]
+    route = np.empty((m, 2), dtype=np.int64)
+    top, left, bottom, right = H, W, 0, 0
+    for i in range(m):
+        r = flat[i] // W
+        c = flat[i] - r * W
+        route[i, 0], route[i, 1] = r, c
+        top, left = min(top, r), min(left, c)
+        bottom, right = max(bottom, r), max(right, c)
+    top, left = max(top - 1, 0), max(left - 1, 0)
+    h, w = min(bottom + 2, H) - top, min(right + 2, W) - left
+    mask = _window(obstacles, margin, top, left, h, w, route, exempt + 1)
+    n = _clear_prefix(route, mask, top, left, exempt)
+    cells = route[:n]
+    if not has_start:
+        X0, Y0 = float(cells[0, 1]), -float(cells[0, 0])
+    V, index, least, _, _ = _vertices(
+        cells, D, X0, Y0, float(cells[n - 1, 1]), -float(cells[n - 1, 0])
+    )
+    bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
+    T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
+    return route, n, mask, top, left, V, index, T
 
 
 def poses_ahead(
@@ -302,89 +362,118 @@ def poses_ahead(
     start: tuple[float, float] | None = None,
     start_yaw: float | None = None,
     outside_blocked: bool = True,
-) -> tuple[npt.NDArray[np.float64], int]:
-    """Poses ``(m, 3)`` ``[x, y, yaw]`` in meters along ``route`` from ``start``, and how many of
-    the route's cells they follow: those the robot reaches before a move into a cell within
-    Chebyshev ``margin`` of one of the dynamic ``obstacles`` (or diagonally past one), after the
-    first ``exempt`` moves (the move this step decided).
+) -> tuple[npt.NDArray[np.float64], int, float]:
+    """Poses ``(m, 3)`` ``[x, y, yaw]`` in meters along ``route`` from ``start``, how many of
+    the route's cells they follow, and their length in meters. They follow the cells the robot
+    reaches before a move into a cell within Chebyshev ``margin`` of one of the dynamic
+    ``obstacles`` (or diagonally past one), after the first ``exempt`` moves (the move this
+    step decided).
 
-    A lean call for a stepping session, which made its arguments: ``route`` a contiguous
-    ``(n, 2)`` int64 array of ``[row, col]`` cells, each a move from the last, over the
-    traversable cells; ``distance`` a plan's ``analysis.clearance`` (float32); ``obstacles``
-    ``(k, 2)`` int64 cells; ``start`` a point in meters within the first cell (default its
-    center), ``start_yaw`` the robot's heading.
+    A lean call for a stepping session, which made its arguments: ``route`` a contiguous int64
+    array of flat cell indices (``row * width + col`` of ``distance``'s shape), each a move from
+    the last, over traversable cells; ``distance`` a plan's ``analysis.clearance`` (float32);
+    ``obstacles`` ``(k, 2)`` int64 cells; ``start`` a point in meters within the first cell
+    (default its center), ``start_yaw`` the robot's heading.
 
     The poses keep :func:`~planner.poses.smooth_path`'s rules over the cells they follow (at
     most one cell apart, the yaw the tangent turning at most 15 degrees a pose, a turn in place
     only at the start from ``start_yaw``, every point of their polyline more than the radius
     and at least the route's least clearance less one cell from every blocked cell's center),
-    and their polyline enters no blocked cell. They end at the last cell's center. When the
-    start point itself is too near a wall for the radius (a robot pushed off its route), the
-    poses lead straight to its cell's center first, and turn there in place.
+    and their polyline enters no blocked cell. They end at the last cell's center; one pose
+    when the robot reaches no other cell. When the start point itself is too near a wall for the
+    radius (a robot pushed off its route), the poses lead straight to its cell's center first,
+    and turn there in place.
     """
     D = distance
     H, W = D.shape
-    top = max(int(route[:, 0].min()) - 1, 0)
-    left = max(int(route[:, 1].min()) - 1, 0)
-    h = min(int(route[:, 0].max()) + 2, H) - top
-    w = min(int(route[:, 1].max()) + 2, W) - left
-    mask = _window(obstacles, margin, top, left, h, w, route, exempt + 1)
-    n = int(_clear_prefix(route, mask, top, left, exempt))
-    cells = route[:n]
     res = resolution
     ox, oy, oyaw = origin
-    cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
-    X0, Y0 = float(cells[0, 1]), float(-cells[0, 0])
+    X0 = Y0 = 0.0
     if start is not None:
+        cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
         du, dv = start[0] - ox, start[1] - oy
         X0 = (cos_o * du + sin_o * dv) / res - 0.5
         Y0 = (-sin_o * du + cos_o * dv) / res - H + 0.5
     has_yaw = start_yaw is not None
     yaw0 = 0.0 if start_yaw is None else float(start_yaw)
+    R = robot_radius / res
+    cells, n, mask, top, left, V, index, T = _piece(
+        route, W, D, obstacles, margin, exempt, X0, Y0, start is not None, R
+    )
     if n == 1:  # the robot waits (or is at the goal): one pose, where it is
         if not has_yaw:
-            ahead = route[1] - route[0] if route.shape[0] > 1 else np.zeros(2)
+            ahead = cells[1] - cells[0] if cells.shape[0] > 1 else np.zeros(2)
             yaw0 = math.atan2(-float(ahead[0]), float(ahead[1])) + oyaw
-        x, y = start if start is not None else _meters(X0, Y0, H, res, ox, oy, cos_o, sin_o)
-        return np.array([[x, y, _wrap(yaw0)]]), 1
-    last = (float(cells[-1, 1]), float(-cells[-1, 0]))
-    V, index, least, _, _ = _vertices(cells, D, X0, Y0, last[0], last[1])
-    bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
-    R = robot_radius / res
-    T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
-    args = (T, math.sqrt(T), mask, top, left, res, ox, oy, oyaw)
-    poses, bad = _ahead(D, outside_blocked, V, *args, yaw0, has_yaw)
+        return _hold(start, V[0], H, res, origin, yaw0), 1, 0.0
+    sx, sy = start if start is not None else (0.0, 0.0)
+    args: _Fixed = (T, math.sqrt(T), mask, top, left, res, ox, oy, oyaw)
+    poses, bad, length = _ahead(
+        D, outside_blocked, V, *args, yaw0, has_yaw, sx, sy, start is not None
+    )
+    if bad >= 0:
+        return _fallback(D, outside_blocked, V, index, n, args, start, yaw0, has_yaw, H, origin)
+    return poses, n, length
+
+
+def _fallback(
+    D: npt.NDArray[np.float32],
+    outside: bool,
+    V: npt.NDArray[np.float64],
+    index: npt.NDArray[np.int64],
+    n: int,
+    args: _Fixed,
+    start: tuple[float, float] | None,
+    yaw0: float,
+    has_yaw: bool,
+    H: int,
+    origin: tuple[float, float, float],
+) -> tuple[npt.NDArray[np.float64], int, float]:
+    """The poses when a step of the polyline is not clear: from a start point too near a wall,
+    straight to its cell's center first; a step of the route itself (not a session's route),
+    only as far as it is clear."""
+    res, oyaw = args[5], origin[2]
     lead = np.empty((0, 3))
-    if bad == 0 and start is not None:
-        # Too near a wall at the point: straight to the first cell's center, then on from there.
+    poses, bad, length = np.empty((0, 3)), 0, 0.0
+    if start is not None and V.shape[0] > 1:
         d = _wrap(math.atan2(V[1, 1] - V[0, 1], V[1, 0] - V[0, 0]) + oyaw)
         fan = _fan_steps(yaw0, d) if has_yaw else 0
         lead = np.empty((fan + 1, 3))
         lead[:, 0], lead[:, 1] = start
         lead[:, 2] = [_wrap(yaw0 + _wrap(d - yaw0) * q / fan) for q in range(fan)] + [d]
+        if has_yaw and -math.pi < yaw0 <= math.pi:
+            lead[0, 2] = yaw0
         V, index, yaw0, has_yaw = V[1:], index[1:], d, True
-        poses, bad = _ahead(D, outside_blocked, V, *args, yaw0, has_yaw)
+        poses, bad, length = _ahead(D, outside, V, *args, yaw0, has_yaw, 0.0, 0.0, False)
+    else:
+        poses, bad, length = _ahead(D, outside, V, *args, yaw0, has_yaw, 0.0, 0.0, False)
     while bad > 0:  # a step of the route itself not clear: only as far as it is
         n = min(n, int(index[bad]))
         V, index = V[: bad + 1], index[: bad + 1]
-        poses, bad = _ahead(D, outside_blocked, V, *args, yaw0, has_yaw)
+        poses, bad, length = _ahead(D, outside, V, *args, yaw0, has_yaw, 0.0, 0.0, False)
     if bad == 0:  # not even the first step is clear: where it is
-        x, y = _meters(V[0, 0], V[0, 1], H, res, ox, oy, cos_o, sin_o)
-        poses, n = np.array([[x, y, _wrap(yaw0)]]), 1
+        poses, n, length = _hold(None, V[0], H, res, origin, yaw0), 1, 0.0
     if lead.shape[0]:
+        length += math.hypot(poses[0, 0] - lead[0, 0], poses[0, 1] - lead[0, 1])
         poses = np.concatenate((lead, poses))
-    elif start is not None:  # the point as given, to the bit (and its turn in place there)
-        there = (poses[:, 0] == poses[0, 0]) & (poses[:, 1] == poses[0, 1])
-        run = len(poses) if there.all() else int(np.argmin(there))
-        poses[:run, 0], poses[:run, 1] = start
-    if start_yaw is not None and -math.pi < start_yaw <= math.pi:
-        poses[0, 2] = start_yaw  # the heading as given, to the bit
-    out: npt.NDArray[np.float64] = poses
-    return out, n
+    return poses, n, length
 
 
-def _meters(
-    X: float, Y: float, H: int, res: float, ox: float, oy: float, cos_o: float, sin_o: float
-) -> tuple[float, float]:
-    u, v = (X + 0.5) * res, (H - 0.5 + Y) * res
-    return ox + cos_o * u - sin_o * v, oy + sin_o * u + cos_o * v
+def _hold(
+    start: tuple[float, float] | None,
+    vertex: npt.NDArray[np.float64],
+    H: int,
+    res: float,
+    origin: tuple[float, float, float],
+    yaw: float,
+) -> npt.NDArray[np.float64]:
+    """One pose: at ``start``, else at the vertex (cells) in meters."""
+    if start is not None:
+        x, y = start
+    else:
+        ox, oy, oyaw = origin
+        u, v = (vertex[0] + 0.5) * res, (H - 0.5 + vertex[1]) * res
+        x = ox + math.cos(oyaw) * u - math.sin(oyaw) * v
+        y = oy + math.sin(oyaw) * u + math.cos(oyaw) * v
+    if not -math.pi < yaw <= math.pi:
+        yaw = _wrap(yaw)
+    return np.array([[x, y, yaw]])

@@ -52,29 +52,25 @@ def path_ahead(
         head.append(step.position[0] * W + step.position[1])
     goal = plan.goal[0] * W + plan.goal[1]
     steps = math.ceil(p.horizon_m / res) + 2
-    poses = np.empty((0, 3))
-    n = 0
     for _ in range(_EXTEND):
         rest = _ahead_of(plan, state, step, steps)
-        route_flat = np.concatenate((np.array(head, dtype=np.int64), rest))
-        route = np.ascontiguousarray(np.stack(np.divmod(route_flat, W), axis=1))
-        poses, n = poses_ahead(
+        route = np.concatenate((np.array(head, dtype=np.int64), rest))
+        poses, n, length = poses_ahead(
             route, a.clearance, obstacles, margin=p.dynamic_margin, exempt=int(moved),
             resolution=res, origin=frame.origin,
             robot_radius=0.0 if cs is None else cs.robot_radius, start=point, start_yaw=yaw,
             outside_blocked=cs is None or cs.unknown == "blocked",
         )  # fmt: skip
-        length = float(np.hypot(*np.diff(poses[:, :2], axis=0).T).sum()) if len(poses) > 1 else 0
-        short = n == len(route_flat) and route_flat[-1] != goal and rest.size >= steps
+        short = n == len(route) and route[-1] != goal and rest.size >= steps
         if not short or length >= p.horizon_m:
             break
         steps *= 2
-    end_flat = int(route_flat[n - 1])
+    end_flat = int(route[n - 1])
     remaining_m = None
     if step.remaining is not None:
         remaining_m = length + _meters_to_go(plan, state, end_flat)
         remaining_m = remaining_m if math.isfinite(remaining_m) else None
-    out = tuple((x, y, t) for x, y, t in poses.tolist())
+    out: tuple[Pose, ...] = tuple(map(tuple, poses.tolist()))
     return out, remaining_m
 
 

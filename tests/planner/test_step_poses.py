@@ -330,8 +330,9 @@ def test_poses_ahead_meets_the_poses_rules_over_the_cells_it_follows(
     obstacles = np.ascontiguousarray(free[rng.choice(len(free), size=count)], dtype=np.int64)
     start = point_in(robot_map.frame, route[0].tolist(), *rng.uniform(-0.25, 0.25, size=2))
     yaw = float(rng.uniform(-3, 3)) if rng.random() < 0.5 else None
-    poses, n = poses_ahead(
-        route, analysis.clearance, obstacles.reshape(-1, 2), margin=1, exempt=0,
+    flat = np.ascontiguousarray(route[:, 0] * analysis.shape[1] + route[:, 1])
+    poses, n, poses_length = poses_ahead(
+        flat, analysis.clearance, obstacles.reshape(-1, 2), margin=1, exempt=0,
         resolution=0.05, origin=(1.0, -2.0, 0.3), robot_radius=radius, start=start,
         start_yaw=yaw, outside_blocked=True,
     )  # fmt: skip
@@ -351,6 +352,7 @@ def test_poses_ahead_meets_the_poses_rules_over_the_cells_it_follows(
         origin=(1.0, -2.0, 0.3), threshold2=T,
     ):  # fmt: skip
         return  # the documented way back to the cell's center first
+    assert poses_length == pytest.approx(length(poses), abs=1e-9)
     if n == 1:
         assert poses.shape == (1, 3)
         return
