@@ -31,7 +31,7 @@ from planner.poses.smooth import (
     _wrap,
 )
 
-__all__ = ["poses_ahead"]
+__all__ = ["poses_ahead", "reachable"]
 
 _HALVINGS = 6  # of a corner's tangent length while its arc is not clear (a plan's poses: 10)
 _INSIDE = 1e-9  # cells: a segment along a blocked cell's side or through its corner enters none
@@ -66,10 +66,16 @@ def _window(
 def _clear_prefix(route: Any, mask: Any, top: int, left: int, exempt: int) -> int:
     """How many of the route's cells the robot reaches before a move into a blocked cell, or a
     diagonal one past a blocked cell beside it (as a decision refuses), after the first
-    ``exempt`` moves."""
+    ``exempt`` moves; and before a cell it reached already (a walk that loops)."""
     n: int = route.shape[0]
-    for i in range(max(exempt, 0) + 1, n):
+    seen = np.zeros(mask.shape, dtype=np.uint8)
+    for i in range(n):
         r, c = route[i, 0] - top, route[i, 1] - left
+        if seen[r, c]:
+            return i
+        seen[r, c] = 1
+        if i == 0 or i <= exempt:
+            continue
         pr, pc = route[i - 1, 0] - top, route[i - 1, 1] - left
         if mask[r, c] or (r != pr and c != pc and (mask[pr, c] or mask[r, pc])):
             return i
@@ -316,15 +322,11 @@ def _ahead(
 
 
 @njit(cache=True, nogil=True)
-def _piece(
-    flat: Any, W: int, D: Any, obstacles: Any, margin: int, exempt: int, X0: float, Y0: float,
-    has_start: bool, R: float,
-) -> tuple[Any, int, Any, int, int, Any, Any, float]:  # fmt: skip
+def _reach(
+    flat: Any, W: int, H: int, obstacles: Any, margin: int, exempt: int
+) -> tuple[Any, int, Any, int, int]:
     """The route's cells (from flat indices), how many the robot reaches clear of the blocked
-    cells (:func:`_clear_prefix`), the window's mask and corner, the polyline to smooth from
-    (X0, Y0) (or the first cell's center) over those cells, its vertices' indices, and the
-    squared clearance every point must keep (as :func:`~planner.poses.smooth_path` says)."""
-    H = D.shape[0]
+    cells (:func:`_clear_prefix`), and the window's mask and corner."""
     m = flat.shape[0]
     route = np.empty((m, 2), dtype=np.int64)
     top, left, bottom, right = H, W, 0, 0
@@ -338,6 +340,18 @@ def _piece(
     h, w = min(bottom + 2, H) - top, min(right + 2, W) - left
     mask = _window(obstacles, margin, top, left, h, w, route, exempt + 1)
     n = _clear_prefix(route, mask, top, left, exempt)
+    return route, n, mask, top, left
+
+
+@njit(cache=True, nogil=True)
+def _piece(
+    flat: Any, W: int, D: Any, obstacles: Any, margin: int, exempt: int, X0: float, Y0: float,
+    has_start: bool, R: float,
+) -> tuple[Any, int, Any, int, int, Any, Any, float]:  # fmt: skip
+    """:func:`_reach`'s, then the polyline to smooth from (X0, Y0) (or the first cell's center)
+    over the cells reached, its vertices' indices, and the squared clearance every point must
+    keep (as :func:`~planner.poses.smooth_path` says)."""
+    route, n, mask, top, left = _reach(flat, W, D.shape[0], obstacles, margin, exempt)
     cells = route[:n]
     if not has_start:
         X0, Y0 = float(cells[0, 1]), -float(cells[0, 0])
@@ -413,6 +427,20 @@ def poses_ahead(
     if bad >= 0:
         return _fallback(D, outside_blocked, V, index, n, args, start, yaw0, has_yaw, H, origin)
     return poses, n, length
+
+
+def reachable(
+    route: npt.NDArray[np.int64],
+    shape: tuple[int, int],
+    obstacles: npt.NDArray[np.int64],
+    *,
+    margin: int,
+    exempt: int,
+) -> int:
+    """How many of ``route``'s cells (flat indices of a map of ``shape``) the robot reaches
+    before a move into a cell within Chebyshev ``margin`` of one of the ``obstacles`` (or
+    diagonally past one), after the first ``exempt`` moves: those :func:`poses_ahead` follows."""
+    return int(_reach(route, shape[1], shape[0], obstacles, margin, exempt)[1])
 
 
 def _fallback(

