@@ -4,7 +4,6 @@ plan (heavy, cacheable) and a session state (small, plain data a store keeps as 
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -128,7 +127,11 @@ class Session:
                 self.plan, st, step, obstacles, reported=position is not None, point=point,
                 yaw=yaw,
             )  # fmt: skip
-            step = dataclasses.replace(step, poses=poses, remaining_m=remaining_m)
+            step = Step(
+                step.seq, step.previous, step.position, step.move, step.status, step.iteration,
+                step.path_length, step.arc_cost, step.remaining, step.narrow_fallback, poses,
+                remaining_m,
+            )  # fmt: skip
         st.last_seq = seq
         st.last_step = step
         return step

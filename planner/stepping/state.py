@@ -61,7 +61,7 @@ class Step:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Step:
         (pr, pc), (r, c) = d["previous"], d["position"]
-        poses = tuple((x, y, t) for x, y, t in d.get("poses", ()))
+        poses: tuple[Pose, ...] = tuple(map(tuple, d.get("poses", ())))
         return cls(
             d["seq"], (pr, pc), (r, c), d["move"], d["status"], d["iteration"],
             d["path_length"], d["arc_cost"], d["remaining"], d.get("narrow_fallback", False),
