@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -154,13 +155,16 @@ def episode(
     *,
     circles_per_step: int,
     steps: int = 120,
+    ahead: tuple[int, int] = (4, 16),
+    radius: tuple[float, float] = (0.8, 1.6),
 ) -> list[planner.Step]:
     """A robot stepping along ``plan``, reporting an off-center point (and sometimes a yaw)
-    each step, with circles put on the plan's path ahead of it; every answer checked."""
+    each step, with circles put on the plan's path ``ahead`` of it (cells along the path), of a
+    ``radius`` in cells; every answer checked."""
     frame = robot_map.frame
     res = frame.resolution
     cs = plan.analysis.cspace
-    radius = 0.0 if cs is None else cs.robot_radius
+    robot_radius = 0.0 if cs is None else cs.robot_radius
     session = planner.Session(plan)
     path = plan.path.tolist()
     answers = []
@@ -172,13 +176,13 @@ def episode(
         here = path.index(cell) if cell in path else 0
         circles = []
         for _ in range(circles_per_step):
-            ahead = path[min(here + int(rng.integers(4, 16)), len(path) - 1)]
-            if ahead == path[-1]:
+            there = path[min(here + int(rng.integers(*ahead)), len(path) - 1)]
+            if there == path[-1]:
                 continue
-            x, y = point_in(frame, ahead, *rng.uniform(-0.5, 0.5, size=2))
-            circles.append({"x": x, "y": y, "radius": float(rng.uniform(0.8, 1.6)) * res})
+            x, y = point_in(frame, there, *rng.uniform(-0.5, 0.5, size=2))
+            circles.append({"x": x, "y": y, "radius": float(rng.uniform(*radius)) * res})
         obstacles = (
-            planner.circle_cells(robot_map, circles, robot_radius=radius)
+            planner.circle_cells(robot_map, circles, robot_radius=robot_radius)
             if circles
             else np.empty((0, 2), dtype=np.int64)
         )
@@ -388,3 +392,22 @@ def test_the_poses_go_round_a_small_obstacle_as_the_next_steps_would() -> None:
         here = plan.analysis.frame.centers([session.step(obstacle.tolist()).position])[0]
         near = min(segment_point_distance(xy[i], xy[i + 1], here) for i in range(len(xy) - 1))
         assert near < 1.0
+
+
+@pytest.mark.parametrize("name", ["depot", "tb3_sandbox"])
+def test_step_poses_on_ros_maps_among_circles(ros: Path, name: str) -> None:
+    robot_map = planner.read_ros_map(ros / f"{name}.yaml")
+    params: dict[str, Any] = {"robot_radius": 0.22}
+    analysis = planner.analyse_map(robot_map, planner.resolve_params("wide", **params))
+    cells = np.argwhere(analysis.passable() == 1)
+    rng = np.random.default_rng(3)
+    start = cells[rng.integers(len(cells))]
+    goals = cells[rng.choice(len(cells), size=32)]
+    goal = goals[np.argmax(np.abs(goals - start).sum(axis=1))]
+    plan = planner.plan(robot_map, start.tolist(), goal.tolist(), analysis=analysis, **params)
+    answers = episode(
+        plan, robot_map, rng, circles_per_step=1, steps=60, ahead=(40, 80), radius=(2.0, 4.0)
+    )
+    assert len(answers) == 60
+    # The horizon reached on most steps, circles on the way or not.
+    assert sum(length(a.poses) >= 2.0 for a in answers) >= 30
