@@ -36,14 +36,14 @@ def path_ahead(
     """The step's ``poses`` and ``remaining_m``.
 
     The route starts at the robot's cell when the step ``reported`` it (from ``point``, else
-    its cell's center), through the cell the step moves it to, else at that cell's center; it
-    follows the session's detour if it has one, else the wide decision's walk down the wave, for
-    the cells the horizon needs: with no dynamic obstacles, and where it meets this step's, the move
-    the decision would take among them there (the robot goes round a small one as its next
-    steps would, if the obstacles stayed); it stops before a cell the obstacles block (or a
-    diagonal move past one) where the decision would wait, or on a detour. ``remaining_m``: the
-    poses' length, and from the cell where they end, ``k`` in meters (None when the goal is out
-    of reach).
+    its cell's center), through the cell the step moves it to, else at that cell's center. It
+    follows the session's detour if it has one, else the wide decision's walk down the wave for
+    the cells the horizon needs: with no dynamic obstacles, and where it meets this step's, the
+    move the decision would take among them there (round a small one, as the robot's next steps
+    would if the obstacles stayed). It stops before a cell the obstacles block (or a diagonal
+    move past one) where the decision would wait, or on a detour. ``remaining_m``: the poses'
+    length, and from the cell where they end, ``k`` in meters (None when the goal is out of
+    reach).
     """
     a, p = plan.analysis, plan.params
     frame = a.frame
