@@ -103,7 +103,16 @@ def run_map(path: Path, pairs: int, seed: int) -> dict[str, Any]:
             return p
 
         try:
-            plan, plan_ms = timed(plan_once)
+            try:
+                plan, plan_ms = timed(plan_once)
+            except planner.InvalidInput as error:  # an end point within the radius of a wall
+                if error.code not in ("START_OCCUPIED", "GOAL_OCCUPIED"):
+                    raise
+                moved += 1
+                for end, cell in zip(ends, (s, g), strict=True):  # its cell's center instead
+                    x, y = frame.centers([cell])[0]
+                    end.update(x=float(x), y=float(y))
+                plan, plan_ms = timed(plan_once)
         except planner.NoValidPath:
             continue
         goal_yaw = float(rng.uniform(-math.pi, math.pi)) if len(rows) % 2 else None

@@ -57,6 +57,7 @@ from planner.params import PRESETS, Params, resolve_params
 from planner.plans.planning import Plan, clearance_metrics, plan, reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
 from planner.plans.whole_wave import Wave, WaveView, goal_wave
+from planner.poses import nav_msgs_path, smooth_path
 from planner.render import render_episode, render_map, render_plan
 from planner.stepping.session import MOVES, Session, SessionState, Step, detour
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
@@ -103,6 +104,7 @@ __all__ = [
     "goal_wave",
     "grid_map",
     "image_size",
+    "nav_msgs_path",
     "occupancy_grid_map",
     "params_key",
     "parse_map",
@@ -124,6 +126,7 @@ __all__ = [
     "run_episode",
     "run_experiment",
     "simulate",
+    "smooth_path",
     "warm_up",
     "wide_clean",
 ]

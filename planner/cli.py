@@ -22,6 +22,7 @@ from planner.maps.grids import read_map, read_scen
 from planner.maps.ros_maps import read_ros_map
 from planner.params import PRESETS, resolve_params
 from planner.plans.planning import Plan, plan
+from planner.poses.nav import nav_msgs_path
 from planner.render import render_episode, render_plan
 from planner.stepping.simulation import run_episode, simulate, warm_up
 
@@ -63,13 +64,25 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     )
     p.add_argument("map", nargs="?", type=Path, help="a Moving AI .map file (or use --map)")
     p.add_argument("--map", dest="map_option", type=Path, help="a .map file or a ROS map .yaml")
-    p.add_argument("--start", nargs="+", required=True, metavar="R C | X,Y")
-    p.add_argument("--goal", nargs="+", required=True, metavar="R C | X,Y")
+    p.add_argument("--start", nargs="+", required=True, metavar="R C | X,Y[,YAW]")
+    p.add_argument("--goal", nargs="+", required=True, metavar="R C | X,Y[,YAW]")
     p.add_argument("--preset", default="wide", choices=sorted(PRESETS))
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
     p.add_argument("--robot-radius", type=float, help="the robot's radius in meters (ROS maps)")
     p.add_argument("--unknown", choices=["blocked", "free"], help="how unknown space counts")
-    p.add_argument("--json", action="store_true", help="print the plan's preview as JSON")
+    p.add_argument(
+        "--goal-tolerance", type=float, default=0.0, metavar="M",
+        help="meters: plan to the nearest reachable cell within M when the goal cannot be used",
+    )  # fmt: skip
+    p.add_argument(
+        "--json", action="store_true", help="print the plan's preview as JSON (with its poses)"
+    )
+    p.add_argument(
+        "--format", choices=["text", "json", "nav_msgs"], default=None,
+        help="what to print: a line of text (ROS maps) or the summary (.map files), the "
+        "preview as JSON (--json), or the poses as a rosbridge nav_msgs/Path",
+    )  # fmt: skip
+    p.add_argument("--frame-id", default="map", help="the nav_msgs/Path's frame_id (map)")
     p.add_argument("--png", type=Path, metavar="OUT.png", help="also draw the plan")
     p.set_defaults(run=_plan)
 
@@ -155,7 +168,19 @@ PREVIEW_KEYS = (
     "mean_clearance",
     "mean_clearance_m",
     "contact_ratio",
+    "length_poses_m",
+    "goal_offset_m",
 )
+
+
+def _preview(summary: dict[str, Any]) -> dict[str, Any]:
+    """The API's ``preview`` object: poses as ``{x, y, yaw}``, ``goal_used`` as ``{x, y}``."""
+    used = summary["goal_used"]
+    return {
+        **{key: summary[key] for key in PREVIEW_KEYS},
+        "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in summary["poses"]],
+        "goal_used": None if used is None else {"x": used[0], "y": used[1]},
+    }
 
 
 def _plan(args: argparse.Namespace) -> int:
@@ -167,24 +192,32 @@ def _plan(args: argparse.Namespace) -> int:
         params["robot_radius"] = args.robot_radius
     if args.unknown is not None:
         params["unknown"] = args.unknown
+    form = args.format or ("json" if args.json else "text")
+    tolerance = args.goal_tolerance
     if Path(path).suffix.lower() not in (".yaml", ".yml"):
         cells = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
-        result = plan(read_map(path), *cells, preset=args.preset, **params)
-        print(json.dumps(result.summary()))
+        result = plan(
+            read_map(path), *cells, preset=args.preset, goal_tolerance=tolerance, **params
+        )
+        if form == "text":
+            print(json.dumps(result.summary()))
     else:
         robot_map = read_ros_map(path)
         points = _point_arg(args.start, "start"), _point_arg(args.goal, "goal")
-        result = plan(robot_map, *points, preset=args.preset, **params)
-        summary = result.summary()
-        if args.json:  # the API's preview object
-            print(json.dumps({key: summary[key] for key in PREVIEW_KEYS}))
-        else:
+        result = plan(robot_map, *points, preset=args.preset, goal_tolerance=tolerance, **params)
+        if form == "text":
             print(
-                f"{args.preset}: {len(result.path) - 1} moves, length {result.length_m:.2f} m, "
-                f"clearance min {result.min_clearance_m:.2f} m, mean "
-                f"{result.mean_clearance_m:.2f} m (robot radius "
-                f"{result.params.robot_radius:g} m), narrow fallback: {result.narrow_fallback}"
+                f"{args.preset}: {len(result.path) - 1} moves, length {result.length_m:.2f} m "
+                f"(poses {result.length_poses_m:.2f} m), clearance min "
+                f"{result.min_clearance_m:.2f} m, mean {result.mean_clearance_m:.2f} m (robot "
+                f"radius {result.params.robot_radius:g} m), narrow fallback: "
+                f"{result.narrow_fallback}"
+                + (f", goal moved {result.goal_offset_m:.3f} m" if result.goal_used else "")
             )
+    if form == "json":  # the API's preview object
+        print(json.dumps(_preview(result.summary())))
+    elif form == "nav_msgs":
+        print(json.dumps(nav_msgs_path(result.poses, args.frame_id, time.time())))
     if args.png is not None:
         args.png.write_bytes(render_plan(result))
         print(f"wrote {args.png}", file=sys.stderr)
@@ -207,7 +240,12 @@ def _cell_arg(values: list[str], name: str) -> tuple[int, int]:
 
 
 def _point_arg(values: list[str], name: str) -> dict[str, float]:
-    x, y = _two(values, name, float, "a point X,Y in meters on a ROS map")
+    parts = [p for v in values for p in v.split(",") if p]
+    if len(parts) == 3:  # X,Y,YAW: a heading too (radians)
+        x, y = _two(parts[:2], name, float, "a point X,Y[,YAW] in meters (radians) on a ROS map")
+        yaw = _two([parts[2], "0"], name, float, "a point X,Y[,YAW] in meters on a ROS map")[0]
+        return {"x": x, "y": y, "yaw": yaw}
+    x, y = _two(values, name, float, "a point X,Y[,YAW] in meters (radians) on a ROS map")
     return {"x": x, "y": y}
 
 

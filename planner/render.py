@@ -33,6 +33,7 @@ __all__ = [
     "Field",
     "auto_cell",
     "draw",
+    "draw_poses",
     "render_episode",
     "render_map",
     "render_plan",
@@ -49,6 +50,7 @@ COLOURS: dict[str, tuple[int, int, int]] = {
     "dynamic": (0, 60, 255),
     "path": (0, 170, 0),
     "preview": (170, 225, 170),
+    "poses": (0, 120, 220),
     "start": (230, 0, 230),
     "goal": (255, 210, 0),
     "robot": (0, 90, 0),
@@ -94,6 +96,7 @@ def draw(
     cell: int | None = 10,
     paths: Sequence[LabelledPath] = (),
     legend: bool | None = None,
+    poses: Any = None,
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
     (``None``: :func:`auto_cell`).
@@ -102,6 +105,8 @@ def draw(
     cells' centers below 6 pixels a cell); ``dynamic_obstacles`` cells blue; ``start``, ``goal``
     and the ``robot``'s cell are discs. ``field`` tints free cells by ``analysis.clean`` or by
     ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
+    ``poses`` (``(m, 3)`` ``[x, y, yaw]`` in meters, a plan's :attr:`~planner.Plan.poses`) are
+    drawn as a thin blue line over the cells, with the last pose's heading as an arrow.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
     on for robot maps) adds a key and a scale bar in meters below the map.
@@ -152,6 +157,8 @@ def draw(
         rc = _cells(cells, analysis.shape, "path")
         points = [(c * cell + half, r * cell + half) for r, c in rc.tolist()]
         pen.line(points, fill=rgb_, width=max(3, cell // 2), joint="curve")
+    if poses is not None:
+        draw_poses(image, analysis, poses, cell=cell)
     radius = cs.robot_radius / cs.resolution * cell if cs is not None else 0.0
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
         if cells is not None:
@@ -183,6 +190,7 @@ LEGEND_NAMES = {
     "tunnel": "tight tunnel (sealed)",
     "gate": "gate",
     "path": "path",
+    "poses": "poses (smooth path)",
     "robot": "robot (footprint)",
     "dynamic": "dynamic obstacle",
     "start": "start",
@@ -261,12 +269,14 @@ def render_plan(
     dynamic_obstacles: Any = None,
     field: Field | None = None,
     cell: int | None = None,
+    poses: bool = True,
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
     so far and the ``dynamic_obstacles``' cells (the plan endpoint).
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
-    green and the preview pale green beneath it.
+    green and the preview pale green beneath it. The plan's poses (unless ``poses`` is false) are
+    a blue line over them.
     """
     path, preview, robot = plan.path, None, None
     if trajectory is not None:
@@ -285,6 +295,7 @@ def render_plan(
         field=field,
         wave=plan.wave,
         cell=cell,
+        poses=plan.poses if poses else None,
     )
     return _png(image)
 
@@ -385,6 +396,37 @@ def _draw_gates(big: npt.NDArray[np.uint8], gates: npt.NDArray[Any], cell: int) 
             rows = (r[:, None] * cell + span)[:, :, None]
             cols = (c[:, None] * cell + span)[:, None, :]
             big[rows, cols] = colour
+
+
+def draw_poses(image: Image.Image, analysis: Analysis, poses: Any, *, cell: int) -> None:
+    """Draw poses ``(m, 3)`` ``[x, y, yaw]`` in meters on a picture of ``analysis`` at ``cell``
+    pixels a cell (as :func:`draw` makes it): a blue line, the last heading an arrow."""
+    pen = ImageDraw.Draw(image)
+    P = np.asarray(poses, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1:] != (3,) or len(P) == 0 or not np.isfinite(P).all():
+        msg = f"poses must be an (m, 3) array of finite [x, y, yaw]; got shape {P.shape!r}"
+        raise InvalidInput(msg, field="poses")
+    frame = analysis.frame
+    ox, oy, yaw = frame.origin
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    dx, dy = P[:, 0] - ox, P[:, 1] - oy
+    u = (cos * dx + sin * dy) / frame.resolution  # cells from the map's left edge
+    v = (-sin * dx + cos * dy) / frame.resolution  # cells from its bottom edge
+    points = list(zip((u * cell).tolist(), ((analysis.shape[0] - v) * cell).tolist(), strict=True))
+    width = max(2, cell // 4)
+    colour = COLOURS["poses"]
+    if len(points) > 1:
+        pen.line(points, fill=colour, width=width, joint="curve")
+    # The heading in pixels: y grows downwards, and the map's yaw turns the frame.
+    heading = P[-1, 2] - yaw
+    size = max(8.0, 2.5 * cell)
+    x, y = points[-1]
+    tip = (x + size * math.cos(heading), y - size * math.sin(heading))
+    pen.line([(x, y), tip], fill=colour, width=width)
+    for side in (2.6, -2.6):
+        a = heading + side
+        pen.line([tip, (tip[0] + size / 3 * math.cos(a), tip[1] - size / 3 * math.sin(a))],
+                 fill=colour, width=width)  # fmt: skip
 
 
 def _box(r: int, c: int, cell: int, inset: int) -> Sequence[int]:

@@ -6,6 +6,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 from schemas.errors import ErrorPublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
+from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
@@ -20,17 +21,20 @@ from schemas.plans import (
     PlanDetail,
     PlanPublic,
     Point,
+    Pose,
     Preset,
     PreviewPublic,
     TrajectoryMetrics,
 )
 from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
-from schemas.steps import StepCreate, StepPoint, StepPose, StepPosition, StepPublic
+from schemas.steps import StepCreate, StepPublic
 
 __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
+    "FRAME_ID_MAX",
+    "FRAME_ID_PATTERN",
     "MULTIPART_FIELDS",
     "PRESET_NAMES",
     "UNION_TAGS",
@@ -44,12 +48,14 @@ __all__ = [
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "NavPath",
     "Obstacle",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",
     "Point",
     "PoolStats",
+    "Pose",
     "Preset",
     "PreviewPublic",
     "ReadyPublic",
@@ -57,9 +63,6 @@ __all__ = [
     "SimulationMetrics",
     "SimulationPublic",
     "StepCreate",
-    "StepPoint",
-    "StepPose",
-    "StepPosition",
     "StepPublic",
     "StoreHealth",
     "TrajectoryMetrics",

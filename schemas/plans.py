@@ -10,6 +10,7 @@ __all__ = [
     "COORDINATE_MAX",
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
+    "GOAL_TOLERANCE_MAX",
     "PRESET_NAMES",
     "STRICT",
     "UNION_TAGS",
@@ -25,6 +26,7 @@ __all__ = [
     "PlanOptions",
     "PlanPublic",
     "Point",
+    "Pose",
     "Preset",
     "PreviewPublic",
     "RobotRadius",
@@ -32,6 +34,7 @@ __all__ = [
     "TrajectoryMetrics",
     "Unknown",
     "UnknownPolicy",
+    "XYPublic",
 ]
 
 STRICT = ConfigDict(extra="forbid", strict=True)
@@ -50,12 +53,39 @@ XY = Annotated[list[float], Field(min_length=2, max_length=2, examples=[[1.25, 0
 
 
 class Point(BaseModel):
-    """A point in the map frame, in meters: it means the cell that contains it."""
+    """A point in the map frame, in meters: it means the cell that contains it; as a plan's start
+    or goal, the poses start or end there. ``yaw`` (radians, optional): a heading; the goal's is
+    the last pose's yaw."""
 
-    model_config = ConfigDict(**STRICT, json_schema_extra={"examples": [{"x": 1.2, "y": 0.4}]})
+    model_config = ConfigDict(
+        **STRICT, json_schema_extra={"examples": [{"x": 1.2, "y": 0.4, "yaw": 1.5708}]}
+    )
 
     x: Meters
     y: Meters
+    yaw: float | None = Field(
+        default=None,
+        allow_inf_nan=False,
+        description="A heading in radians (finite), counter-clockwise from the map's x axis.",
+    )
+
+
+class Pose(BaseModel):
+    """A pose in the map frame: ``x``, ``y`` in meters, ``yaw`` in radians (the direction of
+    travel)."""
+
+    model_config = ConfigDict(json_schema_extra={"examples": [{"x": 0.5, "y": 4.5, "yaw": 0.0}]})
+
+    x: float
+    y: float
+    yaw: float
+
+
+class XYPublic(BaseModel):
+    """A point in the map frame, meters."""
+
+    x: float
+    y: float
 
 
 class Circle(BaseModel):
@@ -98,6 +128,9 @@ UNION_TAGS = frozenset({"cell", "point", "circle"})
 ``start.cell[0]``)."""
 
 Unknown = Literal["blocked", "free"]
+
+GOAL_TOLERANCE_MAX = 100.0
+"""Meters of ``goal_tolerance`` at most."""
 
 RobotRadius = Annotated[
     float | None,
@@ -192,6 +225,20 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "length_m": 7.828427,
         "min_clearance_m": 1.0,
         "mean_clearance_m": 1.15533,
+        "poses": [
+            {"x": 0.5, "y": 4.5, "yaw": -0.24497866312686414},
+            {"x": 1.2114673406298062, "y": 4.3221331648425485, "yaw": -0.24497866312686414},
+            {"x": 1.9229346812596124, "y": 4.144266329685097, "yaw": -0.24497866312686414},
+            {"x": 2.8357593872696345, "y": 3.815824929280116, "yaw": -0.4457920849811421},
+            {"x": 3.6647275152506698, "y": 3.3119057490598283, "yaw": -0.6466055068354201},
+            {"x": 4.3765222585980705, "y": 2.652761651957171, "yaw": -0.8474189286896981},
+            {"x": 4.942536090670168, "y": 1.8648840984595938, "yaw": -1.0482323505439761},
+            {"x": 5.340020521214833, "y": 0.9799384363555004, "yaw": -1.2490457723982544},
+            {"x": 5.5, "y": 0.5, "yaw": -1.2490457723982544},
+        ],
+        "length_poses_m": 6.823201,
+        "goal_used": None,
+        "goal_offset_m": 0.0,
     },
 }  # fmt: skip
 EXAMPLE_PLAN["position_xy"] = [0.5, 4.5]
@@ -236,6 +283,15 @@ class PlanOptions(BaseModel):
     )
     robot_radius: RobotRadius = None
     unknown: UnknownPolicy = None
+    goal_tolerance: float = Field(
+        default=0.0,
+        ge=0,
+        le=GOAL_TOLERANCE_MAX,
+        allow_inf_nan=False,
+        description="Meters: when the goal cannot be stood on or reached, plan to the reachable "
+        "traversable cell nearest to it within this distance (`preview.goal_used`); 0 (default) "
+        "keeps the errors (`GOAL_OCCUPIED`, `NO_VALID_PATH`).",
+    )
 
 
 # pydantic lists the bases' fields from the right: the ends, then the options, then the own.
@@ -289,6 +345,23 @@ class PreviewPublic(BaseModel):
         ge=0, description="Least distance from a path cell to a blocked cell's center, meters."
     )
     mean_clearance_m: float = Field(ge=0, description="`min_clearance_m`'s mean, in meters.")
+    poses: list[Pose] = Field(
+        default_factory=list,
+        description="The path a robot controller follows, meters and radians: from the start "
+        "point to the goal point (or `goal_used`), at most one `resolution` apart, every point "
+        "of its polyline more than `robot_radius` from blocked cells' centers and at least "
+        "`min_clearance_m` less one `resolution`, `yaw` the direction of travel (the last: the "
+        "goal's `yaw` when given), turning at most 15 degrees from one pose to the next.",
+    )
+    length_poses_m: float = Field(default=0.0, ge=0, description="The poses' length, meters.")
+    goal_used: XYPublic | None = Field(
+        default=None,
+        description="The center of the cell planned to instead of the goal, within "
+        "`goal_tolerance`, when the goal could not be stood on or reached; else null.",
+    )
+    goal_offset_m: float = Field(
+        default=0.0, ge=0, description="How far `goal_used` is from the goal, meters (else 0)."
+    )
 
 
 class PlanPublic(BaseModel):

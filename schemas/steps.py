@@ -4,21 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, Tag, ValidatorFunctionWrapHandler, WrapValidator
+from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
-from schemas.plans import (
-    COORDINATE_MAX,
-    STRICT,
-    XY,
-    Cell,
-    Coordinate,
-    Obstacle,
-    Point,
-    Status,
-    _cell_or_mapping,
-)
+from schemas.plans import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose, Status
 
-__all__ = ["Move", "StepCreate", "StepPoint", "StepPose", "StepPosition", "StepPublic"]
+__all__ = ["Move", "StepCreate", "StepPublic"]
 
 Move = Literal["N", "NE", "E", "SE", "S", "SW", "W", "NW", "WAIT"]
 
@@ -41,39 +31,6 @@ def _cells_at_once(value: Any, validate: ValidatorFunctionWrapHandler) -> Any:
 
 
 Obstacles = Annotated[list[Obstacle], WrapValidator(_cells_at_once)]
-
-
-class StepPoint(Point):
-    """Where the robot really is, in meters, and its heading if known: the step's ``poses`` start
-    there (it means the cell that contains it for the decision)."""
-
-    model_config = ConfigDict(
-        **STRICT, json_schema_extra={"examples": [{"x": 1.2, "y": 0.4, "yaw": 1.57}]}
-    )
-
-    yaw: float | None = Field(
-        default=None,
-        allow_inf_nan=False,
-        description="The robot's heading in radians (counter-clockwise from the map's x axis): "
-        "the first pose's yaw, which turns in place to the path's direction.",
-    )
-
-
-StepPosition = Annotated[
-    Annotated[list[Coordinate], Field(min_length=2, max_length=2), Tag("cell")]
-    | Annotated[StepPoint, Tag("point")],
-    _cell_or_mapping("point"),
-    Field(examples=[[0, 9], {"x": 1.2, "y": 0.4, "yaw": 1.57}]),
-]
-"""A ``[row, col]`` cell or a point ``{"x", "y", "yaw"?}`` in meters (and radians)."""
-
-
-class StepPose(BaseModel):
-    """A pose of the path ahead: meters in the map frame, the heading in radians."""
-
-    x: float
-    y: float
-    yaw: float
 
 
 class StepCreate(BaseModel):
@@ -100,7 +57,7 @@ class StepCreate(BaseModel):
         description="Dynamic obstacles this step: cells `[r, c]`, and circles `{x, y, radius}` "
         "in meters, each blocking every cell whose center is within `radius + robot_radius`.",
     )
-    position: StepPosition | None = Field(
+    position: CellOrPoint | None = Field(
         default=None,
         description="Where the robot really is: a cell, or a point in meters with its heading "
         "`yaw` if known (the answer's `poses` start there).",
@@ -184,7 +141,7 @@ class StepPublic(BaseModel):
         "plan's own narrow fallback, or a detour taken because the wide way is blocked (parked "
         "for `patience` steps) or because the robot was reported in a sealed pocket.",
     )
-    poses: list[StepPose] = Field(
+    poses: list[Pose] = Field(
         default_factory=list,
         description="The path ahead, poses at most one resolution apart: from the reported point "
         "(else from `position`'s center), at least the plan's `horizon_m` meters or to the goal, "

@@ -1,10 +1,5 @@
-"""``python -m service``: the service under uvicorn, as ``make run`` and the container start it.
-
-It listens on ``PLANNER_HOST``:``PLANNER_PORT`` and logs JSON lines on stdout
-(``service.ops.logs``): one per request, none of uvicorn's plain-text access lines, and at start
-one line before the warm-up, one after it and one with the address it listens on, the store and
-the warm-up time.
-"""
+"""``python -m service``: the service under uvicorn on ``PLANNER_HOST``:``PLANNER_PORT``, as
+``make run`` and the container start it, logging JSON lines on stdout."""
 
 from __future__ import annotations
 

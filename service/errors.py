@@ -60,65 +60,45 @@ class ServiceError(Exception):
         self.message = message
         self.field = field
 
+    def __init_subclass__(cls, *, status: int, code: str, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.status, cls.code = status, code
 
-class NotFound(ServiceError):
+
+class NotFound(ServiceError, status=404, code="NOT_FOUND"):
     """No map or plan has that id (or the plan expired)."""
 
-    status = 404
-    code = "NOT_FOUND"
 
-
-class TooLarge(ServiceError):
+class TooLarge(ServiceError, status=413, code="TOO_LARGE"):
     """A request body or map beyond the configured limits."""
 
-    status = 413
-    code = "TOO_LARGE"
 
-
-class Unauthorized(ServiceError):
+class Unauthorized(ServiceError, status=401, code="UNAUTHORIZED"):
     """``PLANNER_API_KEYS`` is set and the request carries none of them."""
 
-    status = 401
-    code = "UNAUTHORIZED"
 
-
-class BodyTimeout(ServiceError):
+class BodyTimeout(ServiceError, status=408, code="BODY_TIMEOUT"):
     """The request body did not arrive within ``PLANNER_BODY_TIMEOUT_SECONDS``."""
 
-    status = 408
-    code = "BODY_TIMEOUT"
 
-
-class InsufficientStorage(ServiceError):
+class InsufficientStorage(ServiceError, status=507, code="STORE_FULL"):
     """The map store is full of maps that live plans still use."""
 
-    status = 507
-    code = "STORE_FULL"
 
-
-class Busy(ServiceError):
+class Busy(ServiceError, status=503, code="BUSY"):
     """Too many heavy jobs (analyses, plans, renders, simulations) are queued; retry later."""
 
-    status = 503
-    code = "BUSY"
 
-
-class TimedOut(ServiceError):
+class TimedOut(ServiceError, status=504, code="TIMED_OUT"):
     """The request ran over ``PLANNER_REQUEST_TIMEOUT_SECONDS``; its work was stopped."""
 
-    status = 504
-    code = "TIMED_OUT"
 
-
-class StoreUnavailable(ServiceError):
+class StoreUnavailable(ServiceError, status=503, code="STORE_UNAVAILABLE"):
     """The store cannot be reached (or a plan's lock not taken) now; the client may retry.
 
     The stores raise it in place of their clients' errors (``redis.exceptions``), so nothing
     outside ``service/stores/`` knows which store runs.
     """
-
-    status = 503
-    code = "STORE_UNAVAILABLE"
 
 
 _PLANNER_STATUS: dict[type[planner.PlannerError], int] = {

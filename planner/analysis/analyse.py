@@ -1,7 +1,5 @@
-"""The paper's "robot environment analysis" stage (docs/algorithm.md, "World model" and
-"Analysis"): a map's cell states,
-gates, tight tunnels and ``clean`` field, on a 0/1 grid or on a robot map's configuration space,
-and the key a cache keeps an analysis by."""
+"""The paper's "robot environment analysis" (docs/algorithm.md): cell states, gates, tight
+tunnels and the ``clean`` field of a grid or a configuration space, and its cache key."""
 
 from __future__ import annotations
 

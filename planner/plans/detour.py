@@ -1,7 +1,5 @@
-"""The replan of docs/algorithm.md, "Dynamic obstacles and stepping": A* from the robot to the goal
-round the dynamic obstacles, at
-the wide costs (move + clean of the cell entered), over a whole-map wave, a resumable one, or a
-grid no wave ran over; its memory grows with the cells it reaches, not the map."""
+"""The replan round dynamic obstacles (docs/algorithm.md): A* from the robot to the goal at the
+wide costs, over any wave or none; its memory grows with the cells it reaches, not the map."""
 
 from __future__ import annotations
 

@@ -20,14 +20,17 @@ from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
+from planner.plans.ends import end_point, end_yaw, nearest_reachable, stand_on, tolerance_m
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
+from planner.poses.smooth import smooth_path
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
-WaveSource = Callable[[bool], Wave]
-"""Gives the goal wave for ``narrow`` (False: the sealed grid): lets a caller cache waves."""
+WaveSource = Callable[[tuple[int, int], bool], Wave]
+"""Gives the goal wave of a goal cell for ``narrow`` (False: the sealed grid): lets a caller
+cache waves."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,6 +41,11 @@ class Plan:
     The path and its figures are computed on first use, once: a robot stepping along a plan
     needs only its waves. The clearance figures need the map's distance transform, which the
     analysis then keeps.
+
+    In meters: ``start_point`` and ``goal_point`` are the points as given (a cell: its center;
+    None: the cell's center), ``start_yaw`` / ``goal_yaw`` their headings (radians) if given;
+    ``goal_used`` the center of the cell planned to instead of ``goal_point`` when that could not
+    be stood on or reached (within ``goal_tolerance``), else None.
     """
 
     start: tuple[int, int]
@@ -48,6 +56,12 @@ class Plan:
     wave: Wave
     narrow_fallback: bool
     elapsed_ms: float
+    start_point: tuple[float, float] | None = None
+    goal_point: tuple[float, float] | None = None
+    start_yaw: float | None = None
+    goal_yaw: float | None = None
+    goal_used: tuple[float, float] | None = None
+    goal_tolerance: float = 0.0
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
@@ -104,6 +118,51 @@ class Plan:
         cells = np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * math.sqrt(2.0)
         return float(cells) * self.analysis.frame.resolution
 
+    def _center(self, cell: tuple[int, int]) -> tuple[float, float]:
+        x, y = self.analysis.frame.centers([cell])[0]
+        return float(x), float(y)
+
+    @property
+    def goal_offset_m(self) -> float:
+        """How far ``goal_used`` is from ``goal_point``, meters (0 when the goal is as given)."""
+        if self.goal_used is None or self.goal_point is None:
+            return 0.0
+        return math.dist(self.goal_used, self.goal_point)
+
+    @cached_property
+    def poses(self) -> npt.NDArray[np.float64]:
+        """``(m, 3)`` ``[x, y, yaw]`` in meters: the path a robot controller follows, from the
+        start point to the goal point (or ``goal_used``), smoothed by
+        :func:`~planner.poses.smooth_path` keeping the path's clearance, the last yaw
+        ``goal_yaw`` when given (docs/api.md, "Poses")."""
+        a = self.analysis
+        cs = a.cspace
+        start = self.start_point
+        goal = self.goal_used if self.goal_used is not None else self.goal_point
+        # A cell's center goes as None: the smoother's own center, no tiny first segment.
+        if start == self._center(self.start):
+            start = None
+        if goal == self._center(self.goal):
+            goal = None
+        return smooth_path(
+            self.path,
+            a.clearance,
+            resolution=a.frame.resolution,
+            origin=a.frame.origin,
+            robot_radius=cs.robot_radius if cs is not None else 0.0,
+            start=start,
+            goal=goal,
+            start_yaw=self.start_yaw,
+            goal_yaw=self.goal_yaw,
+            outside_blocked=cs is None or cs.unknown == "blocked",
+        )
+
+    @property
+    def length_poses_m(self) -> float:
+        """The length of the poses' polyline, meters."""
+        steps = np.diff(self.poses[:, :2], axis=0)
+        return float(np.hypot(steps[:, 0], steps[:, 1]).sum())
+
     @property
     def min_clearance_m(self) -> float:
         """:attr:`min_clearance` in meters."""
@@ -143,6 +202,10 @@ class Plan:
             "length_m": round(self.length_m, 6),
             "min_clearance_m": round(self.min_clearance_m, 6),
             "mean_clearance_m": round(self.mean_clearance_m, 6),
+            "poses": self.poses.tolist(),
+            "length_poses_m": round(self.length_poses_m, 6),
+            "goal_used": None if self.goal_used is None else list(self.goal_used),
+            "goal_offset_m": round(self.goal_offset_m, 6),
             "analysis_ms": round(self.analysis.elapsed_ms, 3),
             "wave_ms": round(self.wave.elapsed_ms, 3),
             "elapsed_ms": round(self.elapsed_ms, 3),
@@ -158,14 +221,21 @@ def plan(
     analysis: Analysis | None = None,
     waves: WaveSource | None = None,
     whole: bool = False,
+    goal_tolerance: Any = 0.0,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
 
     ``start`` and ``goal`` are ``[row, col]`` cells or points ``{"x": .., "y": ..}`` in meters
-    (the cells containing them). ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``,
-    ``shortest``; keyword ``params`` override it one by one (see :class:`planner.Params`), among
-    them ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
+    (the cells containing them), a point with an optional heading ``"yaw"`` (finite radians; the
+    last pose's yaw is the goal's). An off-center point the robot cannot stand on (too near a
+    wall though its cell is traversable) is refused as ``START_OCCUPIED`` / ``GOAL_OCCUPIED``.
+    With ``goal_tolerance`` (meters, >= 0) a goal that cannot be stood on or reached gives way to
+    the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
+
+    ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
+    ``params`` override it one by one (see :class:`planner.Params`), among them
+    ``robot_radius`` (meters) and ``unknown``. A caller that caches may pass the map's
     ``analysis`` (then ``grid`` may be None; build its cache key with :func:`analysis_key`) and a
     ``waves`` source. Without one, the plan's wave is a :class:`~planner.ResumableWave`,
     settled only as far as the robot needs (its time and memory grow with the region explored;
@@ -208,29 +278,41 @@ def plan(
             )
             raise InvalidInput(msg, field="params")
     s = free_cell(analysis, start, "start")
-    g = free_cell(analysis, goal, "goal")
+    start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
+    tolerance = tolerance_m(goal_tolerance)
+    stand_on(analysis, start, s, "start")
+    goal_cell = cell_of(analysis, goal, "goal")  # a goal outside the map is refused at once
+    goal_xy = end_point(analysis, goal, goal_cell, "goal")
 
-    def wave_for(narrow: bool) -> Wave:
+    def wave_for(g: tuple[int, int], narrow: bool) -> Wave:
         if waves is not None:
-            return waves(narrow)
+            return waves(g, narrow)
         if whole:
             return goal_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
         return resumable_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
 
-    wave = wave_for(False)
-    narrow = False
-    if not reaches(wave, analysis, s) and analysis.sealed:
-        narrow_wave = wave_for(True)
-        if reaches(narrow_wave, analysis, s):
-            if not p.allow_narrow:
-                msg = (
-                    f"goal {list(g)} can be reached from start {list(s)} only through tight "
-                    "tunnels, and allow_narrow is false"
-                )
-                raise NoValidPath(msg, field="goal")
-            wave, narrow = narrow_wave, True
-    if not reaches(wave, analysis, s):
-        raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
+    goal_used = None
+    try:
+        g = free_cell(analysis, goal, "goal")
+        stand_on(analysis, goal, g, "goal")
+        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+    except (InvalidInput, NoValidPath) as error:
+        if tolerance <= 0:
+            raise
+        near = nearest_reachable(
+            analysis, s, goal_xy, tolerance,
+            diagonal_cost=p.diagonal_cost, allow_narrow=p.allow_narrow,
+        )  # fmt: skip
+        if near is None:
+            error.message += (
+                f" (no reachable traversable cell within goal_tolerance {tolerance:g} m)"
+            )
+            error.args = (error.message,)
+            raise
+        g = near
+        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+        x, y = analysis.frame.centers([g])[0]
+        goal_used = (float(x), float(y))
     if p.dynamic_margin_m is not None:
         p = dataclasses.replace(p, dynamic_margin=_margin_cells(p.dynamic_margin_m, analysis))
     return Plan(
@@ -242,7 +324,39 @@ def plan(
         wave=wave,
         narrow_fallback=narrow,
         elapsed_ms=(time.perf_counter() - t0) * 1e3,
+        start_point=end_point(analysis, start, s, "start"),
+        goal_point=goal_xy,
+        start_yaw=start_yaw,
+        goal_yaw=goal_yaw,
+        goal_used=goal_used,
+        goal_tolerance=tolerance,
     )
+
+
+def _wave_to(
+    analysis: Analysis,
+    s: tuple[int, int],
+    g: tuple[int, int],
+    allow_narrow: bool,
+    wave_for: Callable[[tuple[int, int], bool], Wave],
+) -> tuple[Wave, bool]:
+    """The goal wave of ``g`` that reaches ``s`` (the sealed grid's, else the narrow one's when
+    allowed), and whether it is the narrow one; else NoValidPath."""
+    wave = wave_for(g, False)
+    narrow = False
+    if not reaches(wave, analysis, s) and analysis.sealed:
+        narrow_wave = wave_for(g, True)
+        if reaches(narrow_wave, analysis, s):
+            if not allow_narrow:
+                msg = (
+                    f"goal {list(g)} can be reached from start {list(s)} only through tight "
+                    "tunnels, and allow_narrow is false"
+                )
+                raise NoValidPath(msg, field="goal")
+            wave, narrow = narrow_wave, True
+    if not reaches(wave, analysis, s):
+        raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
+    return wave, narrow
 
 
 def _margin_cells(meters: float, analysis: Analysis) -> int:

@@ -17,8 +17,10 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from planner.poses.clearance import _D_REL, _segment_clear
+from planner.poses.clearance import _arc_clear as _static_arc_clear
+from planner.poses.clearance import _shortcut as _static_shortcut
 from planner.poses.smooth import (
-    _D_REL,
     _SHORT,
     _SQUARE,
     _STEP,
@@ -26,7 +28,6 @@ from planner.poses.smooth import (
     _arc,
     _arc_steps,
     _fan_steps,
-    _segment_clear,
     _vertices,
     _wrap,
 )
@@ -127,12 +128,9 @@ def _arc_clear(
     D: Any, outside: bool, pts: Any, T: float, root: float, mask: Any, top: int, left: int
 ) -> bool:
     for q in range(pts.shape[0] - 1):
-        if not _clear(
-            D, outside, T, root, mask, top, left, pts[q, 0], pts[q, 1], pts[q + 1, 0],
-            pts[q + 1, 1],
-        ):  # fmt: skip
+        if not _free(mask, top, left, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1]):
             return False
-    return True
+    return _static_arc_clear(D, outside, pts, T, root)
 
 
 @njit(cache=True, nogil=True)
@@ -197,7 +195,10 @@ def _ahead(
     the poses at V's first vertex stand at (sx, sy) to the bit, and the first yaw is
     ``start_yaw`` to the bit when it is in (-pi, pi]."""
     H = D.shape[0]
-    keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
+    if mask.any():
+        keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
+    else:  # no blocked cell near: the plan's own shortcut (faster along corridors)
+        keep, bad = _static_shortcut(D, outside, V, T, root)
     if bad >= 0:
         return np.empty((0, 3)), bad, 0.0
     P = V[keep]

@@ -5,10 +5,8 @@ pose with its heading.
 Clearance is the distance from a point to the nearest blocked cell's center. Every point of the
 poses' polyline (not only the poses) keeps more than the robot's radius, at least the grid path's
 least clearance minus one cell, and more than half a cell's diagonal (so that, with a radius under
-a cell, the line never cuts a blocked cell's corner nor crosses a gate). A segment is checked
-by sphere tracing over the exact distance transform (a cell center's distance, less the way to
-it, bounds every nearby point's from below), and, where that bound is too loose, exactly against
-the blocked cells near it.
+a cell, the line never cuts a blocked cell's corner nor crosses a gate); the segments and arcs
+are checked exactly by :mod:`planner.poses.clearance`.
 """
 
 from __future__ import annotations
@@ -22,6 +20,7 @@ import numpy.typing as npt
 from numba import njit
 
 from planner.errors import InvalidInput, quote
+from planner.poses.clearance import _D_REL, _arc_clear, _shortcut
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
@@ -30,155 +29,10 @@ MAX_TURN = math.radians(15.0)
 
 _TURN_STEP = math.radians(14.9)  # below MAX_TURN: rounding never pushes a step over it
 _STEP = 0.9999  # cells between consecutive poses at most
-_PIECE = 0.5  # cells of a segment checked exactly at once where the lower bound is too loose
-_CERTIFY = 0.05  # cells of slack below which a piece is checked exactly
-_D_REL = 2e-7  # float32 distances: a relative margin for their rounding
 _TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
 _SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
 _SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
-
-# --------------------------------------------------------------------------------------------
-# Kernels. Points are (X, Y) in cells, X = col, Y = -row: a right-handed frame on the map's
-# axes, whose cell centers are whole numbers.
-
-
-@njit(cache=True, nogil=True)
-def _lower_bound(D: Any, X: float, Y: float) -> float:
-    """A lower bound of the distance from (X, Y) to the nearest blocked cell's center: the best
-    of the four surrounding centers' exact distance less the way to them."""
-    H, W = D.shape
-    row = -Y
-    r0 = math.floor(row)
-    c0 = math.floor(X)
-    best = -np.inf
-    for r in range(r0, r0 + 2):
-        rr = min(max(r, 0), H - 1)
-        for c in range(c0, c0 + 2):
-            cc = min(max(c, 0), W - 1)
-            v = D[rr, cc] * (1.0 - _D_REL) - math.hypot(X - cc, row - rr)
-            best = max(best, v)
-    return best
-
-
-@njit(cache=True, nogil=True)
-def _d2_segment(px: float, py: float, ax: float, ay: float, dx: float, dy: float) -> float:
-    """Squared distance from (px, py) to the segment from (ax, ay) along (dx, dy)."""
-    L2 = dx * dx + dy * dy
-    t = 0.0
-    if L2 > 0.0:
-        t = min(max(((px - ax) * dx + (py - ay) * dy) / L2, 0.0), 1.0)
-    ex = ax + t * dx - px
-    ey = ay + t * dy - py
-    return ex * ex + ey * ey
-
-
-@njit(cache=True, nogil=True)
-def _piece_clear(
-    D: Any, outside: bool, ax: float, ay: float, bx: float, by: float, T: float, inner: float
-) -> bool:
-    """Whether every point of the short segment a-b is at least sqrt(T) from every blocked
-    center, exactly. No blocked center is nearer to a than ``inner``: only the ring between
-    ``inner`` and sqrt(T) + |ab| around a is looked at."""
-    H, W = D.shape
-    dx = bx - ax
-    dy = by - ay
-    reach = math.sqrt(T) + math.sqrt(dx * dx + dy * dy) + 1e-9
-    reach2 = reach * reach
-    inner2 = inner * inner if inner > 0.0 else 0.0
-    prow = -ay
-    for r in range(math.ceil(prow - reach), math.floor(prow + reach) + 1):
-        dr = r - prow
-        rem = reach2 - dr * dr
-        if rem < 0.0:
-            continue
-        wo = math.sqrt(rem)
-        lo = math.ceil(ax - wo)
-        hi = math.floor(ax + wo)
-        inrem = inner2 - dr * dr
-        # Columns strictly within the inner disc hold no blocked center: skip them.
-        skip_lo, skip_hi = hi + 1, hi
-        if inrem > 0.0:
-            wi = math.sqrt(inrem)
-            skip_lo = math.floor(ax - wi) + 1
-            skip_hi = math.ceil(ax + wi) - 1
-        inside_row = 0 <= r < H
-        c = lo
-        while c <= hi:
-            if skip_lo <= c <= skip_hi:
-                c = skip_hi + 1
-                continue
-            is_blocked = D[r, c] == 0.0 if inside_row and 0 <= c < W else outside
-            if is_blocked and _d2_segment(float(c), -float(r), ax, ay, dx, dy) < T:
-                return False
-            c += 1
-    return True
-
-
-@njit(cache=True, nogil=True)
-def _segment_clear(
-    D: Any, outside: bool, ax: float, ay: float, bx: float, by: float, T: float, root: float
-) -> bool:
-    """Whether every point of segment a-b is at least sqrt(T) = ``root`` from every blocked
-    center: sphere tracing over the lower bound, exact pieces where it is too loose."""
-    dx = bx - ax
-    dy = by - ay
-    L = math.hypot(dx, dy)
-    ux = dx / L if L > 0.0 else 0.0
-    uy = dy / L if L > 0.0 else 0.0
-    s = 0.0
-    while True:
-        px = ax + ux * s
-        py = ay + uy * s
-        lb = _lower_bound(D, px, py)
-        slack = lb - root - 1e-9
-        if slack > _CERTIFY:
-            # Every point within `slack` of p is clear.
-            s += slack
-            if s >= L:
-                return True
-        else:
-            s1 = min(s + _PIECE, L)
-            qx = bx if s1 >= L else ax + ux * s1
-            qy = by if s1 >= L else ay + uy * s1
-            if not _piece_clear(D, outside, px, py, qx, qy, T, lb):
-                return False
-            if s1 >= L:
-                return True
-            s = s1
-
-
-@njit(cache=True, nogil=True)
-def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any, int]:
-    """The greedy line-of-sight shortcut of the polyline V: from each kept vertex, the next
-    kept one is the last before the first vertex it cannot see clear. Returns the kept indices,
-    and -1, or the index of a vertex whose step to the next is not clear itself."""
-    n = V.shape[0]
-    keep = np.empty(n, dtype=np.int64)
-    keep[0] = 0
-    k = 1
-    a = 0
-    while a < n - 1:
-        ax, ay = V[a, 0], V[a, 1]
-        j = a + 1
-        if not _segment_clear(D, outside, ax, ay, V[j, 0], V[j, 1], T, root):
-            return keep[:k], a
-        while j + 1 < n:
-            ux, uy = V[j, 0] - ax, V[j, 1] - ay
-            vx, vy = V[j + 1, 0] - V[j, 0], V[j + 1, 1] - V[j, 1]
-            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
-                # Straight on: the segment seen so far and one more step.
-                ok = _segment_clear(D, outside, V[j, 0], V[j, 1], V[j + 1, 0], V[j + 1, 1], T, root)
-            else:
-                ok = _segment_clear(D, outside, ax, ay, V[j + 1, 0], V[j + 1, 1], T, root)
-            if not ok:
-                break
-            j += 1
-        keep[k] = j
-        k += 1
-        a = j
-    return keep[:k], -1
-
 
 _OUTSIDE, _JUMP, _BLOCKED = 1, 2, 3  # what is wrong with a path, as _vertices says
 
@@ -254,16 +108,6 @@ def _arc(
     pts[0, 2] = math.atan2(iy, ix)
     pts[m, 2] = math.atan2(oy, ox)
     return pts
-
-
-@njit(cache=True, nogil=True)
-def _arc_clear(D: Any, outside: bool, pts: Any, T: float, root: float) -> bool:
-    for q in range(pts.shape[0] - 1):
-        if not _segment_clear(
-            D, outside, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1], T, root
-        ):
-            return False
-    return True
 
 
 @njit(cache=True, nogil=True)

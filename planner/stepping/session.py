@@ -4,7 +4,6 @@ plan (heavy, cacheable) and a session state (small, plain data a store keeps as 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -19,6 +18,7 @@ from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
+from planner.plans.ends import end_yaw
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, cell_of, free_cell, route
 from planner.stepping.ahead import path_ahead
@@ -389,17 +389,7 @@ def _pose(position: Any) -> tuple[tuple[float, float] | None, float | None]:
     """A reported point and its heading, if the position is a point (a cell has neither)."""
     if not isinstance(position, Mapping):
         return None, None
-    point = point_xy(position, name="position")
-    if "yaw" not in position or position["yaw"] is None:
-        return point, None
-    yaw = position["yaw"]
-    if isinstance(yaw, bool) or not isinstance(yaw, int | float | np.integer | np.floating):
-        msg = f"position.yaw must be a finite number of radians; got {quote(yaw)}"
-        raise InvalidInput(msg, field="position.yaw")
-    if not math.isfinite(float(yaw)):
-        msg = f"position.yaw must be a finite number of radians; got {quote(yaw)}"
-        raise InvalidInput(msg, field="position.yaw")
-    return point, float(yaw)
+    return point_xy(position, name="position"), end_yaw(position, "position")
 
 
 def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:

@@ -120,9 +120,11 @@ async def json_body(request: Request, model: type[Model]) -> Model:
     """The request's body as ``model``, validated from its JSON bytes at once
     (``model_validate_json``), with the 422 a body parameter of that model gets: errors under
     ``body``; a body missing, malformed, or not declared JSON (``application/json`` or
-    ``application/*+json``) refused. The route's class checks its depth first
-    (:class:`OrjsonRoute`)."""
+    ``application/*+json``) refused, and one nesting too deep refused unparsed. For a route of
+    the plain ``APIRoute`` class, which makes no second ``Request`` (:class:`OrjsonRoute`
+    would read and check the body again)."""
     raw = await request.body()
+    check_depth(raw)
     if not raw:
         missing = {"type": "missing", "loc": ("body",), "msg": "Field required", "input": None}
         raise RequestValidationError([missing])

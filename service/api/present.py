@@ -17,6 +17,7 @@ __all__ = [
     "center",
     "map_public",
     "meters",
+    "nav_path",
     "plan_detail",
     "plan_public",
     "simulation_public",
@@ -35,6 +36,8 @@ PREVIEW_KEYS = (
     "length_m",
     "min_clearance_m",
     "mean_clearance_m",
+    "length_poses_m",
+    "goal_offset_m",
 )
 
 
@@ -172,5 +175,19 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
             "cache_hit": view.record["cache_hit"],
             "analysis_ms": s["analysis_ms"],
         },
-        "preview": {key: s[key] for key in PREVIEW_KEYS},
+        "preview": {
+            **{key: s[key] for key in PREVIEW_KEYS},
+            "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in s["poses"]],
+            "goal_used": _xy(s["goal_used"]),
+        },
     }
+
+
+def _xy(point: list[float] | None) -> dict[str, float] | None:
+    return None if point is None else {"x": point[0], "y": point[1]}
+
+
+def nav_path(plan: planner.Plan, frame_id: str, now: float) -> dict[str, Any]:
+    """The plan's poses as a rosbridge ``nav_msgs/Path`` (:class:`schemas.NavPath`), stamped
+    ``now`` (seconds since the epoch), built directly: a path holds thousands of poses."""
+    return planner.nav_msgs_path(plan.poses, frame_id, now)

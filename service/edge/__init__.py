@@ -1,4 +1,4 @@
-"""What a request meets before any route: body limits and timeouts, the JSON depth check, API
-keys and tenants, and cancellation when its client goes away."""
+"""What a request meets before any route: the one edge middleware (request id, API key, body
+limit, deadline, metrics), the JSON depth check, and cancellation when its client goes away."""
 
 __all__: list[str] = []

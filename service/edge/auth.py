@@ -1,10 +1,6 @@
-"""API keys: with ``PLANNER_API_KEYS`` set, every request but the open paths carries one.
-
-A key comes as ``Authorization: Bearer <key>`` or ``X-API-Key: <key>``; it is compared with
-each configured key in constant time (:func:`hmac.compare_digest`), and the request then acts
-for that key's tenant (:mod:`service.edge.tenants`). The edge middleware refuses a request without
-a known key with 401 before its body is read.
-"""
+"""API keys: with ``PLANNER_API_KEYS`` set, a request (but for the open paths) carries one as
+``Authorization: Bearer`` or ``X-API-Key``, compared in constant time, and acts for that key's
+tenant."""
 
 from __future__ import annotations
 
@@ -12,8 +8,8 @@ import hmac
 
 from starlette.types import Scope
 
-from service.edge.tenants import tenant_of
 from service.errors import Unauthorized
+from service.tenants import tenant_of
 
 __all__ = ["OPEN_PATHS", "ApiKeys"]
 

@@ -1,8 +1,5 @@
-"""The current request's cancel flag: set when its client goes away or its time runs out.
-
-Work that runs long in a worker thread (a simulation's episode) polls it between bounded chunks
-and stops, so that the worker is free again soon after nobody waits for its answer.
-"""
+"""The current request's cancel flag, set when its client goes away or its time runs out: long
+work in a worker thread polls it, so the worker is freed soon after nobody waits."""
 
 from __future__ import annotations
 

@@ -1,9 +1,5 @@
-"""Checks on a raw JSON body before it is parsed: how deeply it nests.
-
-A body nested a thousand levels deep makes every recursive reader (the JSON parser, pydantic,
-``repr`` in an error message) recurse as deep; refused here from the bytes, in numpy, nothing
-built from it can recurse far.
-"""
+"""Refuses a raw JSON body that nests too deep, from its bytes, before any recursive reader
+(the parser, pydantic, ``repr``) sees it."""
 
 from __future__ import annotations
 

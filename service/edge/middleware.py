@@ -24,11 +24,11 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from service.edge.auth import ApiKeys
 from service.edge.cancel import CANCEL
 from service.edge.limits import Limits, is_heavy
-from service.edge.tenants import TENANT
 from service.errors import ServiceError, send_problem
 from service.ops.logs import REQUEST_ID
 from service.ops.metrics import Metrics
 from service.ops.observe import HEADER, Recorder, request_id_of, route_of
+from service.tenants import TENANT
 
 __all__ = ["Edge"]
 

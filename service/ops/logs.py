@@ -1,13 +1,5 @@
-"""JSON log lines, one object per line on stdout: the request lines of
-:class:`service.ops.observe.Recorder`, the start-up lines, and uvicorn's own messages.
-
-``python -m service`` installs :func:`log_config` with :func:`configure` (uvicorn's plain-text
-access line is off: the service writes its own). Fields of a line beyond ``time``,
-``level``, ``logger`` and ``message`` are passed as ``extra={"fields": {...}}``.
-
-The request lines are the one kind written a thousand times a second: :data:`REQUEST_LINES` writes
-them without a ``LogRecord`` and buffered (:class:`RequestLines`), in the same form.
-"""
+"""JSON log lines on stdout, one object a line: request lines (buffered, without a ``LogRecord``:
+the one kind written thousands of times a second), start-up lines and uvicorn's own messages."""
 
 from __future__ import annotations
 

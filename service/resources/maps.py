@@ -42,6 +42,7 @@ async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
             allow_narrow=body.allow_narrow,
             robot_radius=body.robot_radius,
             unknown=body.unknown,
+            goal_tolerance=body.goal_tolerance,
         )
         plan = await plans.create_plan(engine, request)
     return MapView(map_id, robot_map, plan), created

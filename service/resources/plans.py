@@ -20,7 +20,7 @@ from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
 from service.stores.base import Event, Update
-from service.work.engine import Engine, cell_size, frame_map, overrides, where
+from service.work.engine import Engine, cell_size, frame_map, overrides, plan_ends, where
 
 __all__ = [
     "PlanView",
@@ -28,6 +28,7 @@ __all__ = [
     "create_plan",
     "delete_plan",
     "get_plan",
+    "plan_path",
     "render_plan",
     "require",
     "step",
@@ -58,8 +59,9 @@ class StepView:
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
     plan, cache_hit = await engine.build_plan(
-        body.map_id, where(body.start), where(body.goal), body.preset, overrides(body)
-    )
+        body.map_id, where(body.start), where(body.goal), body.preset, overrides(body),
+        goal_tolerance=body.goal_tolerance,
+    )  # fmt: skip
     plan_id = secrets.token_hex(16)
     state = planner.Session(plan).state
     stored = state.as_dict()
@@ -71,6 +73,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "params": plan.params.as_dict(),
         "narrow_fallback": plan.narrow_fallback,
         "plain": plan.analysis.plain,
+        "ends": plan_ends(plan),
         "cache_hit": cache_hit,
         "state": stored,
     }
@@ -173,6 +176,11 @@ async def render_plan(
     return await engine.pool.run(
         planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
     )
+
+
+async def plan_path(engine: Engine, plan_id: str) -> planner.Plan:
+    """The stored plan with its poses computed (in the pool, if not yet)."""
+    return await engine.plan_of(await _record(engine, plan_id), preview=True)
 
 
 async def require(engine: Engine, plan_id: str) -> None:

@@ -21,8 +21,9 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
         msg = f"max_steps {body.max_steps} exceeds PLANNER_MAX_SIMULATION_STEPS ({most})"
         raise planner.InvalidInput(msg, field="max_steps")
     plan, _ = await engine.build_plan(
-        map_id, where(body.start), where(body.goal), body.preset, overrides(body)
-    )
+        map_id, where(body.start), where(body.goal), body.preset, overrides(body),
+        goal_tolerance=body.goal_tolerance, preview=False,
+    )  # fmt: skip
     # The episode runs in chunks, between which it stops once its request is cancelled (the
     # client went away, or PLANNER_REQUEST_TIMEOUT_SECONDS passed): its worker is freed soon.
     flag = cancelled()

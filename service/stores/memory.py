@@ -9,9 +9,9 @@ from collections.abc import Callable
 import orjson
 
 from planner import RobotMap
-from service.edge.tenants import TENANT, scoped
 from service.errors import InsufficientStorage
 from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, Update, pack, unpack
+from service.tenants import TENANT, scoped
 
 __all__ = ["MemoryStore"]
 

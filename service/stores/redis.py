@@ -21,7 +21,6 @@ from redis.backoff import NoBackoff
 from redis.commands.core import AsyncScript
 
 from planner import RobotMap, quote
-from service.edge.tenants import scoped
 from service.errors import InsufficientStorage, StoreUnavailable
 from service.stores.base import (
     Cells,
@@ -36,6 +35,7 @@ from service.stores.base import (
     pack,
     unpack,
 )
+from service.tenants import scoped
 
 __all__ = ["CACHED_PLANS", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
 
@@ -327,18 +327,24 @@ _Call = tuple[list[str], list[Any], "asyncio.Future[Any]"]
 
 
 class _Collector:
-    """The step script's calls made in one turn of the event loop, sent together in one
-    ``pipeline(transaction=False)`` by a task of their own (a caller that gives up cancels
-    nobody else's call); a lone call is sent as the script itself."""
+    """The step script's calls made in one turn of the event loop while another is in flight,
+    sent together in one ``pipeline(transaction=False)`` by a task of their own (a caller that
+    gives up cancels nobody else's call); a lone call is sent as the script itself. A call made
+    when none is in flight or waiting goes out at once from its caller: no task, no hop through
+    the loop (one step at a time, as at one connection, never waits a turn for company)."""
 
     def __init__(self, redis: Redis, script: AsyncScript) -> None:
         self._redis, self._script = redis, script
         self._calls: list[_Call] = []
         self._sending: set[asyncio.Task[None]] = set()
+        self._callers: set[asyncio.Task[Any]] = set()  # sending their own call, in flight
+        self._closing = False
         self.pipelines = 0
         """Round trips made (for tests: calls that shared one)."""
 
     async def __call__(self, *, keys: list[str], args: list[Any]) -> Any:
+        if not (self._callers or self._calls or self._sending):
+            return await self._alone(keys, args)
         loop = asyncio.get_running_loop()
         answer: asyncio.Future[Any] = loop.create_future()
         self._calls.append((keys, args, answer))
@@ -347,6 +353,25 @@ class _Collector:
             self._sending.add(task)
             task.add_done_callback(self._sending.discard)
         return await answer
+
+    async def _alone(self, keys: list[str], args: list[Any]) -> Any:
+        """A call sent by its caller; failed, as a collected call is, when the store closes
+        meanwhile (redis-py may finish a call it was cancelled in: the cancel is then noted)."""
+        task = asyncio.current_task()
+        assert task is not None
+        self.pipelines += 1
+        self._callers.add(task)
+        try:
+            answer = await self._script(keys=keys, args=args)
+        except asyncio.CancelledError:
+            if self._closing and task.uncancel() == 0:  # the store's cancel, not another's
+                raise rx.ConnectionError("the store is closing") from None
+            raise
+        finally:
+            self._callers.discard(task)
+        if self._closing and task.cancelling() and task.uncancel() == 0:
+            raise rx.ConnectionError("the store is closing")
+        return answer
 
     async def _send(self) -> None:
         calls = [call for call in self._calls if not call[2].done()]
@@ -388,7 +413,8 @@ class _Collector:
         return answers
 
     async def close(self) -> None:
-        for task in list(self._sending):
+        self._closing = True
+        for task in [*self._sending, *self._callers]:
             task.cancel()
         await asyncio.gather(*self._sending, return_exceptions=True)
         for *_, answer in self._calls:  # their task was cancelled before it began

@@ -1,11 +1,5 @@
-"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once.
-
-It is used from the event loop (:meth:`ByteLRU.get_or_compute`, whose waiters wait without
-holding a worker) and from worker threads (:meth:`ByteLRU.get_or_compute_sync`, so that a
-planner call running in the pool can fetch what it needs as it goes); both share one table of
-entries and one table of computations under way. A value that grows in place (a resumable goal
-wave) is measured again when it says so (:meth:`ByteLRU.recharge`).
-"""
+"""A least-recently-used cache bounded in bytes, where concurrent misses on a key compute once,
+from the event loop or from worker threads alike."""
 
 from __future__ import annotations
 
@@ -16,7 +10,7 @@ from collections.abc import Awaitable, Callable, Hashable
 from concurrent.futures import Future
 from typing import Any, Protocol, TypeVar, cast
 
-from service.edge.tenants import TENANT
+from service.tenants import TENANT
 
 __all__ = ["ByteLRU", "Sized"]
 
@@ -31,7 +25,7 @@ T = TypeVar("T", bound=Sized)
 
 class ByteLRU:
     """Values that know their ``nbytes``, at most ``max_bytes`` of them in all, and at most
-    ``max_bytes // shares`` for each tenant (:mod:`service.edge.tenants`): a tenant over its share
+    ``max_bytes // shares`` for each tenant (:mod:`service.tenants`): a tenant over its share
     evicts its own least recently used entries, never another tenant's.
 
     >>> import asyncio, numpy as np

@@ -21,7 +21,7 @@ import math
 import threading
 import weakref
 from collections import OrderedDict
-from collections.abc import Hashable, Mapping
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,9 +32,9 @@ from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
-from service.edge.tenants import TENANT, scoped
 from service.errors import NotFound, TooLarge
 from service.stores import PlanRecord, Store
+from service.tenants import TENANT, scoped
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
 
@@ -46,6 +46,7 @@ __all__ = [
     "cell_size",
     "frame_map",
     "overrides",
+    "plan_ends",
     "plan_key",
     "wave_key",
     "where",
@@ -65,7 +66,7 @@ warm plan or step builds its cache keys without reading the map from the store."
 def analysis_key(map_id: str, params: planner.Params, *, plain: bool) -> Hashable:
     """The cache key of a map's analysis for ``params``: :func:`planner.analysis_key` of the
     stored map (``(map_id, *params_key(params, plain=map.plain))``), tagged, and the tenant's
-    (see ``service.edge.tenants``)."""
+    (see ``service.tenants``)."""
     return ("analysis", scoped(map_id), *params_key(params, plain=plain))
 
 
@@ -85,17 +86,37 @@ numbers), so that a warm step finds its plan with one look-up."""
 
 def plan_key(record: PlanRecord) -> Hashable:
     """What a stored plan's arrays depend on: the tenant, map, start, goal, preset, parameters,
-    narrow fallback and plainness of its record."""
+    narrow fallback and plainness of its record, and its ends in meters."""
+    ends = record.get("ends") or {}
     return (
         TENANT.get(), record["map_id"], tuple(record["start"]), tuple(record["goal"]),
         record["preset"], tuple(record["params"].items()), record["narrow_fallback"],
         record.get("plain", True),
+        tuple((k, tuple(v) if isinstance(v, list) else v) for k, v in sorted(ends.items())),
     )  # fmt: skip
 
 
+def plan_ends(plan: planner.Plan) -> dict[str, Any]:
+    """What a record keeps of a plan's ends in meters, to rebuild it (:meth:`Engine.plan_of`):
+    the start and goal points as given, their yaws, the goal used within the tolerance."""
+
+    def point(xy: tuple[float, float] | None) -> list[float] | None:
+        return None if xy is None else [xy[0], xy[1]]
+
+    return {
+        "start_point": point(plan.start_point),
+        "goal_point": point(plan.goal_point),
+        "start_yaw": plan.start_yaw,
+        "goal_yaw": plan.goal_yaw,
+        "goal_used": point(plan.goal_used),
+        "goal_tolerance": plan.goal_tolerance,
+    }
+
+
 def where(value: list[int] | Point) -> Any:
-    """A request's cell (``[row, col]``) or point (``{"x", "y"}``), as the planner takes it."""
-    return value.model_dump() if isinstance(value, Point) else value
+    """A request's cell (``[row, col]``) or point (``{"x", "y"}``, and ``"yaw"`` when given),
+    as the planner takes it."""
+    return value.model_dump(exclude_none=True) if isinstance(value, Point) else value
 
 
 def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:
@@ -233,9 +254,18 @@ class Engine:
         return await self.cache.get_or_compute(key, compute)
 
     async def build_plan(
-        self, map_id: str, start: Any, goal: Any, preset: str, overrides: dict[str, Any]
+        self,
+        map_id: str,
+        start: Any,
+        goal: Any,
+        preset: str,
+        overrides: dict[str, Any],
+        goal_tolerance: float = 0.0,
+        *,
+        preview: bool = True,
     ) -> tuple[planner.Plan, bool]:
-        """A new plan with its preview computed, and whether its analysis was cached.
+        """A new plan with its preview computed (with ``preview``; else its path only: a
+        simulation), and whether its analysis was cached.
 
         ``start`` and ``goal`` are cells or points (dicts). The planner itself decides whether
         the plan needs the narrow wave; the waves it asks for come from the cache, computed in
@@ -243,11 +273,13 @@ class Engine:
         """
         params = planner.resolve_params(preset, **overrides)
         analysis, hit = await self.analysis(map_id, params)
-        plan = await self.pool.run(self._plan, map_id, start, goal, preset, params, analysis)
+        plan = await self.pool.run(
+            self._plan, map_id, start, goal, preset, params, analysis, goal_tolerance, preview
+        )
         record = {
             "map_id": map_id, "start": plan.start, "goal": plan.goal, "preset": plan.preset,
             "params": plan.params.as_dict(), "narrow_fallback": plan.narrow_fallback,
-            "plain": analysis.plain,
+            "plain": analysis.plain, "ends": plan_ends(plan),
         }  # fmt: skip
         self._remember_plan(plan_key(record), map_id, plan)
         return plan, hit
@@ -260,17 +292,21 @@ class Engine:
         preset: str,
         params: planner.Params,
         analysis: planner.Analysis,
+        goal_tolerance: float,
+        preview: bool,
     ) -> planner.Plan:
-        # The waves are cached by the goal's cell: a point is resolved first.
-        cell = analysis.frame.cell_of(goal, name="goal") if isinstance(goal, Mapping) else goal
-
-        def wave(narrow: bool) -> planner.Wave:
+        # The waves are cached by the goal's cell.
+        def wave(cell: tuple[int, int], narrow: bool) -> planner.Wave:
             return self._wave(map_id, params, analysis, cell, narrow)
 
         plan = planner.plan(
-            None, start, goal, preset=preset, analysis=analysis, waves=wave, **params.as_dict()
-        )
-        plan.summary()  # the preview, now in the pool: responses are built on the event loop
+            None, start, goal, preset=preset, analysis=analysis, waves=wave,
+            goal_tolerance=goal_tolerance, **params.as_dict(),
+        )  # fmt: skip
+        if preview:  # the preview, now in the pool: responses are built on the event loop
+            plan.summary()
+        else:  # a simulation walks the path; it answers no poses
+            plan.path  # noqa: B018
         return plan
 
     def _wave(
@@ -317,7 +353,7 @@ class Engine:
         else:
             plan = await self._rebuild(record)
             self._remember_plan(key, record["map_id"], plan)
-        if preview and "path" not in vars(plan):
+        if preview and "poses" not in vars(plan):
             # The walk down the wave may resume its searches: off the event loop.
             await self.pool.run(plan.summary)
         return plan
@@ -331,6 +367,12 @@ class Engine:
             analysis, _ = await self.analysis(map_id, params)
         assert isinstance(analysis, planner.Analysis)
         wave = self._wave(map_id, params, analysis, goal, narrow)
+        ends = record.get("ends") or {}  # a record from before poses: the cells' centers
+
+        def point(name: str) -> tuple[float, float] | None:
+            xy = ends.get(name)
+            return None if xy is None else (float(xy[0]), float(xy[1]))
+
         return planner.Plan(
             start=(record["start"][0], record["start"][1]),
             goal=(goal[0], goal[1]),
@@ -340,6 +382,12 @@ class Engine:
             wave=wave,
             narrow_fallback=narrow,
             elapsed_ms=0.0,
+            start_point=point("start_point"),
+            goal_point=point("goal_point"),
+            start_yaw=ends.get("start_yaw"),
+            goal_yaw=ends.get("goal_yaw"),
+            goal_used=point("goal_used"),
+            goal_tolerance=float(ends.get("goal_tolerance", 0.0)),
         )
 
     async def step(

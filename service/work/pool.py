@@ -1,14 +1,6 @@
-"""The worker pools that run planner kernels off the event loop.
-
-Threads, not processes: the numba kernels release the GIL (``nogil=True``), so threads run them
-in parallel while sharing the cached arrays without copying or pickling them
-(``benchmarks/pool.py`` measures both).
-
-Two pools: heavy jobs (analyses, plans, renders, simulations) share ``size`` workers and a
-bounded queue, beyond which they are refused with 503 at once; steps that replan have workers of
-their own, so a client stepping a robot never waits behind another client's analyses
-(``benchmarks/fairness.py`` measures it).
-"""
+"""The worker pools that run planner kernels off the event loop: threads (the kernels release
+the GIL and share the cached arrays); heavy jobs wait on a bounded queue, replanning steps have
+workers of their own."""
 
 from __future__ import annotations
 

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+import planner
 from planner.cli import EXAMPLE_MAP, main
+from tests import naive_poses
 
 
 def run_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
@@ -172,3 +175,48 @@ def test_the_console_script_prints_what_the_module_prints(args: list[str]) -> No
         assert script.split() == module.split()
     else:
         assert script == module
+
+
+def test_plan_prints_poses_and_a_nav_msgs_path(
+    ros: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["plan", "--map", str(ros / "depot.yaml"), "--robot-radius", "0.22"]
+    args += ["--start", "2.0,3.0", "--goal", "25,10,1.5"]
+    code, out, _ = run_cli([*args, "--json"], capsys)
+    assert code == 0
+    preview = json.loads(out)
+    poses = [[p["x"], p["y"], p["yaw"]] for p in preview["poses"]]
+    assert poses[0][:2] == [2.0, 3.0]
+    assert poses[-1] == [25.0, 10.0, 1.5]
+    assert preview["length_poses_m"] <= preview["length_m"] + 0.1
+    assert preview["goal_used"] is None
+    m = planner.read_ros_map(ros / "depot.yaml")
+    cs = planner.configuration_space(m, robot_radius=0.22)
+    check = naive_poses.check_poses(
+        poses, preview["path"], cs.distance, resolution=m.resolution, origin=m.origin,
+        robot_radius=0.22, start=(2.0, 3.0), goal=(25.0, 10.0), goal_yaw=1.5,
+    )  # fmt: skip
+    assert check.problems == []
+    code, out, _ = run_cli([*args, "--format", "nav_msgs", "--frame-id", "odom"], capsys)
+    assert code == 0
+    path = json.loads(out)
+    assert path["header"]["frame_id"] == "odom"
+    assert len(path["poses"]) == len(poses)
+    q = path["poses"][-1]["pose"]["orientation"]
+    assert (q["z"], q["w"]) == pytest.approx((math.sin(0.75), math.cos(0.75)))
+    code, _, err = run_cli([*args, "--format", "nav_msgs", "--frame-id", "a b"], capsys)
+    assert code == 2
+    assert "frame_id" in err
+
+
+def test_plan_on_a_map_file_with_a_goal_tolerance(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["plan", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "0", "0"]
+    code, _, err = run_cli(args, capsys)
+    assert code == 2
+    assert "obstacle" in err
+    code, out, _ = run_cli([*args, "--goal-tolerance", "3", "--json"], capsys)
+    assert code == 0
+    preview = json.loads(out)
+    assert preview["goal_used"] is not None
+    assert 0 < preview["goal_offset_m"] <= 3
+    assert preview["poses"][-1]["x"] == preview["goal_used"]["x"]

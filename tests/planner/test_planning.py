@@ -189,9 +189,9 @@ def test_waves_source_is_used_for_the_narrow_fallback() -> None:
     a = planner.analyse(grid)
     asked: list[bool] = []
 
-    def waves(narrow: bool) -> planner.Wave:
+    def waves(goal: tuple[int, int], narrow: bool) -> planner.Wave:
         asked.append(narrow)
-        return planner.goal_wave(a, (2, 0), narrow=narrow)
+        return planner.goal_wave(a, goal, narrow=narrow)
 
     p = planner.plan(None, (0, 0), (2, 0), analysis=a, waves=waves)
     assert asked == [False, True]

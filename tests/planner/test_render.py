@@ -62,7 +62,7 @@ def test_colours_are_the_papers() -> None:
 def test_plan_png_colours_at_known_cells() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
     assert p.analysis.state[2, 3] == 2  # the corridor cell is sealed
-    image = decode(render_plan(p, dynamic_obstacles=[[6, 0]], cell=CELL))
+    image = decode(render_plan(p, dynamic_obstacles=[[6, 0]], cell=CELL, poses=False))
     assert image.format == "PNG"
     assert image.size == (10 * CELL, 7 * CELL)
     assert at(image, (2, 0)) == COLOURS["obstacle"]
@@ -80,17 +80,28 @@ def test_plan_png_colours_at_known_cells() -> None:
 
 def test_unsealed_tunnels_are_not_orange() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9), preset="shortest")
-    image = decode(render_plan(p, cell=CELL))
+    image = decode(render_plan(p, cell=CELL, poses=False))
     assert at(image, (2, 3)) == COLOURS["path"]  # the shortest path takes the corridor
 
 
 def test_trajectory_green_preview_pale() -> None:
     p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
     trail = p.path[:3]
-    image = decode(render_plan(p, trajectory=trail, cell=CELL))
+    image = decode(render_plan(p, trajectory=trail, cell=CELL, poses=False))
     assert at(image, tuple(trail[1].tolist())) == COLOURS["path"]
     assert at(image, tuple(p.path[-3].tolist())) == COLOURS["preview"]
     assert at(image, tuple(trail[-1].tolist())) == COLOURS["robot"]
+
+
+def test_the_poses_are_a_blue_line_over_the_path() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="shortest")
+    image = decode(render_plan(p, cell=CELL))
+    assert at(image, (2, 3)) == COLOURS["poses"]  # straight through the corridor's centers
+    pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
+    blue = np.all(pixels == COLOURS["poses"], axis=1).sum()
+    assert blue >= len(p.path) * CELL // 2
+    without = np.asarray(decode(render_plan(p, cell=CELL, poses=False)).convert("RGB"))
+    assert not np.all(without.reshape(-1, 3) == COLOURS["poses"], axis=1).any()
 
 
 def test_map_png_on_an_environment() -> None:

@@ -77,6 +77,15 @@ def test_a_session_through_the_client(live_url: str) -> None:
         other = planner.plan(info.map_id, [0, 0], [19, 19], preset="shortest", params={"beta": 2})
         assert other.preset == "shortest"
         assert other.params["beta"] == 2.0
+        nav = planner.path(plan.plan_id, frame_id="odom")
+        assert nav.header.frame_id == "odom"
+        assert [(p.pose.position.x, p.pose.position.y) for p in nav.poses] == [
+            (p.x, p.y) for p in plan.preview.poses
+        ]
+        tolerant = planner.plan(
+            info.map_id, [0, 0], {"x": 19.5, "y": 0.5, "yaw": 1.0}, goal_tolerance=0.5
+        )
+        assert tolerant.preview.poses[-1].yaw == pytest.approx(1.0)
         path = plan.preview.path
         first = planner.step(plan.plan_id, [], seq=0)
         assert (first.seq, first.previous, first.position) == (0, path[0], path[1])
@@ -366,6 +375,7 @@ ROUTES = {
     "get_map": ("get", "/maps/{map_id}"),
     "plan": ("post", "/plan"),
     "get_plan": ("get", "/plan/{plan_id}"),
+    "path": ("get", "/plan/{plan_id}/path"),
     "step": ("post", "/plan/{plan_id}/step"),
     "simulate": ("post", "/maps/{map_id}/simulate"),
 }

@@ -19,10 +19,10 @@ from starlette.types import Message
 import planner
 from service.config import Settings
 from service.edge.guards import MAX_JSON_DEPTH, json_depth
-from service.edge.tenants import TENANT
 from service.errors import Busy, InsufficientStorage
 from service.main import create_app
 from service.stores import MemoryStore
+from service.tenants import TENANT
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
 from tests.service.conftest import SMALL, random_map

@@ -2,14 +2,32 @@
 
 from __future__ import annotations
 
+import time
 from typing import Annotated, Any, Literal
 
 import orjson
 from fastapi import APIRouter, Query, Request, Response, status
+from fastapi.routing import APIRoute
 
-from schemas import PlanCreate, PlanDetail, PlanPublic, StepCreate, StepPublic
+from schemas import (
+    FRAME_ID_MAX,
+    FRAME_ID_PATTERN,
+    NavPath,
+    PlanCreate,
+    PlanDetail,
+    PlanPublic,
+    StepCreate,
+    StepPublic,
+)
 from service.api import present
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, OrjsonRoute, json_body
+from service.api.deps import (
+    PNG_RESPONSE,
+    CellQuery,
+    EngineDep,
+    OrjsonRoute,
+    check_query,
+    json_body,
+)
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
@@ -28,19 +46,14 @@ STEP_BODY = {
 """The step's body in ``/docs``: the route reads it itself (:func:`json_body`)."""
 
 
-@router.post(
-    "/plan/{plan_id}/step",
-    response_model=StepPublic,
-    summary="Report the dynamic obstacles; get the move to make now",
-    responses=responses(404, 409, 413, 422),
-    openapi_extra=STEP_BODY,
-)
 async def step(plan_id: str, request: Request) -> Response:
     """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
     optionally where the robot really is, a cell or a point); the answer is the cell to move
     to (and its center `position_xy`), which the service records. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
+    if request.scope["query_string"]:
+        check_query(request, NO_QUERY)
     body = await json_body(request, StepCreate)
     state = request.app.state
     engine: Engine = state.engine
@@ -64,6 +77,23 @@ async def step(plan_id: str, request: Request) -> Response:
     # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
+
+
+# A plain APIRoute: the step reads and checks its body itself (json_body, check_query), so
+# OrjsonRoute's second Request and second look at the body would be work done twice.
+router.add_api_route(
+    "/plan/{plan_id}/step",
+    step,
+    methods=["POST"],
+    response_model=StepPublic,
+    summary="Report the dynamic obstacles; get the move to make now",
+    responses=responses(404, 409, 413, 422),
+    openapi_extra=STEP_BODY,
+    route_class_override=APIRoute,
+)
+NO_QUERY: frozenset[str] = frozenset()
+"""The step takes no query parameter: any is refused (422), as every route refuses those it
+does not take."""
 
 
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
@@ -95,6 +125,35 @@ async def get_plan(plan_id: str, engine: EngineDep) -> PlanDetail:
     return present.plan_detail(await plans.get_plan(engine, plan_id))
 
 
+@router.get(
+    "/plan/{plan_id}/path",
+    response_model=NavPath,
+    summary="The plan's poses as a nav_msgs/Path",
+    responses=responses(404, 422),
+)
+async def get_path(
+    plan_id: str,
+    engine: EngineDep,
+    frame_id: Annotated[
+        str,
+        Query(
+            min_length=1,
+            max_length=FRAME_ID_MAX,
+            pattern=FRAME_ID_PATTERN,
+            description="The header's `frame_id`: letters, digits, `_ . / -` (default `map`).",
+        ),
+    ] = "map",
+) -> Response:
+    """The `preview.poses` as a rosbridge-style `nav_msgs/Path`: a header (`frame_id`, `stamp`
+    now) and, per pose, a `geometry_msgs/PoseStamped` whose position is `(x, y, 0)` and whose
+    orientation is the yaw's quaternion `(0, 0, sin(yaw/2), cos(yaw/2))`."""
+    plan = await plans.plan_path(engine, plan_id)
+    answer = present.nav_path(plan, frame_id, time.time())
+    # Built and encoded directly (thousands of poses): `response_model` documents it, and
+    # tests/service/test_poses.py checks that its answers validate as NavPath.
+    return Response(orjson.dumps(answer), media_type="application/json")
+
+
 @router.delete(
     "/plan/{plan_id}",
     status_code=status.HTTP_204_NO_CONTENT,
@@ -122,6 +181,7 @@ async def render_plan(
     cell: CellQuery = None,
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
-    trajectory so far (green) and its cell, the start (magenta) and the goal (gold)."""
+    trajectory so far (green) and its cell, the start (magenta) and the goal (gold), and the
+    `preview.poses` the robot drives (a blue line, the goal's heading an arrow)."""
     png = await plans.render_plan(engine, plan_id, field, cell)
     return Response(png, media_type="image/png")

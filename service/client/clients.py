@@ -1,32 +1,5 @@
-"""A typed Python client of the planner's HTTP API, on httpx.
-
->>> from service.client import PlannerClient
->>> with PlannerClient("http://127.0.0.1:8000") as planner:  # doctest: +SKIP
-...     info = planner.upload_map(rows=["....", ".@@.", "...."], start=[0, 0], goal=[2, 3])
-...     step = planner.step(info.plan.plan_id, [[1, 0]], seq=0)
-...     step.position, step.move
-([0, 1], 'E')
-
-:class:`PlannerClient` and :class:`AsyncPlannerClient` have the same methods. Results are the
-API's response models from :mod:`schemas` themselves (``Plan`` is ``schemas.PlanPublic``, ...),
-decoded by one function: they have every field of this version's answers (a newer server's extra
-fields are left out); :class:`MapInfo` adds ``created``. Every error answer raises an
-:class:`APIError`:
-
-APIError                 .status_code, .code, .detail, .field, .response
-├── BadRequestError      400
-├── NotFoundError        404  unknown map or plan (NOT_FOUND)
-├── ConflictError        409  a step's seq out of order (SEQUENCE_CONFLICT)
-├── PayloadTooLargeError 413  body or map over the service's limits (TOO_LARGE)
-├── ValidationError      422  a bad request (INVALID_INPUT)
-│   └── NoValidPathError 422  the goal cannot be reached (NO_VALID_PATH)
-├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
-└── ServerError          other 5xx
-
-Network failures stay httpx's own (``httpx.TransportError``); a success answer that is not its
-model's shape (a server of another version) raises ``pydantic.ValidationError``. This module
-imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
-"""
+"""The planner's clients, sync and async, on httpx: each call is built once (a request and how
+to read its answer) and sent by either client."""
 
 from __future__ import annotations
 
@@ -44,40 +17,35 @@ from pydantic import BaseModel
 from schemas import (
     AnalysisPublic,
     MapPublic,
+    NavPath,
     PlanDetail,
     PlanPublic,
     PreviewPublic,
     SimulationPublic,
     StepPublic,
 )
+from service.client.errors import raise_for
 
 __all__ = [
-    "APIError",
     "Analysis",
     "AsyncPlannerClient",
-    "BadRequestError",
-    "ConflictError",
     "MapInfo",
-    "NoValidPathError",
-    "NotFoundError",
-    "PayloadTooLargeError",
+    "NavPath",
     "Plan",
     "PlanDetail",
     "PlanFields",
     "PlannerClient",
     "Preview",
-    "ServerError",
     "SimulateFields",
     "Simulation",
     "Step",
     "StepFields",
-    "UnavailableError",
     "UploadMapFields",
-    "ValidationError",
 ]
 
 CellIn = Sequence[int] | Mapping[str, float]
-"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters where the API takes one."""
+"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
+``"yaw"`` in radians) where the API takes one."""
 
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
@@ -94,91 +62,6 @@ class MapInfo(MapPublic):
     """From ``upload_map``: True for a map the service did not know (``201``), else False."""
 
 
-# Errors
-
-
-class APIError(Exception):
-    """An error answer of the service."""
-
-    def __init__(self, response: httpx.Response) -> None:
-        self.response = response
-        self.status_code = response.status_code
-        body: Any
-        try:
-            body = response.json()
-        except ValueError:
-            body = None
-        if not isinstance(body, dict):
-            body = {"detail": response.text or response.reason_phrase}
-        detail = body.get("detail")
-        self.detail: str = detail if isinstance(detail, str) else json.dumps(detail)
-        self.code: str = str(body.get("code") or f"HTTP_{response.status_code}")
-        self.field: str | None = body.get("field")
-        super().__init__(f"{self.status_code} {self.code}: {self.detail}")
-
-
-class BadRequestError(APIError):
-    """400."""
-
-
-class NotFoundError(APIError):
-    """404: no map or plan with that id (unknown, deleted or expired)."""
-
-
-class ConflictError(APIError):
-    """409: a step's ``seq`` is neither the last one nor the next one."""
-
-
-class PayloadTooLargeError(APIError):
-    """413: a body or a map over the service's limits."""
-
-
-class ValidationError(APIError):
-    """422: a request the service cannot accept; ``field`` names the input at fault."""
-
-
-class NoValidPathError(ValidationError):
-    """422 ``NO_VALID_PATH``: the goal cannot be reached from the start."""
-
-
-class UnavailableError(APIError):
-    """503: the store is out of reach for now; retry after ``retry_after`` seconds."""
-
-    @property
-    def retry_after(self) -> float | None:
-        value = self.response.headers.get("retry-after")
-        try:
-            return float(value) if value is not None else None
-        except ValueError:
-            return None
-
-
-class ServerError(APIError):
-    """Any other 5xx."""
-
-
-_ERRORS: dict[int, type[APIError]] = {
-    400: BadRequestError,
-    404: NotFoundError,
-    409: ConflictError,
-    413: PayloadTooLargeError,
-    422: ValidationError,
-    503: UnavailableError,
-}
-
-
-def _raise_for(response: httpx.Response) -> None:
-    if response.is_success:
-        return
-    kind = _ERRORS.get(response.status_code)
-    if kind is None:
-        kind = ServerError if response.status_code >= 500 else APIError
-    error = kind(response)
-    if kind is ValidationError and error.code == "NO_VALID_PATH":
-        error = NoValidPathError(response)
-    raise error
-
-
 # The fields a call sends besides its positional arguments (None: not sent, the server's default);
 # a test checks them against the request models of ``schemas``.
 
@@ -191,6 +74,7 @@ class PlanFields(TypedDict, total=False):
     allow_narrow: bool | None
     robot_radius: float | None
     unknown: str | None
+    goal_tolerance: float | None
 
 
 class UploadMapFields(PlanFields, total=False):
@@ -319,6 +203,11 @@ def _get_plan(plan_id: str) -> _Call[PlanDetail]:
     return _Call("GET", f"/plan/{plan_id}", _decode(PlanDetail))
 
 
+def _path(plan_id: str, frame_id: str | None) -> _Call[NavPath]:
+    query = {} if frame_id is None else {"frame_id": frame_id}
+    return _Call("GET", f"/plan/{plan_id}/path", _decode(NavPath), {"params": query})
+
+
 def _delete_plan(plan_id: str) -> _Call[None]:
     return _Call("DELETE", f"/plan/{plan_id}", lambda response: None)
 
@@ -390,7 +279,7 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
 
     def _call(self, call: _Call[R]) -> R:
         response = self._http.request(call.method, call.url, **call.content)
-        _raise_for(response)
+        raise_for(response)
         return call.answer(response)
 
     def upload_map(self, **fields: Unpack[UploadMapFields]) -> MapInfo:
@@ -410,6 +299,11 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
 
     def get_plan(self, plan_id: str) -> PlanDetail:
         return self._call(_get_plan(plan_id))
+
+    def path(self, plan_id: str, frame_id: str | None = None) -> NavPath:
+        """The plan's poses as a ``nav_msgs/Path`` (rosbridge's JSON), in ``frame_id`` (the
+        server's default: ``map``)."""
+        return self._call(_path(plan_id, frame_id))
 
     def delete_plan(self, plan_id: str) -> None:
         self._call(_delete_plan(plan_id))
@@ -459,7 +353,7 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def _call(self, call: _Call[R]) -> R:
         response = await self._http.request(call.method, call.url, **call.content)
-        _raise_for(response)
+        raise_for(response)
         return call.answer(response)
 
     async def upload_map(self, **fields: Unpack[UploadMapFields]) -> MapInfo:
@@ -475,6 +369,9 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def get_plan(self, plan_id: str) -> PlanDetail:
         return await self._call(_get_plan(plan_id))
+
+    async def path(self, plan_id: str, frame_id: str | None = None) -> NavPath:
+        return await self._call(_path(plan_id, frame_id))
 
     async def delete_plan(self, plan_id: str) -> None:
         await self._call(_delete_plan(plan_id))

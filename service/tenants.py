@@ -1,10 +1,5 @@
-"""Who a request acts for: the tenant of its API key, as a context variable the stores read.
-
-With ``PLANNER_API_KEYS`` set, each key is a tenant: its maps and plans live under a prefix of
-their own in the store (a plan made with key A is unknown to key B), and its entries in the
-analysis cache count against its own share. Without keys there is one tenant, ``""``, and ids
-are stored as they are.
-"""
+"""Who a request acts for: the tenant of its API key, a context variable the stores read to keep
+each tenant's maps and plans (and cache share) apart; without keys, one tenant ``""``."""
 
 from __future__ import annotations
 

@@ -1,0 +1,152 @@
+"""A plan's ends in meters: the start and goal points as given, their headings, whether the robot
+can stand on an off-center point, and the goal used within a ``goal_tolerance``."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from planner.analysis.analyse import Analysis
+from planner.errors import InvalidInput, quote
+from planner.maps.frames import point_xy
+from planner.plans.whole_wave import goal_wave
+from planner.poses.smooth import smooth_path
+
+__all__ = ["end_point", "end_yaw", "nearest_reachable", "stand_on", "tolerance_m"]
+
+
+def end_yaw(value: Any, name: str) -> float | None:
+    """The heading a point ``{"x", "y", "yaw"}`` carries (radians, finite), or None."""
+    if not isinstance(value, Mapping) or value.get("yaw") is None:
+        return None
+    yaw = value["yaw"]
+    ok = isinstance(yaw, int | float | np.integer | np.floating) and not isinstance(yaw, bool)
+    if not ok or not math.isfinite(float(yaw)):
+        field = f"{name}.yaw"
+        raise InvalidInput(
+            f"{field} must be a finite number of radians; got {quote(yaw)}", field=field
+        )
+    return float(yaw)
+
+
+def tolerance_m(value: Any) -> float:
+    """``goal_tolerance`` checked: a finite number of meters >= 0."""
+    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+    if not ok or not math.isfinite(float(value)) or float(value) < 0:
+        msg = f"goal_tolerance must be a finite number of meters >= 0; got {quote(value)}"
+        raise InvalidInput(msg, field="goal_tolerance")
+    return float(value)
+
+
+def end_point(
+    analysis: Analysis, value: Any, cell: tuple[int, int], name: str
+) -> tuple[float, float]:
+    """A point ``{"x", "y"}`` as given, or a cell's center, in meters."""
+    if isinstance(value, Mapping):
+        return point_xy(value, name=name)
+    x, y = analysis.frame.centers([cell])[0]
+    return float(x), float(y)
+
+
+def _smoothing_args(analysis: Analysis) -> dict[str, Any]:
+    frame, cs = analysis.frame, analysis.cspace
+    return {
+        "resolution": frame.resolution,
+        "origin": frame.origin,
+        "robot_radius": cs.robot_radius if cs is not None else 0.0,
+        "outside_blocked": cs is None or cs.unknown == "blocked",
+    }
+
+
+def _point_clearance(analysis: Analysis, xy: tuple[float, float], cell: tuple[int, int]) -> float:
+    """The distance in meters from a point to the nearest blocked cell's center (the outside's
+    ring too when it counts as blocked), by brute force around its cell."""
+    D = analysis.clearance
+    H, W = D.shape
+    r, c = cell
+    reach = math.ceil(float(D[r, c])) + 2 if math.isfinite(float(D[r, c])) else max(H, W) + 2
+    r0, r1, c0, c1 = r - reach, r + reach + 1, c - reach, c + reach + 1
+    rows, cols = np.mgrid[r0:r1, c0:c1]
+    inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
+    blocked = np.zeros(rows.shape, dtype=bool)
+    blocked[inside] = D[rows[inside], cols[inside]] == 0
+    if _smoothing_args(analysis)["outside_blocked"]:
+        blocked |= ~inside & (rows >= -1) & (rows <= H) & (cols >= -1) & (cols <= W)
+    if not blocked.any():
+        return math.inf
+    centers = analysis.frame.centers(np.stack([rows[blocked], cols[blocked]], axis=1))
+    return float(np.hypot(centers[:, 0] - xy[0], centers[:, 1] - xy[1]).min())
+
+
+def stand_on(analysis: Analysis, value: Any, cell: tuple[int, int], name: str) -> None:
+    """Refuse an off-center point (``{"x", "y"}``) the robot cannot stand on though its cell is
+    traversable: ``{NAME}_OCCUPIED`` when it, or the way between it and its cell's center, comes
+    within the robot's radius (or half a cell's diagonal) of a blocked cell's center: the rule
+    of the poses (see :func:`~planner.poses.smooth_path`)."""
+    if not isinstance(value, Mapping):
+        return
+    start, goal = (value, None) if name == "start" else (None, value)
+    try:
+        smooth_path(
+            [list(cell)], analysis.clearance, start=start, goal=goal, **_smoothing_args(analysis)
+        )
+    except InvalidInput as error:
+        if error.code != f"{name.upper()}_OCCUPIED":
+            raise
+        xy = point_xy(value, name=name)
+        args = _smoothing_args(analysis)
+        res = args["resolution"]
+        clearance = _point_clearance(analysis, xy, cell)
+        way = "to" if name == "start" else "from"
+        msg = (
+            f"{name.upper()}_OCCUPIED: {name} {quote(value)} (cell [{cell[0]}, {cell[1]}]) is too "
+            f"near an obstacle: its clearance is {clearance:.4f} m; the robot there and on its "
+            f"way {way} its cell's center needs more than robot_radius "
+            f"{args['robot_radius']:g} m and than half a cell's diagonal "
+            f"{res * math.sqrt(0.5):.4f} m"
+        )
+        raise InvalidInput(msg, field=name, code=error.code) from None
+
+
+def nearest_reachable(
+    analysis: Analysis,
+    start: tuple[int, int],
+    goal_xy: tuple[float, float],
+    tolerance: float,
+    *,
+    diagonal_cost: float,
+    allow_narrow: bool,
+) -> tuple[int, int] | None:
+    """The traversable cell whose center is nearest to ``goal_xy`` (ties: row, then column),
+    within ``tolerance`` meters, that the robot at ``start`` can reach (over the sealed grid, or
+    through tight tunnels when ``allow_narrow``); None when there is none."""
+    frame = analysis.frame
+    H, W = analysis.shape
+    res = frame.resolution
+    (row, col), *_ = frame.cells([goal_xy]).tolist()
+    reach = min(math.ceil(tolerance / res) + 1, H + W)
+    r0, r1 = max(row - reach, 0), min(row + reach + 1, H)
+    c0, c1 = max(col - reach, 0), min(col + reach + 1, W)
+    if r0 >= r1 or c0 >= c1:
+        return None
+    rows, cols = np.mgrid[r0:r1, c0:c1]
+    cells = np.stack([rows.ravel(), cols.ravel()], axis=1)
+    centers = frame.centers(cells)
+    dist = np.hypot(centers[:, 0] - goal_xy[0], centers[:, 1] - goal_xy[1])
+    near = dist <= tolerance * (1 + 1e-12)
+    if not near.any():
+        return None
+    cells, dist = cells[near], dist[near]
+    reached = np.zeros(len(cells), dtype=bool)
+    grids = [False, True] if analysis.sealed and allow_narrow else [False]
+    for narrow in grids:
+        k = goal_wave(analysis, start, diagonal_cost=diagonal_cost, narrow=narrow).k
+        reached |= np.isfinite(k[cells[:, 0], cells[:, 1]])
+    if not reached.any():
+        return None
+    order = np.lexsort((cells[:, 1], cells[:, 0], dist))
+    best = next(i for i in order if reached[i])
+    return int(cells[best, 0]), int(cells[best, 1])

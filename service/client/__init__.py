@@ -1,0 +1,83 @@
+"""A typed Python client of the planner's HTTP API, on httpx.
+
+>>> from service.client import PlannerClient
+>>> with PlannerClient("http://127.0.0.1:8000") as planner:  # doctest: +SKIP
+...     info = planner.upload_map(rows=["....", ".@@.", "...."], start=[0, 0], goal=[2, 3])
+...     step = planner.step(info.plan.plan_id, [[1, 0]], seq=0)
+...     step.position, step.move
+([0, 1], 'E')
+
+:class:`PlannerClient` and :class:`AsyncPlannerClient` have the same methods. Results are the
+API's response models from :mod:`schemas` themselves (``Plan`` is ``schemas.PlanPublic``, ...),
+decoded by one function: they have every field of this version's answers (a newer server's extra
+fields are left out); :class:`MapInfo` adds ``created``. Every error answer raises an
+:class:`APIError`:
+
+APIError                 .status_code, .code, .detail, .field, .response
+├── BadRequestError      400
+├── NotFoundError        404  unknown map or plan (NOT_FOUND)
+├── ConflictError        409  a step's seq out of order (SEQUENCE_CONFLICT)
+├── PayloadTooLargeError 413  body or map over the service's limits (TOO_LARGE)
+├── ValidationError      422  a bad request (INVALID_INPUT)
+│   └── NoValidPathError 422  the goal cannot be reached (NO_VALID_PATH)
+├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
+└── ServerError          other 5xx
+
+Network failures stay httpx's own (``httpx.TransportError``); a success answer that is not its
+model's shape (a server of another version) raises ``pydantic.ValidationError``. This module
+imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
+"""
+
+from service.client.clients import (
+    Analysis,
+    AsyncPlannerClient,
+    MapInfo,
+    NavPath,
+    Plan,
+    PlanDetail,
+    PlanFields,
+    PlannerClient,
+    Preview,
+    SimulateFields,
+    Simulation,
+    Step,
+    StepFields,
+    UploadMapFields,
+)
+from service.client.errors import (
+    APIError,
+    BadRequestError,
+    ConflictError,
+    NotFoundError,
+    NoValidPathError,
+    PayloadTooLargeError,
+    ServerError,
+    UnavailableError,
+    ValidationError,
+)
+
+__all__ = [
+    "APIError",
+    "Analysis",
+    "AsyncPlannerClient",
+    "BadRequestError",
+    "ConflictError",
+    "MapInfo",
+    "NavPath",
+    "NoValidPathError",
+    "NotFoundError",
+    "PayloadTooLargeError",
+    "Plan",
+    "PlanDetail",
+    "PlanFields",
+    "PlannerClient",
+    "Preview",
+    "ServerError",
+    "SimulateFields",
+    "Simulation",
+    "Step",
+    "StepFields",
+    "UnavailableError",
+    "UploadMapFields",
+    "ValidationError",
+]

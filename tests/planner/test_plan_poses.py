@@ -1,0 +1,207 @@
+"""``Plan.poses``: every preset on plain grids and the shared ROS maps, headings in, off-center
+ends refused, ``goal_tolerance``, and bad yaws and tolerances."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import planner
+from planner import InvalidInput
+from tests import naive_poses
+from tests.conftest import ROS_MAP_NAMES, grid_from
+
+RADIUS = 0.22
+
+
+def xy(point: Any) -> tuple[float, float] | None:
+    return None if point is None else (float(point[0]), float(point[1]))
+
+
+def check_plan(plan: planner.Plan) -> naive_poses.Check:
+    """The plan's poses against every rule, by brute force."""
+    a = plan.analysis
+    cs = a.cspace
+    goal = plan.goal_used if plan.goal_used is not None else plan.goal_point
+    check = naive_poses.check_poses(
+        plan.poses,
+        plan.path,
+        a.clearance,
+        resolution=a.frame.resolution,
+        origin=a.frame.origin,
+        robot_radius=cs.robot_radius if cs is not None else 0.0,
+        start=xy(plan.start_point),
+        goal=xy(goal),
+        start_yaw=plan.start_yaw,
+        goal_yaw=plan.goal_yaw,
+        outside_blocked=cs is None or cs.unknown == "blocked",
+    )
+    assert check.problems == [], (check.problems, plan.path.tolist())
+    assert math.isclose(plan.length_poses_m, check.length_m, rel_tol=1e-12, abs_tol=1e-12)
+    return check
+
+
+GRID = grid_from(
+    """
+    ..........
+    ..####....
+    ..#.......
+    ..#..###..
+    .....#....
+    .....#....
+    """
+)
+
+
+@pytest.mark.parametrize("preset", list(planner.PRESETS))
+def test_every_preset_on_a_plain_grid(preset: str) -> None:
+    plan = planner.plan(GRID, [5, 0], [0, 9], preset=preset)
+    check_plan(plan)
+    assert plan.start_point == (0.5, 0.5)
+    assert plan.goal_point == (9.5, 5.5)
+    assert plan.poses[0, :2].tolist() == [0.5, 0.5]
+    assert plan.length_poses_m <= plan.length_m + 1e-9
+    summary = plan.summary()
+    assert summary["poses"] == plan.poses.tolist()
+    assert summary["length_poses_m"] == round(plan.length_poses_m, 6)
+    assert (summary["goal_used"], summary["goal_offset_m"]) == (None, 0.0)
+
+
+@pytest.mark.parametrize("preset", list(planner.PRESETS))
+@pytest.mark.parametrize("name", ROS_MAP_NAMES)
+def test_every_preset_on_the_ros_maps(ros: Path, name: str, preset: str) -> None:
+    robot_map = planner.read_ros_map(ros / f"{name}.yaml")
+    radius = RADIUS if robot_map.resolution <= 0.05 else 2.0 * robot_map.resolution / 3
+    params = planner.resolve_params(preset, robot_radius=radius)
+    analysis = planner.analyse_map(robot_map, params)
+    cells = np.argwhere(analysis.passable() == 1)
+    rng = np.random.default_rng(sum(map(ord, name + preset)))
+    span = max(np.ptp(cells[:, 0]), np.ptp(cells[:, 1]))
+    for _ in range(200):
+        s, g = cells[rng.integers(len(cells), size=2)]
+        if math.hypot(*(s - g)) < span / 3:
+            continue
+        start, goal = robot_map.frame.centers([s, g])
+        yaws = rng.uniform(-math.pi, math.pi, size=2)
+        try:
+            plan = planner.plan(
+                robot_map,
+                {"x": float(start[0]), "y": float(start[1]), "yaw": float(yaws[0])},
+                {"x": float(goal[0]), "y": float(goal[1]), "yaw": float(yaws[1])},
+                analysis=analysis, preset=preset, robot_radius=radius,
+            )  # fmt: skip
+        except planner.NoValidPath:
+            continue
+        check_plan(plan)
+        assert plan.poses[-1, 2] == pytest.approx(yaws[1], abs=1e-9)
+        assert plan.poses[0, 2] == pytest.approx(yaws[0], abs=1e-9)
+        return
+    pytest.fail("no far-apart pair was reachable")
+
+
+def test_yaw_in_is_the_last_poses_yaw_and_off_center_points_are_kept() -> None:
+    robot_map = planner.grid_map(GRID, resolution=0.1, origin=(1.0, -2.0, 0.3))
+    frame = robot_map.frame
+    (sx, sy), (gx, gy) = frame.centers([[5, 0], [0, 9]])
+    start = {"x": float(sx) + 0.02, "y": float(sy) - 0.01}
+    goal = {"x": float(gx) - 0.015, "y": float(gy) + 0.01, "yaw": 2.5}
+    plan = planner.plan(robot_map, start, goal, robot_radius=0.05)
+    check_plan(plan)
+    assert plan.goal_yaw == 2.5
+    assert plan.start_yaw is None
+    assert plan.poses[-1].tolist() == [goal["x"], goal["y"], 2.5]
+    assert plan.poses[0, :2].tolist() == [start["x"], start["y"]]
+
+
+def test_an_off_center_point_too_near_a_wall_is_refused_naming_it() -> None:
+    robot_map = planner.grid_map(grid_from("....\n....\n.#..\n...."), resolution=1.0)
+    # Cell [1, 1] is traversable (its center 1 m from the wall's), its corner near the wall is not.
+    goal = {"x": 1.2, "y": 2.1}
+    with pytest.raises(InvalidInput, match=r"GOAL_OCCUPIED: goal .*clearance is 0\.6708 m") as e:
+        planner.plan(robot_map, [0, 3], goal, robot_radius=0.95, unknown="free")
+    assert (e.value.field, e.value.code) == ("goal", "GOAL_OCCUPIED")
+    with pytest.raises(InvalidInput, match="START_OCCUPIED") as e:
+        planner.plan(robot_map, goal, [0, 3], robot_radius=0.95, unknown="free")
+    assert (e.value.field, e.value.code) == ("start", "START_OCCUPIED")
+    # Within a goal tolerance the cell's center is used instead.
+    plan = planner.plan(
+        robot_map, [0, 3], goal, robot_radius=0.95, unknown="free", goal_tolerance=0.6
+    )
+    assert plan.goal == (1, 1)
+    assert plan.goal_used == (1.5, 2.5)
+    assert plan.goal_offset_m == pytest.approx(0.5)
+    check_plan(plan)
+
+
+WALLED = grid_from(
+    """
+    ..........
+    ..........
+    ....####..
+    ....####..
+    ..........
+    """
+)
+
+
+def test_goal_tolerance_inside_a_wall() -> None:
+    robot_map = planner.grid_map(WALLED, resolution=0.1)
+    inside = {"x": 0.55, "y": 0.25, "yaw": -1.0}  # cell [2, 5]: in the wall, 0.1 m from its edge
+    for tolerance in (0.0, 0.05):
+        with pytest.raises(InvalidInput, match="on an obstacle") as e:
+            planner.plan(robot_map, [0, 0], inside, unknown="free", goal_tolerance=tolerance)
+        assert e.value.field == "goal"
+    plan = planner.plan(robot_map, [0, 0], inside, unknown="free", goal_tolerance=0.15)
+    # The nearest traversable cells: [1, 5] and [4, 5]'s centers are 0.1 m and 0.2 m away.
+    assert plan.goal == (1, 5)
+    assert plan.goal_used == pytest.approx((0.55, 0.35))
+    assert plan.goal_offset_m == pytest.approx(0.1)
+    assert plan.goal_point == (0.55, 0.25)
+    check_plan(plan)
+    assert plan.poses[-1, :2] == pytest.approx([0.55, 0.35])
+    assert plan.poses[-1, 2] == pytest.approx(-1.0)
+    summary = plan.summary()
+    assert summary["goal_used"] == pytest.approx([0.55, 0.35])
+    assert summary["goal_offset_m"] == pytest.approx(0.1)
+
+
+def test_goal_tolerance_with_an_unreachable_goal() -> None:
+    grid = grid_from("...#...\n...#...\n...#...")
+    # Goal [1, 5] lies beyond a wall; the nearest reachable cell is [1, 2], 3 m away.
+    with pytest.raises(planner.NoValidPath) as e:
+        planner.plan(grid, [1, 0], [1, 5], goal_tolerance=2.9)
+    assert "within goal_tolerance 2.9 m" in e.value.message
+    plan = planner.plan(grid, [1, 0], [1, 5], goal_tolerance=3.0)
+    assert plan.goal == (1, 2)
+    assert plan.goal_offset_m == pytest.approx(3.0)
+    check_plan(plan)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"start": {"x": 0.5, "y": 0.5, "yaw": math.nan}}, "start.yaw"),
+        ({"goal": {"x": 9.5, "y": 5.5, "yaw": math.inf}}, "goal.yaw"),
+        ({"goal": {"x": 9.5, "y": 5.5, "yaw": "north"}}, "goal.yaw"),
+        ({"goal": {"x": 9.5, "y": 5.5, "yaw": True}}, "goal.yaw"),
+        ({"goal_tolerance": -0.1}, "goal_tolerance"),
+        ({"goal_tolerance": math.inf}, "goal_tolerance"),
+        ({"goal_tolerance": "1"}, "goal_tolerance"),
+    ],
+)
+def test_bad_yaws_and_tolerances_name_the_field(kwargs: dict[str, Any], field: str) -> None:
+    args: dict[str, Any] = {"start": [5, 0], "goal": [0, 9], **kwargs}
+    with pytest.raises(InvalidInput) as e:
+        planner.plan(GRID, **args)
+    assert e.value.field == field
+    assert field in e.value.message
+
+
+def test_a_cell_cannot_carry_a_yaw() -> None:
+    with pytest.raises(InvalidInput) as e:
+        planner.plan(GRID, [5, 0], [0, 9, 1.0])
+    assert e.value.field == "goal"
