@@ -14,7 +14,8 @@ from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan
 from planner.plans.resumable_wave import ResumableWave
 from planner.plans.walk import walk_fields
-from planner.poses.ahead import poses_ahead, reachable
+from planner.poses.ahead import poses_ahead
+from planner.poses.blocked import reachable
 from planner.stepping.state import Pose, SessionState, Step
 
 __all__ = ["path_ahead"]
