@@ -254,7 +254,7 @@ def _ahead(
 @njit(cache=True, nogil=True)
 def _piece(
     flat: Any, W: int, D: Any, obstacles: Any, margin: int, exempt: int, X0: float, Y0: float,
-    has_start: bool, R: float,
+    has_start: bool, R: float, GX: float, GY: float, has_goal: bool,
 ) -> tuple[Any, int, Any, int, int, Any, Any, float]:  # fmt: skip
     """:func:`_reach`'s, then the polyline to smooth from (X0, Y0) (or the first cell's center)
     over the cells reached, its vertices' indices, and the squared clearance every point must
@@ -263,9 +263,9 @@ def _piece(
     cells = route[:n]
     if not has_start:
         X0, Y0 = float(cells[0, 1]), -float(cells[0, 0])
-    V, index, least, _, _ = _vertices(
-        cells, D, X0, Y0, float(cells[n - 1, 1]), -float(cells[n - 1, 0])
-    )
+    if not (has_goal and n == flat.shape[0]):  # the goal point only when the piece ends there
+        GX, GY = float(cells[n - 1, 1]), -float(cells[n - 1, 0])
+    V, index, least, _, _ = _vertices(cells, D, X0, Y0, GX, GY)
     bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
     T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
     return route, n, mask, top, left, V, index, T
@@ -283,6 +283,8 @@ def poses_ahead(
     robot_radius: float,
     start: tuple[float, float] | None = None,
     start_yaw: float | None = None,
+    goal: tuple[float, float] | None = None,
+    goal_yaw: float | None = None,
     outside_blocked: bool = True,
 ) -> tuple[npt.NDArray[np.float64], int, float]:
     """Poses ``(m, 3)`` ``[x, y, yaw]`` in meters along ``route`` from ``start``, how many of
@@ -295,13 +297,16 @@ def poses_ahead(
     array of flat cell indices (``row * width + col`` of ``distance``'s shape), each a move from
     the last, over traversable cells; ``distance`` a plan's ``analysis.clearance`` (float32);
     ``obstacles`` ``(k, 2)`` int64 cells; ``start`` a point in meters within the first cell
-    (default its center), ``start_yaw`` the robot's heading.
+    (default its center), ``start_yaw`` the robot's heading; ``goal`` (a point in meters within
+    the route's last cell) and ``goal_yaw``: where the poses end, and with what heading (turning
+    in place there), when they follow the whole route.
 
     The poses keep :func:`~planner.poses.smooth_path`'s rules over the cells they follow (at
     most one cell apart, the yaw the tangent turning at most 15 degrees a pose, a turn in place
     only at the start from ``start_yaw``, every point of their polyline more than the radius
     and at least the route's least clearance less one cell from every blocked cell's center),
-    and their polyline enters no blocked cell. They end at the last cell's center; one pose
+    and their polyline enters no blocked cell. They end at the last cell's center (or ``goal``,
+    when they follow the whole route and the way there from that center is clear); one pose
     when the robot reaches no other cell. When the start point itself is too near a wall for the
     radius (a robot pushed off its route), the poses lead straight to its cell's center first,
     and turn there in place.
@@ -310,19 +315,17 @@ def poses_ahead(
     H, W = D.shape
     res = resolution
     ox, oy, oyaw = origin
-    X0 = Y0 = 0.0
-    if start is not None:
-        cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
-        du, dv = start[0] - ox, start[1] - oy
-        X0 = (cos_o * du + sin_o * dv) / res - 0.5
-        Y0 = (-sin_o * du + cos_o * dv) / res - H + 0.5
+    X0, Y0 = _cells(start, H, res, origin) if start is not None else (0.0, 0.0)
+    GX, GY = _cells(goal, H, res, origin) if goal is not None else (0.0, 0.0)
     has_yaw = start_yaw is not None
     yaw0 = 0.0 if start_yaw is None else float(start_yaw)
     R = robot_radius / res
     cells, n, mask, top, left, V, index, T = _piece(
-        route, W, D, obstacles, margin, exempt, X0, Y0, start is not None, R
-    )
-    if n == 1:  # the robot waits (or is at the goal): one pose, where it is
+        route, W, D, obstacles, margin, exempt, X0, Y0, start is not None, R, GX, GY,
+        goal is not None,
+    )  # fmt: skip
+    to_goal = goal is not None and n == len(route) and index[-1] == n + 1
+    if n == 1 and not to_goal:  # the robot waits (or is at the goal): one pose, where it is
         if not has_yaw:
             ahead = cells[1] - cells[0] if cells.shape[0] > 1 else np.zeros(2)
             yaw0 = math.atan2(-float(ahead[0]), float(ahead[1])) + oyaw
@@ -334,7 +337,37 @@ def poses_ahead(
     )
     if bad >= 0:
         return _fallback(D, outside_blocked, V, index, n, args, start, yaw0, has_yaw, H, origin)
+    if to_goal and goal is not None:  # ends at the goal point
+        poses[-1, 0], poses[-1, 1] = goal  # to the bit
+        if goal_yaw is not None:
+            poses = _turn_to(poses, goal_yaw)
     return poses, n, length
+
+
+def _turn_to(poses: npt.NDArray[np.float64], yaw: float) -> npt.NDArray[np.float64]:
+    """The poses, then a turn in place at the last one to ``yaw``, at most 15 degrees a pose."""
+    last = float(poses[-1, 2])
+    fan = _fan_steps(last, yaw)
+    if fan == 0:
+        poses[-1, 2] = yaw if -math.pi < yaw <= math.pi else _wrap(yaw)
+        return poses
+    turn = np.empty((fan, 3))
+    turn[:, :2] = poses[-1, :2]
+    d = _wrap(yaw - last)
+    turn[:, 2] = [_wrap(last + d * q / fan) for q in range(1, fan + 1)]
+    if -math.pi < yaw <= math.pi:
+        turn[-1, 2] = yaw
+    return np.concatenate((poses, turn))
+
+
+def _cells(
+    point: tuple[float, float], H: int, res: float, origin: tuple[float, float, float]
+) -> tuple[float, float]:
+    """A point in meters in cells: X = col, Y = -row (cell centers at whole numbers)."""
+    ox, oy, oyaw = origin
+    cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
+    du, dv = point[0] - ox, point[1] - oy
+    return (cos_o * du + sin_o * dv) / res - 0.5, (-sin_o * du + cos_o * dv) / res - H + 0.5
 
 
 def _fallback(

@@ -58,6 +58,8 @@ def path_ahead(
         head.append(step.position[0] * W + step.position[1])
     goal = plan.goal[0] * W + plan.goal[1]
     steps = math.ceil(p.horizon_m / res) + 2
+    # The plan's goal point as given (or the one it planned to instead): the poses end there.
+    end = plan.goal_used if plan.goal_used is not None else plan.goal_point
     for _ in range(_EXTEND):
         rest = _ahead_of(plan, state, step, steps)
         route = np.concatenate((np.array(head, dtype=np.int64), rest))
@@ -68,6 +70,7 @@ def path_ahead(
             route, a.clearance, obstacles, margin=p.dynamic_margin, exempt=int(moved),
             resolution=res, origin=frame.origin,
             robot_radius=0.0 if cs is None else cs.robot_radius, start=point, start_yaw=yaw,
+            goal=end if route[-1] == goal else None, goal_yaw=plan.goal_yaw,
             outside_blocked=cs is None or cs.unknown == "blocked",
         )  # fmt: skip
         short = n == len(route) and route[-1] != goal and rest.size >= steps

@@ -411,3 +411,21 @@ def test_step_poses_on_ros_maps_among_circles(ros: Path, name: str) -> None:
     assert len(answers) == 60
     # The horizon reached on most steps, circles on the way or not.
     assert sum(length(a.poses) >= 2.0 for a in answers) >= 30
+
+
+def test_near_the_goal_the_poses_end_at_the_goal_point_with_its_yaw() -> None:
+    robot_map = planner.grid_map(np.zeros((10, 14), dtype=np.uint8), resolution=0.1)
+    goal = {"x": 1.23, "y": 0.27, "yaw": 2.5}
+    plan = planner.plan(robot_map, [1, 1], goal, horizon_m=0.5)
+    session = planner.Session(plan)
+    for _ in range(30):
+        step = session.step([])
+        assert (
+            check_step_poses(plan, step, np.empty((0, 2), dtype=np.int64), point=None, yaw=None)
+            == []
+        )
+        if length(step.poses) < 0.5:  # the goal within the horizon: its point, its heading last
+            assert step.poses[-1] == (1.23, 0.27, 2.5)
+        if step.status == "arrived":
+            break
+    assert step.status == "arrived"
