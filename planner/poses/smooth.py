@@ -297,6 +297,27 @@ def _point(value: Any, field: str) -> tuple[float, float]:
         raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field) from None
 
 
+def _without_loops(cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """The path with every loop cut out (a cell it comes back to is kept once): a decision
+    that wanders (the paper's, with its tabu list) doubles back, and a robot driving the
+    poses need not. Consecutive cells stay neighbours, so the path stays a path."""
+    if len(np.unique(cells, axis=0)) == len(cells):
+        return cells
+    seen: dict[tuple[int, int], int] = {}
+    keep: list[int] = []
+    pairs = [(int(r), int(c)) for r, c in cells.tolist()]
+    for i, key in enumerate(pairs):
+        if key in seen:
+            cut = seen[key]
+            for j in keep[cut + 1 :]:
+                del seen[pairs[j]]
+            del keep[cut + 1 :]
+        else:
+            seen[key] = len(keep)
+            keep.append(i)
+    return np.ascontiguousarray(cells[keep])
+
+
 def smooth_path(
     path: Any,
     distance: Any,
@@ -367,7 +388,7 @@ step 0 goes from [0, 0] to [0, 2]
         cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells))
     ):
         raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
-    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    cells = _without_loops(np.ascontiguousarray(cells, dtype=np.int64))
     res = _number(resolution, "resolution", "a number of meters > 0")
     if res <= 0:
         msg = f"resolution must be > 0 meters; got {quote(resolution)}"
