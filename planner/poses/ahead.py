@@ -24,13 +24,12 @@ from planner.poses.clearance import _shortcut as _static_shortcut
 from planner.poses.smooth import (
     _SHORT,
     _SQUARE,
-    _STEP,
     _TIE,
     _arc,
-    _arc_steps,
     _fan_steps,
     _vertices,
     _wrap,
+    _write,
 )
 
 __all__ = ["poses_ahead"]
@@ -190,56 +189,11 @@ def _ahead(
         first_yaw = oyaw
     last_yaw = math.atan2(U[nseg - 1, 1], U[nseg - 1, 0]) + oyaw if nseg > 0 else first_yaw
     n_start = _fan_steps(start_yaw, first_yaw) if has_start_yaw else 0
-    count = n_start + 1
-    for i in range(nseg):
-        line = L[i] - tang[i] - tang[i + 1]
-        if line > 1e-9:
-            count += math.ceil(line / _STEP)
-        if i + 1 < k - 1 and tang[i + 1] > 0.0:
-            rho = tang[i + 1] / math.tan(abs(turn[i + 1]) / 2.0)
-            count += _arc_steps(turn[i + 1], rho)
-    out = np.empty((count, 3))
-    cos_o = math.cos(oyaw)
-    sin_o = math.sin(oyaw)
-    n = 0
-    if has_start_yaw:
-        d = _wrap(first_yaw - start_yaw)
-        for q in range(n_start):
-            out[n, 2] = start_yaw + d * q / n_start
-            n += 1
-    for i in range(nseg):
-        ax = P[i, 0] + U[i, 0] * tang[i]
-        ay = P[i, 1] + U[i, 1] * tang[i]
-        line = L[i] - tang[i] - tang[i + 1]
-        yaw = math.atan2(U[i, 1], U[i, 0]) + oyaw
-        if line > 1e-9:
-            m = math.ceil(line / _STEP)
-            for q in range(m):
-                out[n, 0] = ax + U[i, 0] * line * q / m
-                out[n, 1] = ay + U[i, 1] * line * q / m
-                out[n, 2] = yaw
-                n += 1
-        if i + 1 < k - 1 and tang[i + 1] > 0.0:
-            c = i + 1
-            pts = _arc(P[c, 0], P[c, 1], U[i, 0], U[i, 1], U[c, 0], U[c, 1], turn[c], tang[c])
-            for q in range(pts.shape[0] - 1):
-                out[n, 0] = pts[q, 0]
-                out[n, 1] = pts[q, 1]
-                out[n, 2] = pts[q, 2] + oyaw
-                n += 1
-    out[n, 0] = P[k - 1, 0]
-    out[n, 1] = P[k - 1, 1]
-    out[n, 2] = last_yaw
-    for q in range(count):
-        if q < n_start:
-            X, Y = P[0, 0], P[0, 1]
-        else:
-            X, Y = out[q, 0], out[q, 1]
-        u = (X + 0.5) * res
-        v = (H - 0.5 + Y) * res
-        out[q, 0] = ox + cos_o * u - sin_o * v
-        out[q, 1] = oy + sin_o * u + cos_o * v
-        out[q, 2] = _wrap(out[q, 2])
+    out = _write(
+        P, U, L, tang, turn, k, nseg, res, H, ox, oy, oyaw,
+        start_yaw, has_start_yaw, first_yaw, last_yaw, 0.0, False,
+    )  # fmt: skip
+    count = out.shape[0]
     if exact:
         for q in range(n_start + 1):
             out[q, 0], out[q, 1] = sx, sy
