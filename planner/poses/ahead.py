@@ -26,7 +26,9 @@ from planner.poses.smooth import (
     _SQUARE,
     _TIE,
     _arc,
+    _corner,
     _fan_steps,
+    _segments,
     _vertices,
     _wrap,
     _write,
@@ -131,25 +133,15 @@ def _ahead(
         return np.empty((0, 3)), bad, 0.0
     P = V[keep]
     k = P.shape[0]
-    nseg = max(k - 1, 0)
-    L = np.empty(nseg)
-    U = np.empty((nseg, 2))
-    for i in range(nseg):
-        dx = P[i + 1, 0] - P[i, 0]
-        dy = P[i + 1, 1] - P[i, 1]
-        L[i] = math.hypot(dx, dy)
-        U[i, 0] = dx / L[i]
-        U[i, 1] = dy / L[i]
+    nseg, L, U = _segments(P)
     tang = np.zeros(k)
     turn = np.zeros(k)
     for i in range(1, k - 1):
-        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        theta = math.atan2(ix * uy - iy * ux, ix * ux + iy * uy)
-        if abs(theta) < 1e-9:
+        theta, t_max = _corner(U, L, i, k)
+        if theta == 0.0:
             continue
-        theta = max(min(theta, math.pi - 1e-6), -math.pi + 1e-6)
         turn[i] = theta
-        t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
+        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
         # An arc near the corner keeps the static clearance (the corner is a cell center), not
         # necessarily out of the blocked cells: it is checked whatever its size.
         corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)

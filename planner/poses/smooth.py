@@ -125,6 +125,33 @@ def _fan_steps(a: float, b: float) -> int:
 
 
 @njit(cache=True, nogil=True)
+def _segments(P: Any) -> tuple[int, Any, Any]:
+    """The number of segments of the polyline P, their lengths and unit directions."""
+    nseg = max(P.shape[0] - 1, 0)
+    L = np.empty(nseg)
+    U = np.empty((nseg, 2))
+    for i in range(nseg):
+        dx = P[i + 1, 0] - P[i, 0]
+        dy = P[i + 1, 1] - P[i, 1]
+        L[i] = math.hypot(dx, dy)
+        U[i, 0] = dx / L[i]
+        U[i, 1] = dy / L[i]
+    return nseg, L, U
+
+
+@njit(cache=True, nogil=True)
+def _corner(U: Any, L: Any, i: int, k: int) -> tuple[float, float]:
+    """Vertex i's turn (0 for none; held short of a full reversal) and the longest tangent its
+    two segments allow an arc there (all of an end segment, half of an inner one)."""
+    ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
+    theta = math.atan2(ix * uy - iy * ux, ix * ux + iy * uy)
+    if abs(theta) < 1e-9:
+        return 0.0, 0.0
+    theta = max(min(theta, math.pi - 1e-6), -math.pi + 1e-6)
+    return theta, min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
+
+
+@njit(cache=True, nogil=True)
 def _write(
     P: Any, U: Any, L: Any, tang: Any, turn: Any, k: int, nseg: int, res: float, H: int,
     ox: float, oy: float, oyaw: float, start_yaw: float, has_start_yaw: bool, first_yaw: float,
@@ -221,26 +248,16 @@ def _smooth(
         return np.empty((0, 3)), bad
     P = V[keep]
     k = P.shape[0]
-    nseg = max(k - 1, 0)
-    L = np.empty(nseg)
-    U = np.empty((nseg, 2))
-    for i in range(nseg):
-        dx = P[i + 1, 0] - P[i, 0]
-        dy = P[i + 1, 1] - P[i, 1]
-        L[i] = math.hypot(dx, dy)
-        U[i, 0] = dx / L[i]
-        U[i, 1] = dy / L[i]
+    nseg, L, U = _segments(P)
     # Round each corner: the longest tangent its segments allow whose arc is clear.
     tang = np.zeros(k)
     turn = np.zeros(k)
     for i in range(1, k - 1):
-        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        theta = math.atan2(ix * uy - iy * ux, ix * ux + iy * uy)
-        if abs(theta) < 1e-9:
+        theta, t_max = _corner(U, L, i, k)
+        if theta == 0.0:
             continue
-        theta = max(min(theta, math.pi - 1e-6), -math.pi + 1e-6)
         turn[i] = theta
-        t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
+        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
         # The corner is a cell center: every point within this of it is clear.
         corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
         safe = min(max(corner - root - 1e-9, 0.0), t_max)
