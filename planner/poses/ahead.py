@@ -21,18 +21,8 @@ from planner.poses.blocked import _free, _reach
 from planner.poses.clearance import _D_REL, _segment_clear
 from planner.poses.clearance import _arc_clear as _static_arc_clear
 from planner.poses.clearance import _shortcut as _static_shortcut
-from planner.poses.smooth import (
-    _SHORT,
-    _SQUARE,
-    _TIE,
-    _arc,
-    _corner,
-    _fan_steps,
-    _segments,
-    _vertices,
-    _wrap,
-    _write,
-)
+from planner.poses.polyline import _arc, _corner, _fan_steps, _segments, _wrap, _write
+from planner.poses.smooth import _SHORT, _SQUARE, _TIE, _vertices
 
 __all__ = ["poses_ahead"]
 
