@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -83,6 +83,8 @@ class Params:
     """The same margin in meters, for maps in meters: when set, a plan uses
     ``ceil(dynamic_margin_m / resolution)`` cells as its ``dynamic_margin`` (say 0.3 m for people
     walking about at a step of 0.2 s)."""
+    horizon_m: float = 2.0
+    """Meters of the path ahead that a step answers at least (its ``poses``), or to the goal."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -102,6 +104,7 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "wide_distance": (0.0, 100.0),
     "dynamic_margin": (0, 16),
     "dynamic_margin_m": (0.0, 5.0),
+    "horizon_m": (0.0, 100.0),
 }
 
 _PAPER = Params(

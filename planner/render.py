@@ -313,7 +313,7 @@ def render_episode(episode: Episode, *, cell: int = 8, frame_ms: int = 80) -> by
     if isinstance(frame_ms, bool) or not isinstance(frame_ms, int) or frame_ms < 10:
         raise InvalidInput(f"frame_ms must be an integer >= 10; got {quote(frame_ms)}")
     plan = episode.plan
-    session = Session(plan)
+    session = Session(plan, poses=False)
     frames = []
     for t, obstacles in enumerate(episode.dynamic_obstacles):
         if t > 0:

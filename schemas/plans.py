@@ -219,6 +219,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "wide_distance": 0.6,
         "dynamic_margin": 1,
         "dynamic_margin_m": None,
+        "horizon_m": 2.0,
     },
     "status": "ready",
     "position": [0, 0],

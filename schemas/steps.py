@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
-from schemas.plans import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Status
+from schemas.plans import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose, Status
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
@@ -58,7 +58,9 @@ class StepCreate(BaseModel):
         "in meters, each blocking every cell whose center is within `radius + robot_radius`.",
     )
     position: CellOrPoint | None = Field(
-        default=None, description="Where the robot really is: a cell or a point in meters."
+        default=None,
+        description="Where the robot really is: a cell, or a point in meters with its heading "
+        "`yaw` if known (the answer's `poses` start there).",
     )
 
 
@@ -80,6 +82,44 @@ class StepPublic(BaseModel):
                     "arc_cost": 6.828427,
                     "remaining": 6.828427,
                     "narrow_fallback": False,
+                    "poses": [
+                        {"x": 0.5, "y": 4.5, "yaw": -1.5707963267948966},
+                        {"x": 0.5, "y": 3.828125, "yaw": -1.5707963267948966},
+                        {"x": 0.5, "y": 3.15625, "yaw": -1.5707963267948966},
+                        {
+                            "x": 0.5415256454488546,
+                            "y": 2.7876997031348543,
+                            "yaw": -1.346396851538483,
+                        },
+                        {
+                            "x": 0.6640203125366184,
+                            "y": 2.4376300570865443,
+                            "yaw": -1.1219973762820692,
+                        },
+                        {
+                            "x": 0.8613416071623254,
+                            "y": 2.123595015671473,
+                            "yaw": -0.8975979010256554,
+                        },
+                        {
+                            "x": 1.1235950156714725,
+                            "y": 1.8613416071623257,
+                            "yaw": -0.6731984257692416,
+                        },
+                        {
+                            "x": 1.4376300570865443,
+                            "y": 1.6640203125366182,
+                            "yaw": -0.44879895051282787,
+                        },
+                        {
+                            "x": 1.7876997031348543,
+                            "y": 1.5415256454488544,
+                            "yaw": -0.22439947525641404,
+                        },
+                        {"x": 2.15625, "y": 1.5, "yaw": 0.0},
+                        {"x": 2.5, "y": 1.5, "yaw": 0.0},
+                    ],
+                    "remaining_m": 7.697889852018546,
                 }
             ]
         }
@@ -100,4 +140,16 @@ class StepPublic(BaseModel):
         description="This move follows a way through tight tunnels that sealing would shut: the "
         "plan's own narrow fallback, or a detour taken because the wide way is blocked (parked "
         "for `patience` steps) or because the robot was reported in a sealed pocket.",
+    )
+    poses: list[Pose] = Field(
+        default_factory=list,
+        description="The path ahead, poses at most one resolution apart: from the reported point "
+        "(else from `position`'s center), at least the plan's `horizon_m` meters or to the goal, "
+        "clear of this step's dynamic obstacles; shorter where they block the way, one pose when "
+        "the robot waits.",
+    )
+    remaining_m: float | None = Field(
+        default=None,
+        description="Meters to the goal: along `poses`, then the grid's cost-to-go `k` in meters "
+        "from where they end; null when out of reach.",
     )

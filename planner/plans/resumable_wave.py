@@ -21,6 +21,7 @@ from planner.plans.moves import DC, DR, OPEN_SEALED, OPEN_UNSEALED, octile, on_g
 from planner.plans.search import SETTLED_COUNT, GoalSearch
 from planner.plans.walk import (
     WALK_ARRIVED,
+    WALK_TOO_LONG,
     WALK_UNSETTLED,
     neighbourhood,
     settled_around,
@@ -306,21 +307,23 @@ class ResumableWave(Wave):
         return values
 
     @_locked
-    def walk(self, start: tuple[int, int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
+    def walk(
+        self, start: tuple[int, int], rule: Rule, max_steps: int, *, partial: bool = False
+    ) -> npt.NDArray[np.int64]:
         """The path (flat indices) the decision follows with no dynamic obstacles, as
         :func:`~planner.plans.walk.walk_fields` does over whole fields; empty if the goal is
-        not reached."""
+        not reached (with ``partial``, its first ``max_steps`` moves)."""
         W = self.analysis.shape[1]
         if rule.mode != MODE_PAPER:
-            return self._walk_wide(start[0] * W + start[1], rule, max_steps)
+            return self._walk_wide(start[0] * W + start[1], rule, max_steps, partial)
         r, c = start
         path = [r * W + c]
         visited = set(path)
         while (r, c) != self.goal:
             if len(path) > max_steps:
-                return np.empty(0, dtype=np.int64)
+                return np.array(path, dtype=np.int64) if partial else np.empty(0, dtype=np.int64)
             if self._whole is not None and len(path) == 1:
-                return self._walk_whole(path, rule, max_steps)
+                return self._walk_whole(path, rule, max_steps, partial)
             # The paper's tabu list: the cells visited (a move off the map is never legal).
             tabu = sum(1 << i for i in range(8) if (r + DR_[i]) * W + c + DC_[i] in visited)
             i, outcome = self._step(r, c, rule, tabu)
@@ -336,7 +339,9 @@ class ResumableWave(Wave):
         v = self.view(r, c, self.analysis.clean)
         return decide(v, (r, c), rule, goal=self.goal, tabu=tabu)
 
-    def _walk_wide(self, start: int, rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
+    def _walk_wide(
+        self, start: int, rule: Rule, max_steps: int, partial: bool
+    ) -> npt.NDArray[np.int64]:
         """The wide walk in a kernel over the settled cells, the searches resumed wherever it
         finds a neighbourhood unsettled."""
         W = self.analysis.shape[1]
@@ -345,7 +350,7 @@ class ResumableWave(Wave):
         steps = 0
         while True:
             if self._whole is not None:
-                rest = self._walk_whole([x], rule, max_steps - steps)
+                rest = self._walk_whole([x], rule, max_steps - steps, partial)
                 if rest.size == 0:
                     return rest
                 pieces.append(rest)
@@ -358,7 +363,7 @@ class ResumableWave(Wave):
             pieces.append(piece[:-1])
             steps += piece.size - 1
             x = int(piece[-1])
-            if why == WALK_ARRIVED:
+            if why == WALK_ARRIVED or (why == WALK_TOO_LONG and partial):
                 pieces.append(piece[-1:])
                 break
             if why != WALK_UNSETTLED:
@@ -368,18 +373,23 @@ class ResumableWave(Wave):
             r, c = divmod(x, W)
             i, outcome = self._step(r, c, rule, 0)
             if outcome != MOVE or steps >= max_steps:
+                if outcome == MOVE and partial:
+                    pieces.append(np.array([x], dtype=np.int64))
+                    break
                 return np.empty(0, dtype=np.int64)
             pieces.append(np.array([x], dtype=np.int64))
             steps += 1
             x = (r + DR_[i]) * W + c + DC_[i]
         return np.concatenate(pieces)
 
-    def _walk_whole(self, path: list[int], rule: Rule, max_steps: int) -> npt.NDArray[np.int64]:
+    def _walk_whole(
+        self, path: list[int], rule: Rule, max_steps: int, partial: bool = False
+    ) -> npt.NDArray[np.int64]:
         """The walk's rest from ``path[-1]`` over the whole-map wave (the paper decision's
         kernel keeps its tabu list from there: called with one cell visited)."""
         view = self.whole().view(0, 0, self.analysis.clean)
         steps = max_steps - len(path) + 1
-        rest = walk_fields(view, path[-1], self._flat_goal, rule, max_steps=steps)
+        rest = walk_fields(view, path[-1], self._flat_goal, rule, max_steps=steps, partial=partial)
         if rest.size == 0:
             return rest
         return np.concatenate([np.array(path[:-1], dtype=np.int64), rest])

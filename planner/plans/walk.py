@@ -36,9 +36,12 @@ WALK_TOO_LONG = 3
 
 
 @njit(cache=True, nogil=True)
-def _walk(view: WaveView, start: int, goal: int, rule: Rule, max_steps: int) -> np.ndarray:
+def _walk(
+    view: WaveView, start: int, goal: int, rule: Rule, max_steps: int, partial: bool
+) -> np.ndarray:
     """The path (flat indices, start first) the decision follows with no dynamic obstacles down
-    a whole-map ``view``; empty when the goal is not reached within ``max_steps`` moves."""
+    a whole-map ``view``; when the goal is not reached within ``max_steps`` moves, empty, or
+    with ``partial`` its first ``max_steps`` moves."""
     H, W = view.passable.shape
     mode = rule.mode
     # Only the paper decision keeps a tabu list; the wide one never revisits a cell.
@@ -54,7 +57,7 @@ def _walk(view: WaveView, start: int, goal: int, rule: Rule, max_steps: int) -> 
     n = 1
     while x != goal:
         if n > max_steps:
-            return path[:0].copy()
+            return path[:n].copy() if partial else path[:0].copy()
         if n == path.shape[0]:
             grown = np.empty(min(2 * n, max_steps + 1), dtype=np.int64)
             grown[:n] = path
@@ -80,11 +83,11 @@ def _walk(view: WaveView, start: int, goal: int, rule: Rule, max_steps: int) -> 
 
 
 def walk_fields(
-    view: WaveView, start: int, goal: int, rule: Rule, *, max_steps: int
+    view: WaveView, start: int, goal: int, rule: Rule, *, max_steps: int, partial: bool = False
 ) -> npt.NDArray[np.int64]:
     """The path (flat indices, ``start`` first) the decision of ``rule`` follows down a whole
     wave's fields (its ``view``) with no dynamic obstacles; empty when it does not reach
-    ``goal`` within ``max_steps`` moves."""
+    ``goal`` within ``max_steps`` moves (with ``partial``: its first ``max_steps`` moves)."""
     n = view.passable.size
     if (
         view.top
@@ -94,7 +97,7 @@ def walk_fields(
         raise TypeError("the view must hold whole fields of one shape, from a whole-map wave.")
     if not (0 <= start < n and 0 <= goal < n):
         raise ValueError(f"start {start} and goal {goal} must be cells of the map.")
-    out: npt.NDArray[np.int64] = _walk(view, start, goal, rule, max_steps)
+    out: npt.NDArray[np.int64] = _walk(view, start, goal, rule, max_steps, partial)
     return out
 
 

@@ -21,14 +21,13 @@ from numba import njit
 
 from planner.errors import InvalidInput, quote
 from planner.poses.clearance import _D_REL, _arc_clear, _shortcut
+from planner.poses.polyline import _arc, _corner, _segments, _write
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
 MAX_TURN = math.radians(15.0)
 """The most a pose's heading turns from the previous pose's."""
 
-_TURN_STEP = math.radians(14.9)  # below MAX_TURN: rounding never pushes a step over it
-_STEP = 0.9999  # cells between consecutive poses at most
 _TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
 _SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
 _SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
@@ -73,58 +72,6 @@ def _vertices(
 
 
 @njit(cache=True, nogil=True)
-def _arc_steps(theta: float, rho: float) -> int:
-    """Chords of an arc turning ``theta`` on radius ``rho``: each turns at most _TURN_STEP and
-    is at most _STEP long."""
-    step = _TURN_STEP
-    if 2.0 * rho > _STEP:
-        step = min(step, 2.0 * math.asin(_STEP / (2.0 * rho)))
-    return max(1, math.ceil(abs(theta) / step))
-
-
-@njit(cache=True, nogil=True)
-def _arc(
-    cx: float, cy: float, ix: float, iy: float, ox: float, oy: float, theta: float, t: float
-) -> Any:
-    """The fillet of the corner (cx, cy) entered along unit (ix, iy) and left along (ox, oy),
-    turning ``theta`` (counter-clockwise positive), tangent ``t`` from the corner: its points
-    from the tangent point in to the tangent point out, and its center and radius."""
-    rho = t / math.tan(abs(theta) / 2.0)
-    m = _arc_steps(theta, rho)
-    t1x = cx - ix * t
-    t1y = cy - iy * t
-    side = 1.0 if theta > 0.0 else -1.0
-    Ox = t1x - iy * rho * side
-    Oy = t1y + ix * rho * side
-    phi0 = math.atan2(t1y - Oy, t1x - Ox)
-    pts = np.empty((m + 1, 3))
-    for q in range(m + 1):
-        phi = phi0 + theta * q / m
-        pts[q, 0] = Ox + rho * math.cos(phi)
-        pts[q, 1] = Oy + rho * math.sin(phi)
-        pts[q, 2] = phi + side * math.pi / 2.0
-    pts[0, 0], pts[0, 1] = t1x, t1y
-    pts[m, 0], pts[m, 1] = cx + ox * t, cy + oy * t
-    pts[0, 2] = math.atan2(iy, ix)
-    pts[m, 2] = math.atan2(oy, ox)
-    return pts
-
-
-@njit(cache=True, nogil=True)
-def _wrap(a: float) -> float:
-    """An angle in (-pi, pi]."""
-    a = math.atan2(math.sin(a), math.cos(a))
-    return math.pi if a == -math.pi else a
-
-
-@njit(cache=True, nogil=True)
-def _fan_steps(a: float, b: float) -> int:
-    """Poses after the first of a turn in place from heading a to heading b."""
-    d = abs(_wrap(b - a))
-    return math.ceil(d / _TURN_STEP) if d > 1e-12 else 0
-
-
-@njit(cache=True, nogil=True)
 def _smooth(
     D: Any,
     outside: bool,
@@ -148,26 +95,16 @@ def _smooth(
         return np.empty((0, 3)), bad
     P = V[keep]
     k = P.shape[0]
-    nseg = max(k - 1, 0)
-    L = np.empty(nseg)
-    U = np.empty((nseg, 2))
-    for i in range(nseg):
-        dx = P[i + 1, 0] - P[i, 0]
-        dy = P[i + 1, 1] - P[i, 1]
-        L[i] = math.hypot(dx, dy)
-        U[i, 0] = dx / L[i]
-        U[i, 1] = dy / L[i]
+    nseg, L, U = _segments(P)
     # Round each corner: the longest tangent its segments allow whose arc is clear.
     tang = np.zeros(k)
     turn = np.zeros(k)
     for i in range(1, k - 1):
-        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        theta = math.atan2(ix * uy - iy * ux, ix * ux + iy * uy)
-        if abs(theta) < 1e-9:
+        theta, t_max = _corner(U, L, i, k)
+        if theta == 0.0:
             continue
-        theta = max(min(theta, math.pi - 1e-6), -math.pi + 1e-6)
         turn[i] = theta
-        t_max = min(L[i - 1] if i == 1 else L[i - 1] / 2.0, L[i] if i == k - 2 else L[i] / 2.0)
+        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
         # The corner is a cell center: every point within this of it is clear.
         corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
         safe = min(max(corner - root - 1e-9, 0.0), t_max)
@@ -201,67 +138,10 @@ def _smooth(
     if nseg == 0 and not has_start_yaw:
         first_yaw = goal_yaw if has_goal_yaw else oyaw
     last_yaw = math.atan2(U[nseg - 1, 1], U[nseg - 1, 0]) + oyaw if nseg > 0 else first_yaw
-    n_start = _fan_steps(start_yaw, first_yaw) if has_start_yaw else 0
-    n_goal = _fan_steps(last_yaw, goal_yaw) if has_goal_yaw else 0
-    count = n_start + 1 + n_goal
-    for i in range(nseg):
-        line = L[i] - tang[i] - tang[i + 1]
-        if line > 1e-9:
-            count += math.ceil(line / _STEP)
-        if i + 1 < k - 1 and tang[i + 1] > 0.0:
-            rho = tang[i + 1] / math.tan(abs(turn[i + 1]) / 2.0)
-            count += _arc_steps(turn[i + 1], rho)
-    out = np.empty((count, 3))
-    cos_o = math.cos(oyaw)
-    sin_o = math.sin(oyaw)
-    n = 0
-    if has_start_yaw:
-        d = _wrap(first_yaw - start_yaw)
-        for q in range(n_start):
-            out[n, 2] = start_yaw + d * q / n_start
-            n += 1
-    for i in range(nseg):
-        ax = P[i, 0] + U[i, 0] * tang[i]
-        ay = P[i, 1] + U[i, 1] * tang[i]
-        line = L[i] - tang[i] - tang[i + 1]
-        yaw = math.atan2(U[i, 1], U[i, 0]) + oyaw
-        if line > 1e-9:
-            m = math.ceil(line / _STEP)
-            for q in range(m):
-                out[n, 0] = ax + U[i, 0] * line * q / m
-                out[n, 1] = ay + U[i, 1] * line * q / m
-                out[n, 2] = yaw
-                n += 1
-        if i + 1 < k - 1 and tang[i + 1] > 0.0:
-            c = i + 1
-            pts = _arc(P[c, 0], P[c, 1], U[i, 0], U[i, 1], U[c, 0], U[c, 1], turn[c], tang[c])
-            for q in range(pts.shape[0] - 1):
-                out[n, 0] = pts[q, 0]
-                out[n, 1] = pts[q, 1]
-                out[n, 2] = pts[q, 2] + oyaw
-                n += 1
-    out[n, 0] = P[k - 1, 0]
-    out[n, 1] = P[k - 1, 1]
-    out[n, 2] = last_yaw
-    n += 1
-    if has_goal_yaw:
-        d = _wrap(goal_yaw - last_yaw)
-        for q in range(1, n_goal + 1):
-            out[n, 2] = last_yaw + d * q / n_goal
-            n += 1
-    # Cells to meters: the start's and goal's turns in place stand at their points.
-    for q in range(count):
-        if q < n_start:
-            X, Y = P[0, 0], P[0, 1]
-        elif q >= count - n_goal:
-            X, Y = P[k - 1, 0], P[k - 1, 1]
-        else:
-            X, Y = out[q, 0], out[q, 1]
-        u = (X + 0.5) * res
-        v = (H - 0.5 + Y) * res
-        out[q, 0] = ox + cos_o * u - sin_o * v
-        out[q, 1] = oy + sin_o * u + cos_o * v
-        out[q, 2] = _wrap(out[q, 2])
+    out = _write(
+        P, U, L, tang, turn, k, nseg, res, H, ox, oy, oyaw,
+        start_yaw, has_start_yaw, first_yaw, last_yaw, goal_yaw, has_goal_yaw,
+    )  # fmt: skip
     return out, -1
 
 
@@ -295,6 +175,27 @@ def _point(value: Any, field: str) -> tuple[float, float]:
         return _number(pair[0], field, what), _number(pair[1], field, what)
     except InvalidInput:
         raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field) from None
+
+
+def _without_loops(cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """The path with every loop cut out (a cell it comes back to is kept once): a decision
+    that wanders (the paper's, with its tabu list) doubles back, and a robot driving the
+    poses need not. Consecutive cells stay neighbours, so the path stays a path."""
+    if len(np.unique(cells, axis=0)) == len(cells):
+        return cells
+    seen: dict[tuple[int, int], int] = {}
+    keep: list[int] = []
+    pairs = [(int(r), int(c)) for r, c in cells.tolist()]
+    for i, key in enumerate(pairs):
+        if key in seen:
+            cut = seen[key]
+            for j in keep[cut + 1 :]:
+                del seen[pairs[j]]
+            del keep[cut + 1 :]
+        else:
+            seen[key] = len(keep)
+            keep.append(i)
+    return np.ascontiguousarray(cells[keep])
 
 
 def smooth_path(
@@ -367,7 +268,7 @@ step 0 goes from [0, 0] to [0, 2]
         cells.dtype.kind != "f" or not np.array_equal(cells, np.round(cells))
     ):
         raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
-    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    cells = _without_loops(np.ascontiguousarray(cells, dtype=np.int64))
     res = _number(resolution, "resolution", "a number of meters > 0")
     if res <= 0:
         msg = f"resolution must be > 0 meters; got {quote(resolution)}"

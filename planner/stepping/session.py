@@ -5,6 +5,7 @@ plan (heavy, cacheable) and a session state (small, plain data a store keeps as 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -13,13 +14,16 @@ import numpy.typing as npt
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, SequenceConflict, quote
+from planner.maps.frames import point_xy
 from planner.maps.grids import as_cell
 from planner.params import PARAMETER_RANGES
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
-from planner.plans.ends import cell_of, free_cell
+from planner.plans.ends import cell_of, end_yaw, free_cell
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, route
+from planner.stepping.ahead import path_ahead
+from planner.stepping.legs import go_on, last_leg, later_cost, leg_of
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -38,16 +42,18 @@ class Session:
     ('SE', 'arrived')
     """
 
-    def __init__(self, plan: Plan, state: SessionState | None = None) -> None:
+    def __init__(
+        self, plan: Plan, state: SessionState | None = None, *, poses: bool = True
+    ) -> None:
         self.route = plan
         """The plan as given: through waypoints, :attr:`plan` is the leg the robot is on, and
         on arriving at a waypoint the robot goes on with the next leg (``state.leg``)."""
+        self.poses = poses
+        """Whether each step answers the path ahead (``Step.poses``, ``Step.remaining_m``)."""
         if state is None:
             state = SessionState(position=plan.start, trajectory=[plan.start])
         self.state = state
-        if plan.route is not None:
-            plan = plan.route.legs[min(state.leg, len(plan.route.legs) - 1)]
-        self.plan = plan
+        self.plan = plan = leg_of(plan, state)
         self._width = plan.analysis.shape[1]
         self._rule = Rule.of(plan.params)
         # The tabu list: only the paper's decision reads it.
@@ -77,8 +83,11 @@ class Session:
             if cell != st.position:
                 held = replan_at = 0
                 on_detour = False
-        if cell == self.plan.goal:
-            return not self._last_leg  # on to the next leg: it may search
+        (gr, gc), last = self.plan.goal, last_leg(self.route, st)
+        if cell == (gr, gc):
+            return not last  # on to the next leg: it may search
+        if not last and max(abs(cell[0] - gr), abs(cell[1] - gc)) <= 1:
+            return True  # it may reach the waypoint, then read the next leg's wave
         if st.status == "blocked" and cell == st.position:
             return False
         return self._may_search(held, replan_at, on_detour or self._on_plan(cell))
@@ -100,7 +109,8 @@ class Session:
         """Decide and record the next move, given the cells dynamic obstacles occupy now.
 
         ``position`` is where the robot really is, if the client knows better: a cell, or a
-        point ``{"x", "y"}`` in meters. ``seq``, when
+        point ``{"x", "y"}`` in meters, with its heading ``"yaw"`` (radians) if known: the
+        answer's ``poses`` start there. ``seq``, when
         given, must be the last step's ``seq`` + 1 (a new step) or the last ``seq`` again (a
         retry: the same answer, the robot not moved twice); the first step may take any ``seq``.
         """
@@ -118,39 +128,38 @@ class Session:
         else:
             seq = 0 if st.last_seq is None else st.last_seq + 1
         obstacles = _obstacles(dynamic_obstacles, self.plan.analysis.shape)
+        point, yaw = _pose(position)
         if position is not None:
             self._relocate(position)
         self._next_leg()
         step = self._advance(seq, obstacles)
         if step.status == "arrived" and self._next_leg():
             step = dataclasses.replace(step, status=st.status)
+        if self.poses:
+            poses, remaining_m = path_ahead(
+                self.plan, st, step, obstacles, reported=position is not None, point=point,
+                yaw=yaw,
+            )  # fmt: skip
+            if remaining_m is not None:
+                remaining_m += later_cost(self.route, st) * self.plan.analysis.frame.resolution
+            step = Step(
+                step.seq, step.previous, step.position, step.move, step.status, step.iteration,
+                step.path_length, step.arc_cost, step.remaining, step.narrow_fallback, poses,
+                remaining_m,
+            )  # fmt: skip
         st.last_seq = seq
         st.last_step = step
         return step
 
-    @property
-    def _last_leg(self) -> bool:
-        route = self.route.route
-        return route is None or self.state.leg >= len(route.legs) - 1
-
     def _next_leg(self) -> bool:
-        """At a waypoint (the current leg's goal) with legs left: on to the next leg (True)."""
-        st = self.state
-        route = self.route.route
-        went = False
-        while route is not None and not self._last_leg and st.position == self.plan.goal:
-            st.leg += 1
-            st.leg_start = len(st.trajectory) - 1
-            self.plan = route.legs[st.leg]
-            if self._visited is not None:
-                self._visited = {st.position[0] * self._width + st.position[1]}
-            st.detour = []
-            st.narrow_fallback = False
-            st.held_up = st.replan_at = 0
-            if st.status in ("arrived", "blocked"):
-                st.status = "moving"
-            went = True
-        return went
+        """At a waypoint with legs left: on to the next leg (True)."""
+        if not go_on(self.route, self.state):
+            return False
+        self.plan = leg_of(self.route, self.state)
+        if self._visited is not None:
+            r, c = self.state.position
+            self._visited = {r * self._width + c}
+        return True
 
     def _relocate(self, position: Any) -> None:
         st = self.state
@@ -342,10 +351,7 @@ class Session:
     def _to_go(self) -> float | None:
         """:meth:`remaining`, and through waypoints the legs after this one too."""
         value = self.remaining()
-        route = self.route.route
-        if value is None or route is None:
-            return value
-        return value + sum(route.costs[self.state.leg + 1 :])
+        return None if value is None else value + later_cost(self.route, self.state)
 
     def remaining(self) -> float | None:
         """Plain cost-to-go ``k`` from the robot's cell, or None when the goal is out of reach;
@@ -407,6 +413,13 @@ def detour(
         cells = _unsealed_detour(a, r * W + c, goal, obstacles, margin, params.diagonal_cost)
     out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
     return out
+
+
+def _pose(position: Any) -> tuple[tuple[float, float] | None, float | None]:
+    """A reported point and its heading, if the position is a point (a cell has neither)."""
+    if not isinstance(position, Mapping):
+        return None, None
+    return point_xy(position, name="position"), end_yaw(position, "position")
 
 
 def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:

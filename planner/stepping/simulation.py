@@ -129,7 +129,7 @@ def run_episode(
     occupied = np.zeros((H, W), dtype=np.int32)
     occupied[dynamic_obstacles[:, 0], dynamic_obstacles[:, 1]] = 1
     history = [dynamic_obstacles.copy()] if record else []
-    session = Session(plan)
+    session = Session(plan, poses=False)
     collisions = 0
     step_seconds = 0.0
     steps = 0
@@ -263,5 +263,5 @@ def warm_up() -> None:
             _ = p.min_clearance
             run_episode(p, dynamic_count=2, seed=0, max_steps=4)
             run_episode(p, dynamic_count=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
-            session = Session(p)
+            session = Session(p)  # the path ahead's kernels too
             session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel

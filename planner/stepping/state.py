@@ -6,12 +6,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-__all__ = ["MOVES", "SessionState", "Status", "Step"]
+__all__ = ["MOVES", "Pose", "SessionState", "Status", "Step"]
 
 #: Move names by kernel move index; ``WAIT`` stays put.
 MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
 Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
+
+Pose = tuple[float, float, float]
+"""``(x, y, yaw)``: meters in the map frame, radians."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,6 +35,12 @@ class Step:
     narrow_fallback: bool = False
     """The robot follows a route through tight tunnels: the plan's own narrow fallback, or a
     detour that only the unsealed grid allows (a sealed pocket left, or the wide way parked)."""
+    poses: tuple[Pose, ...] = ()
+    """The path ahead (docs/api.md, "Stepping with poses"): from the robot's reported point (else
+    from ``position``'s center), at least ``horizon_m`` or to the goal, clear of this step's
+    dynamic obstacles; one pose when the robot waits. Empty when the session makes none."""
+    remaining_m: float | None = None
+    """Meters to the goal: along ``poses``, then the grid's ``k`` in meters from where they end."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -45,14 +54,18 @@ class Step:
             "arc_cost": self.arc_cost,
             "remaining": self.remaining,
             "narrow_fallback": self.narrow_fallback,
+            "poses": self.poses,
+            "remaining_m": self.remaining_m,
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> Step:
         (pr, pc), (r, c) = d["previous"], d["position"]
+        poses: tuple[Pose, ...] = tuple(map(tuple, d.get("poses", ())))
         return cls(
             d["seq"], (pr, pc), (r, c), d["move"], d["status"], d["iteration"],
             d["path_length"], d["arc_cost"], d["remaining"], d.get("narrow_fallback", False),
+            poses, d.get("remaining_m"),
         )  # fmt: skip
 
 

@@ -127,6 +127,8 @@ def step_answer(view: StepView) -> dict[str, Any]:
         "arc_cost": float(step.arc_cost),
         "remaining": None if step.remaining is None else float(step.remaining),
         "narrow_fallback": bool(step.narrow_fallback),
+        "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in step.poses],
+        "remaining_m": step.remaining_m,
     }
 
 

@@ -138,7 +138,7 @@ async def step(
         # A point goes as sent: a refusal quotes it.
         position: Any = body.position
         if isinstance(position, Point):
-            position = position.model_dump()
+            position = position.model_dump(exclude_none=True)
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
         # Here when it cannot search, else on the steps' own workers (see Engine.step).

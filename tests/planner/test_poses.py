@@ -9,7 +9,7 @@ from pathlib import Path
 import edt
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 import planner
@@ -122,6 +122,7 @@ def test_poses_meet_every_rule_on_random_maps(
 
 
 @given(seed=st.integers(0, 2**32 - 1), preset=st.sampled_from(list(planner.PRESETS)))
+@example(seed=4132800011, preset="wfs-mmas")  # the paper's decision doubles back: loops cut
 def test_poses_on_plain_grids_in_one_meter_cells(seed: int, preset: str) -> None:
     rng = np.random.default_rng(seed)
     grid = (rng.random((16, 20)) < 0.25).astype(np.uint8)
@@ -260,3 +261,12 @@ def test_a_rotated_frame_rotates_the_poses(yaw: float, x: float, y: float) -> No
     heading = np.arctan2(steps[:, 1], steps[:, 0])
     between = np.abs(np.angle(np.exp(1j * (heading - flat[:-1, 2]))))
     assert between.max() <= math.radians(7.5) + 1e-9
+
+
+def test_a_path_that_doubles_back_is_smoothed_without_its_loop() -> None:
+    grid = np.zeros((5, 8), dtype=np.uint8)
+    analysis = planner.analyse(grid, seal_tunnels=False)
+    there_and_back = [[2, 1], [2, 2], [2, 3], [1, 3], [2, 3], [2, 4], [2, 5], [2, 6]]
+    poses = planner.smooth_path(there_and_back, analysis.clearance)
+    assert poses[:, 1].max() - poses[:, 1].min() < 1e-9  # straight along row 2: no detour
+    assert math.isclose(float(np.hypot(*np.diff(poses[:, :2], axis=0).T).sum()), 5.0)

@@ -170,6 +170,7 @@ def test_stepping_follows_the_whole_route(preset: str) -> None:
     stored = planner.Session(p).state.as_dict()
     statuses: list[str] = []
     remaining: list[float] = []
+    remaining_m: list[float] = []
     trajectory: list[tuple[int, int]] = [p.start]
     for seq in range(200):
         # As a service does: the state back from JSON-ready data every step.
@@ -182,7 +183,9 @@ def test_stepping_follows_the_whole_route(preset: str) -> None:
         trajectory = list(session.state.trajectory)
         statuses.append(step.status)
         assert step.remaining is not None
+        assert step.remaining_m is not None
         remaining.append(step.remaining)
+        remaining_m.append(step.remaining_m)
         if step.status == "arrived":
             break
     assert statuses[-1] == "arrived"
@@ -196,7 +199,9 @@ def test_stepping_follows_the_whole_route(preset: str) -> None:
     for leg in range(1, len(p.waypoints) + 1):
         i = visits_in_order(np.array(trajectory), p.waypoints[:leg])[-1]
         assert remaining[i - 1] == pytest.approx(sum(costs[leg:]))
-    assert remaining[-1] == 0.0
+        # In meters, along the path ahead on the next leg, then the later legs' cost-to-go.
+        assert remaining_m[i - 1] > sum(costs[leg + 1 :])
+    assert remaining[-1] == remaining_m[-1] == 0.0
     assert max(remaining) <= sum(costs)
 
 

@@ -146,6 +146,10 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("circle outside", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": 0.5}, {"x": 50.0, "y": 1.0, "radius": 0.5}]}, 422, ["dynamic_obstacles[1]", "entirely outside the map", "x [0, 6], y [0, 5]"]),
     ("circle without radius", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0}]}, 422, ["dynamic_obstacles[0].radius", "Field required"]),
     ("circle radius negative", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": -1}]}, 422, ["dynamic_obstacles[0].radius", "-1"]),
+    ("position yaw text", "POST", "/plan/{plan}/step", {"position": {"x": 0.5, "y": 4.5, "yaw": "north"}}, 422, ["position.yaw", "'north'"]),
+    ("position yaw boolean", "POST", "/plan/{plan}/step", {"position": {"x": 0.5, "y": 4.5, "yaw": True}}, 422, ["position.yaw", "True"]),
+    ("position yaw infinite", "POST", "/plan/{plan}/step", b'{"position": {"x": 0.5, "y": 4.5, "yaw": 1e999}}', 422, ["position.yaw", "inf"]),
+    ("yaw on a cell", "POST", "/plan/{plan}/step", {"position": [0, 0, 1.0]}, 422, ["position", "[0, 0, 1.0]"]),
     ("circle with extra", "POST", "/plan/{plan}/step", {"dynamic_obstacles": [{"x": 1.0, "y": 1.0, "radius": 1, "z": 0}]}, 422, ["dynamic_obstacles[0].z", "unknown field"]),
     ("position point outside", "POST", "/plan/{plan}/step", {"position": {"x": -1.0, "y": 0.5}}, 422, ["position", "-1.0", "outside the map"]),
 ]  # fmt: skip

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
@@ -98,6 +99,33 @@ def _cell(page: Page) -> Any:
     return orjson.loads(page.get_attribute("#robot", "data-cell") or "null")
 
 
+def _ahead(page: Page) -> tuple[list[list[float]], float | None]:
+    """The path ahead as drawn (its polyline's points, board pixels) and the heading's yaw."""
+    points = page.get_attribute("#ahead", "points") or ""
+    drawn = [[float(v) for v in pair.split(",")] for pair in points.split()]
+    assert page.get_attribute("#ahead", "data-count") == str(len(drawn))
+    yaw = page.get_attribute("#heading", "data-yaw")
+    return drawn, None if yaw is None else float(yaw)
+
+
+def _check_ahead(page: Page, answer: dict[str, Any], cell: int = 32) -> None:
+    """The answer's poses drawn through their points (meters to pixels: 1 m cells, origin 0),
+    the heading from the first pose, along its yaw (y grows downwards on the page)."""
+    drawn, yaw = _ahead(page)
+    height = len(GRID)
+    want = [[p["x"] * cell, (height - p["y"]) * cell] for p in answer["poses"]]
+    assert len(drawn) == len(want)
+    flat = [v for point in want for v in point]
+    assert [v for point in drawn for v in point] == pytest.approx(flat, abs=0.01)
+    first = answer["poses"][0]
+    assert yaw == pytest.approx(first["yaw"])
+    x1, y1, x2, y2 = (
+        float(page.get_attribute("#heading", k) or "nan") for k in ("x1", "y1", "x2", "y2")
+    )
+    assert [x1, y1] == pytest.approx(want[0], abs=0.01)
+    assert math.atan2(-(y2 - y1), x2 - x1) == pytest.approx(first["yaw"], abs=1e-6)
+
+
 def _centre(page: Page) -> tuple[float, float]:
     page.wait_for_timeout(300)  # the robot glides for 0.15 s
     box = page.locator("#robot").bounding_box()
@@ -148,6 +176,7 @@ def test_the_page_follows_the_robot_live_in_chromium(live_url: str, tmp_path: Pa
                     for i in range(len(obstacles))
                 ]
                 assert sorted(cells) == sorted(obstacles)
+                _check_ahead(page, answer)
                 return _centre(page)
 
             for seq in range(5):  # eastward: the robot goes right
@@ -163,6 +192,14 @@ def test_the_page_follows_the_robot_live_in_chromium(live_url: str, tmp_path: Pa
                 assert here[0] == pytest.approx(previous[0], abs=1)
                 previous = here
             assert _cell(page) == [3, 5]
+            # A robot reporting its real pose: the path ahead starts there, along its heading.
+            body = {"seq": 8, "position": {"x": 5.3, "y": 4.6, "yaw": 2.0}}
+            answer = client.post(f"/plan/{plan_id}/step", json=body).json()
+            page.wait_for_function(
+                "document.getElementById('heading').dataset.yaw === '2'", timeout=1000
+            )
+            _check_ahead(page, answer)
+            assert len(answer["poses"]) > 3
             shot = tmp_path / "viewer.png"
             page.screenshot(path=str(shot))
             assert shot.read_bytes().startswith(b"\x89PNG")

@@ -122,7 +122,8 @@ async def test_a_plan_through_waypoints_on_a_grid_and_its_episode(
     arrivals = visits_in_order(trajectory, plan["waypoints"])
     for leg, i in enumerate(arrivals, start=1):
         assert answers[i - 1]["remaining"] == pytest.approx(sum(costs[leg:]))
-    assert answers[-1]["remaining"] == 0.0
+        assert answers[i - 1]["remaining_m"] > sum(costs[leg + 1 :])  # 1 m cells
+    assert answers[-1]["remaining"] == answers[-1]["remaining_m"] == 0.0
     done = (await client.get(f"/plan/{plan_id}")).json()
     assert (done["status"], done["leg"], done["position"]) == ("arrived", 3, [7, 15])
     assert done["trajectory"] == trajectory

@@ -32,7 +32,9 @@ PAGE = (resources.files("service.viewer") / "viewer.html").read_text(encoding="u
 )
 async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the plan's map, its planned path, the robot (`#robot`, its cell in
-    `data-cell`) and the dynamic obstacles of the latest step (`.dynamic-obstacle`), updated
+    `data-cell`), the dynamic obstacles of the latest step (`.dynamic-obstacle`), its path
+    ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
+    yaw in `data-yaw`), updated
     live from `/plan/{plan_id}/events` as steps arrive. Everything it loads comes from the
     service."""
     view_ = await plans.get_plan(engine, plan_id)
@@ -44,6 +46,8 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "cell": max(1, min(32, 800 // max(height, width))),
         "position": list(view_.state.position),
         "trajectory": [list(cell) for cell in view_.state.trajectory],
+        "resolution": view_.plan.analysis.frame.resolution,
+        "origin": list(view_.plan.analysis.frame.origin),
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
