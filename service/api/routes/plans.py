@@ -48,8 +48,10 @@ STEP_BODY = {
 
 async def step(plan_id: str, request: Request) -> Response:
     """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
-    optionally where the robot really is, a cell or a point); the answer is the cell to move
-    to (and its center `position_xy`), which the service records. `seq`, when given, must be
+    optionally where the robot really is, a cell or a point `{x, y, yaw?}`); the answer is the
+    cell to move to (and its center `position_xy`), which the service records, and the path
+    ahead as `poses` `{x, y, yaw}` (at least `horizon_m` meters, clear of this step's
+    obstacles) with `remaining_m`. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
     if request.scope["query_string"]:
