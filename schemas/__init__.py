@@ -4,6 +4,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 """
 
 from schemas.errors import ErrorPublic
+from schemas.fleets import FleetPublic, FleetRobotPublic, PassagePublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
@@ -44,12 +45,15 @@ __all__ = [
     "CellOrPoint",
     "Circle",
     "ErrorPublic",
+    "FleetPublic",
+    "FleetRobotPublic",
     "HealthPublic",
     "LivePublic",
     "MapCreate",
     "MapPublic",
     "NavPath",
     "Obstacle",
+    "PassagePublic",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",

@@ -13,6 +13,7 @@ from schemas.plans import (
     EXAMPLE_PLAN,
     STRICT,
     CellOrPoint,
+    FleetName,
     PlanOptions,
     PlanPublic,
     Waypoints,
@@ -51,6 +52,7 @@ MULTIPART_FIELDS: dict[str, Any] = {
         "robot_radius": {"type": "string", "description": "Meters, e.g. `0.22`."},
         "unknown": {"type": "string", "description": "`blocked` or `free`."},
         "waypoints": {"type": "string", "description": "JSON list of cells or points."},
+        "fleet": {"type": "string", "description": "The plan's fleet name."},
     },
 }
 """The ``multipart/form-data`` form of ``POST /maps``, for ``/docs``: parts ``yaml`` and
@@ -144,6 +146,7 @@ class MapCreate(PlanOptions, MapEncoding):
     start: CellOrPoint | None = None
     goal: CellOrPoint | None = None
     waypoints: Waypoints = Field(default_factory=list)
+    fleet: FleetName = None
 
     @model_validator(mode="after")
     def _both_ends(self) -> MapCreate:
@@ -152,6 +155,8 @@ class MapCreate(PlanOptions, MapEncoding):
             raise ValueError(f"'start' and 'goal' go together; {missing!r} is missing")
         if self.waypoints and self.start is None:
             raise ValueError("'waypoints' need a 'start' and a 'goal'")
+        if self.fleet is not None and self.start is None:
+            raise ValueError("'fleet' needs a 'start' and a 'goal'")
         return self
 
 

@@ -10,6 +10,7 @@ __all__ = [
     "COORDINATE_MAX",
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
+    "FLEET_PATTERN",
     "GOAL_TOLERANCE_MAX",
     "MAX_WAYPOINTS",
     "PRESET_NAMES",
@@ -20,6 +21,7 @@ __all__ = [
     "Cell",
     "CellOrPoint",
     "Circle",
+    "FleetName",
     "Obstacle",
     "PlanCreate",
     "PlanDetail",
@@ -170,6 +172,25 @@ UnknownPolicy = Annotated[
         "parameter `unknown`): `blocked` (default) or `free`.",
     ),
 ]
+
+FLEET_PATTERN = r"^[A-Za-z0-9_.-]{1,64}$"
+"""A fleet's name: 1 to 64 letters, digits, ``_``, ``.``, ``-``."""
+
+FleetName = Annotated[
+    str | None,
+    Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        pattern=FLEET_PATTERN,
+        description="The fleet the robot belongs to (1-64 characters of `[A-Za-z0-9_.-]`, the "
+        "API key's own): each step of a fleet robot keeps clear of the fleet's other robots "
+        "and takes the narrow passages one robot at a time (docs/fleets.md). Every plan of a "
+        "fleet is on one map (else `422` `FLEET_MAP_MISMATCH`).",
+        examples=["warehouse-a"],
+    ),
+]
+"""A plan's fleet."""
 
 Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
 PRESET_NAMES: tuple[str, ...] = get_args(Preset)
@@ -335,6 +356,7 @@ class PlanCreate(PlanOptions, PlanEnds):
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
     waypoints: Waypoints = Field(default_factory=list)
+    fleet: FleetName = None
 
 
 class AnalysisPublic(BaseModel):
@@ -415,6 +437,7 @@ class PlanPublic(BaseModel):
     waypoints: list[Cell] = Field(
         default_factory=list, description="The cells of the route's waypoints, in order."
     )
+    fleet: str | None = Field(default=None, description="The robot's fleet, if any.")
 
 
 class TrajectoryMetrics(BaseModel):

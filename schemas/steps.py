@@ -153,3 +153,8 @@ class StepPublic(BaseModel):
         description="Meters to the goal: along `poses`, then the grid's cost-to-go `k` in meters "
         "from where they end; null when out of reach.",
     )
+    waiting_for: str | None = Field(
+        default=None,
+        description="A fleet robot waiting: the `plan_id` of the robot it waits for (standing on "
+        "its goal, or holding a passage it needs); else null.",
+    )

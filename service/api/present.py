@@ -8,13 +8,16 @@ from typing import Any
 import numpy as np
 
 import planner
+import planner.fleets
 from planner import clearance_metrics
-from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
+from schemas import FleetPublic, MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
+from service.resources.fleets import FleetView
 from service.resources.maps import MapView
 from service.resources.plans import PlanView, StepView
 
 __all__ = [
     "center",
+    "fleet_public",
     "map_public",
     "meters",
     "nav_path",
@@ -129,7 +132,55 @@ def step_answer(view: StepView) -> dict[str, Any]:
         "narrow_fallback": bool(step.narrow_fallback),
         "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in step.poses],
         "remaining_m": step.remaining_m,
+        "waiting_for": view.waiting_for,
     }
+
+
+def fleet_public(view: FleetView) -> FleetPublic:
+    """The fleet's robots by priority (the order they joined), and its passages."""
+    robots = sorted(view.state["robots"].items(), key=lambda item: item[1]["rank"])
+    zones = view.zones
+    held: dict[int, list[str]] = {}
+    for plan_id, robot in robots:
+        for group in robot.get("holds", ()):
+            held.setdefault(group, []).append(plan_id)
+    passages = []
+    if zones is not None:
+        for group, members in enumerate(zones.passages):
+            for p in members:
+                found = zones.found[p]
+                passages.append(
+                    {
+                        "id": found.id, "x": found.x, "y": found.y, "width_m": found.width_m,
+                        "length_m": found.length_m, "held_by": held.get(group, []),
+                    }
+                )  # fmt: skip
+    return FleetPublic.model_validate(
+        {
+            "fleet": view.fleet,
+            "map_id": view.state["map_id"],
+            "robot_radius": view.state["radius"],
+            "robots": [
+                {
+                    "plan_id": plan_id,
+                    "position": robot["target"],
+                    "position_xy": center(view.frame, *robot["target"]),
+                    "status": robot["status"],
+                    "waiting_for": robot.get("waiting_for"),
+                    "previous": robot["cell"],
+                    "goal": robot["goal"],
+                    "radius": robot["radius"],
+                    "holds": [p for g in robot.get("holds", ()) for p in _members(zones, g)],
+                }
+                for plan_id, robot in robots
+            ],
+            "passages": sorted(passages, key=lambda p: p["id"]),
+        }
+    )
+
+
+def _members(zones: planner.fleets.Zones | None, group: int) -> tuple[int, ...]:
+    return () if zones is None or group >= zones.count else zones.passages[group]
 
 
 def center(frame: planner.MapFrame, row: int, col: int) -> list[float]:
@@ -183,6 +234,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
             "waypoint_indices": s["waypoint_indices"],
         },
         "waypoints": s["waypoints"],
+        "fleet": view.record.get("fleet"),
     }
 
 

@@ -31,6 +31,7 @@ imports neither FastAPI nor the service's app: a client machine needs httpx and 
 from service.client.clients import (
     Analysis,
     AsyncPlannerClient,
+    Fleet,
     MapInfo,
     NavPath,
     Plan,
@@ -63,6 +64,7 @@ __all__ = [
     "AsyncPlannerClient",
     "BadRequestError",
     "ConflictError",
+    "Fleet",
     "MapInfo",
     "NavPath",
     "NoValidPathError",

@@ -16,6 +16,7 @@ from pydantic import BaseModel
 
 from schemas import (
     AnalysisPublic,
+    FleetPublic,
     MapPublic,
     NavPath,
     PlanDetail,
@@ -29,6 +30,7 @@ from service.client.errors import raise_for
 __all__ = [
     "Analysis",
     "AsyncPlannerClient",
+    "Fleet",
     "MapInfo",
     "NavPath",
     "Plan",
@@ -54,6 +56,7 @@ Preview = PreviewPublic
 Plan = PlanPublic
 Step = StepPublic
 Simulation = SimulationPublic
+Fleet = FleetPublic
 
 
 class MapInfo(MapPublic):
@@ -79,10 +82,11 @@ class PlanFields(TypedDict, total=False):
 
 
 class RouteFields(PlanFields, total=False):
-    """``plan``'s fields besides the ends: the options, and the ``waypoints`` (cells or points)
-    the path passes through, in order."""
+    """``plan``'s fields besides the ends: the options, the ``waypoints`` (cells or points)
+    the path passes through, in order, and the robot's ``fleet``."""
 
     waypoints: Sequence[CellIn] | None
+    fleet: str | None
 
 
 class UploadMapFields(RouteFields, total=False):
@@ -214,6 +218,10 @@ def _get_plan(plan_id: str) -> _Call[PlanDetail]:
     return _Call("GET", f"/plan/{plan_id}", _decode(PlanDetail))
 
 
+def _fleet(name: str) -> _Call[Fleet]:
+    return _Call("GET", f"/fleets/{name}", _decode(Fleet))
+
+
 def _path(plan_id: str, frame_id: str | None) -> _Call[NavPath]:
     query = {} if frame_id is None else {"frame_id": frame_id}
     return _Call("GET", f"/plan/{plan_id}/path", _decode(NavPath), {"params": query})
@@ -322,6 +330,11 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def delete_plan(self, plan_id: str) -> None:
         self._call(_delete_plan(plan_id))
 
+    def fleet(self, name: str) -> Fleet:
+        """The robots of a fleet (plans made with ``fleet=name``) as they stand, and the
+        passages of its map with who holds each."""
+        return self._call(_fleet(name))
+
     def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]
     ) -> Step:
@@ -389,6 +402,9 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def delete_plan(self, plan_id: str) -> None:
         await self._call(_delete_plan(plan_id))
+
+    async def fleet(self, name: str) -> Fleet:
+        return await self._call(_fleet(name))
 
     async def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]

@@ -44,6 +44,7 @@ async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
             unknown=body.unknown,
             goal_tolerance=body.goal_tolerance,
             waypoints=body.waypoints,
+            fleet=body.fleet,
         )
         plan = await plans.create_plan(engine, request)
     return MapView(map_id, robot_map, plan), created

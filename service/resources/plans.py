@@ -18,8 +18,9 @@ import planner
 from planner import quote
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
+from service.resources import fleets
 from service.stores import PlanRecord
-from service.stores.base import Event, Update
+from service.stores.base import Event, FleetRecord, Update
 from service.work.engine import (
     Engine,
     cell_size,
@@ -63,6 +64,8 @@ class StepView:
     obstacles: list[list[int]]
     replayed: bool = False
     """The answer of a retried ``seq``: nothing moved, nothing was written or published."""
+    waiting_for: str | None = None
+    """A fleet robot waiting: the plan_id of the robot it waits for."""
 
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
@@ -87,7 +90,13 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "cache_hit": cache_hit,
         "state": stored,
     }
-    await engine.store.put_plan(plan_id, record, append=stored.pop("trajectory"))
+    append = stored.pop("trajectory")
+    if body.fleet is None:
+        await engine.store.put_plan(plan_id, record, append=append)
+    else:
+        record["fleet"] = body.fleet
+        joined = fleets.join(body.fleet, plan_id, body.map_id, plan)
+        await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
     return PlanView(plan_id, record, plan, state)
 
 
@@ -123,7 +132,7 @@ async def step(
         msg = f"{len(body.dynamic_obstacles)} dynamic obstacles given; the limit is {limit}"
         raise planner.InvalidInput(msg, field="dynamic_obstacles")
 
-    async def decide(record: PlanRecord) -> Update[StepView]:
+    async def decide(record: PlanRecord, fleet: FleetRecord | None) -> Update[StepView]:
         plan = await engine.plan_of(record)
         # The trajectory log is read only for the paper's tabu list: the wide decision needs
         # none of it, and its step then costs the same at any length of episode.
@@ -141,18 +150,27 @@ async def step(
             position = position.model_dump(exclude_none=True)
         obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
-        # Here when it cannot search, else on the steps' own workers (see Engine.step).
-        result = await engine.step(session, obstacles, position=position, seq=body.seq)
+        waiting_for, new_fleet = None, None
+        if replayed or fleet is None:
+            # Here when it cannot search, else on the steps' own workers (see Engine.step).
+            result = await engine.step(session, obstacles, position=position, seq=body.seq)
+        else:
+            moved = await fleets.step_in_fleet(
+                engine, plan_id, session, obstacles, fleet, position=position, seq=body.seq
+            )
+            result, waiting_for, new_fleet = moved.step, moved.waiting_for, moved.fleet
         if replayed:  # the robot did not move again: nothing to write, no event to send
-            return Update(StepView(result, frame, obstacles, replayed=True))
+            if fleet is not None:
+                waiting_for = fleet["robots"].get(plan_id, {}).get("waiting_for")
+            return Update(StepView(result, frame, obstacles, True, waiting_for))
         stored = session.state.as_dict()
-        moved = stored.pop("trajectory")[known:]
-        view = StepView(result, frame, obstacles)
+        appended = stored.pop("trajectory")[known:]
+        view = StepView(result, frame, obstacles, waiting_for=waiting_for)
         message = None if event is None else event(view)
-        return Update(view, {**record, "state": stored}, moved, message)
+        return Update(view, {**record, "state": stored}, appended, message, new_fleet)
 
     # Written only if the plan still exists: a DELETE that won the race stays a delete.
-    update = await engine.store.update_plan(plan_id, decide)
+    update = await engine.store.step_plan(plan_id, decide)
     if update is None:
         raise _unknown_plan(plan_id)
     return update.answer

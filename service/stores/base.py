@@ -5,6 +5,7 @@ store can hold it and a step costs the same at any length of episode."""
 from __future__ import annotations
 
 import asyncio
+import math
 import struct
 from abc import ABC, abstractmethod
 from collections.abc import Awaitable, Callable, Sequence
@@ -20,6 +21,8 @@ __all__ = [
     "Cells",
     "Decide",
     "Event",
+    "FleetDecide",
+    "FleetRecord",
     "Grid",
     "PlanLocks",
     "PlanRecord",
@@ -27,12 +30,17 @@ __all__ = [
     "Update",
     "decode_map",
     "encode_map",
+    "live_fleet",
     "pack",
+    "stamp_robot",
     "unpack",
 ]
 
 Grid = npt.NDArray[np.uint8]
 PlanRecord = dict[str, Any]
+FleetRecord = dict[str, Any]
+"""A fleet's shared state (docs/fleets.md): ``{"map_id", "radius", "next", "robots": {plan_id:
+robot}}``, each robot as :meth:`planner.fleets.Robot.as_dict` writes it."""
 Cells = Sequence[Sequence[int]]
 Event = tuple[str, bytes]
 """A message for the live viewer: its pub/sub channel and its bytes."""
@@ -49,11 +57,36 @@ class Update(Generic[T]):
     record: PlanRecord | None = None
     append: Cells = ()
     event: Event | None = None
+    fleet: FleetRecord | None = None
+    """A fleet robot's step: its fleet's new state, written with the record (or not at all)."""
 
 
 Decide = Callable[[PlanRecord], Awaitable[Update[T]]]
 """A step's decision from the plan's current record; it may run again on a newer record (a
 networked store whose write found another replica's step first), so it changes nothing else."""
+FleetDecide = Callable[[PlanRecord, FleetRecord | None], Awaitable[Update[T]]]
+"""A step's decision from the plan's record and, for a fleet robot, its fleet's state (its
+live robots only); it may run again on a newer record or fleet state."""
+
+
+def live_fleet(fleet: FleetRecord | None, now: float) -> FleetRecord | None:
+    """The fleet without its robots whose plans expired (``until`` passed): a networked store
+    expires a plan without touching its fleet."""
+    if fleet is None:
+        return None
+    robots = fleet["robots"]
+    gone = [k for k, robot in robots.items() if (robot.get("until") or math.inf) <= now]
+    if not gone:
+        return fleet
+    return {**fleet, "robots": {k: v for k, v in robots.items() if k not in gone}}
+
+
+def stamp_robot(fleet: FleetRecord, plan_id: str, until: float) -> FleetRecord:
+    """The fleet with ``plan_id``'s robot expiring at ``until`` (with its plan, just written)."""
+    robot = fleet["robots"].get(plan_id)
+    if robot is None:
+        return fleet
+    return {**fleet, "robots": {**fleet["robots"], plan_id: {**robot, "until": until}}}
 
 
 class PlanLocks:
@@ -178,6 +211,30 @@ class Store(ABC):
         changes nothing in it (a store may hand it the record it keeps)."""
 
     @abstractmethod
+    async def step_plan(self, plan_id: str, decide: FleetDecide[T]) -> Update[T] | None:
+        """:meth:`update_plan` for any plan: ``decide`` also gets the state of the plan's fleet
+        (the record's ``fleet``; None for a plan of no fleet) and its ``Update.fleet`` is
+        written with the record, all at once: no two steps of one fleet decide on the same
+        fleet state and both write (one of them decides again on the other's)."""
+
+    @abstractmethod
+    async def put_fleet_plan(
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        join: Callable[[FleetRecord | None], FleetRecord],
+        *,
+        append: Cells = (),
+    ) -> None:
+        """:meth:`put_plan` for a plan of the fleet ``record["fleet"]``: ``join`` makes the
+        fleet's new state from its current one (None: a new fleet) or raises (nothing is
+        written); both are written at once."""
+
+    @abstractmethod
+    async def get_fleet(self, fleet: str) -> FleetRecord | None:
+        """The fleet's state (its live robots), or None when it has none."""
+
+    @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         """A copy of the plan's record, or None when unknown, deleted or expired."""
 
@@ -187,7 +244,7 @@ class Store(ABC):
 
     @abstractmethod
     async def delete_plan(self, plan_id: str) -> bool:
-        """Forget a plan; True when it existed."""
+        """Forget a plan (and its robot in its fleet, at once); True when it existed."""
 
     @abstractmethod
     async def counts(self) -> tuple[int, int]:

@@ -4,13 +4,25 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 
 import orjson
 
 from planner import RobotMap
 from service.errors import InsufficientStorage
-from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, Update, pack, unpack
+from service.stores.base import (
+    Cells,
+    Decide,
+    FleetDecide,
+    FleetRecord,
+    PlanLocks,
+    PlanRecord,
+    Store,
+    T,
+    Update,
+    pack,
+    unpack,
+)
 from service.tenants import TENANT, scoped
 
 __all__ = ["MemoryStore"]
@@ -49,6 +61,7 @@ class MemoryStore(Store):
         # itself: read-only, what a step decides on).
         self._plans: OrderedDict[str, _Entry] = OrderedDict()
         self._locks = PlanLocks()
+        self._fleets: dict[str, FleetRecord] = {}  # by scoped fleet name: read-only records
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = scoped(map_id)
@@ -78,7 +91,31 @@ class MemoryStore(Store):
         self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)  # its own copy
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
+        return await self._update(scoped(plan_id), lambda record: decide(record))
+
+    async def step_plan(self, plan_id: str, decide: FleetDecide[T]) -> Update[T] | None:
         key = scoped(plan_id)
+        self._expire()
+        entry = self._plans.get(key)
+        if entry is None:
+            return None
+        fleet = entry[4].get("fleet")
+        if fleet is None:
+            return await self._update(key, lambda record: decide(record, None))
+        fleet_key = scoped(fleet)
+        # One step of a fleet at a time in this process (a fleet lock, then the plan's): each
+        # decides on the fleet state the previous one wrote.
+        async with self._locks.hold(_FLEET + fleet_key):
+            return await self._update(
+                key, lambda record: decide(record, self._fleets.get(fleet_key)), fleet_key
+            )
+
+    async def _update(
+        self,
+        key: str,
+        decide: Callable[[PlanRecord], Awaitable[Update[T]]],
+        fleet_key: str | None = None,
+    ) -> Update[T] | None:
         self._expire()
         if key not in self._plans:
             return None  # no lock is made for a plan that does not exist
@@ -92,7 +129,39 @@ class MemoryStore(Store):
                 if key not in self._plans or self._plans[key][0] <= self._clock():
                     return None  # deleted (or expired) while the step decided: it stays so
                 self._write(key, update.record, update.append)
+                if fleet_key is not None and update.fleet is not None:
+                    self._step_fleet(fleet_key, key, update.fleet)
             return update
+
+    def _step_fleet(self, fleet_key: str, key: str, fleet: FleetRecord) -> None:
+        """Write the stepping robot's entry of ``fleet`` into the fleet as it is now: a robot
+        deleted or expired while the step decided stays gone."""
+        plan_id = key.rpartition(".")[2]
+        robot = fleet["robots"].get(plan_id)
+        now = self._fleets.get(fleet_key)
+        if robot is None or now is None:
+            return
+        self._fleets[fleet_key] = {**fleet, "robots": {**now["robots"], plan_id: robot}}
+
+    async def put_fleet_plan(
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        join: Callable[[FleetRecord | None], FleetRecord],
+        *,
+        append: Cells = (),
+    ) -> None:
+        self._expire()
+        fleet_key = scoped(record["fleet"])
+        async with self._locks.hold(_FLEET + fleet_key):
+            fleet = join(self._fleets.get(fleet_key))
+            self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)
+            self._fleets[fleet_key] = orjson.loads(orjson.dumps(fleet))
+
+    async def get_fleet(self, fleet: str) -> FleetRecord | None:
+        self._expire()
+        found = self._fleets.get(scoped(fleet))
+        return None if found is None else orjson.loads(orjson.dumps(found))
 
     def _write(self, key: str, record: PlanRecord, append: Cells) -> None:
         entry = self._plans.get(key)
@@ -174,6 +243,9 @@ class MemoryStore(Store):
         entry = self._plans.pop(key, None)
         if entry is None:
             return False
+        fleet = entry[4].get("fleet")
+        if fleet is not None:
+            self._leave(key, fleet)
         map_key = entry[3]
         if map_key is not None:
             left = self._plans_on.get(map_key, 1) - 1
@@ -190,6 +262,23 @@ class MemoryStore(Store):
             if entry[0] > now:
                 break
             self._forget(key)
+
+    def _leave(self, key: str, fleet: str) -> None:
+        """The plan's robot leaves its fleet (the fleet goes with its last robot)."""
+        tenant, _, plan_id = key.rpartition(".")
+        fleet_key = f"{tenant}.{fleet}" if tenant else fleet
+        now = self._fleets.get(fleet_key)
+        if now is None:
+            return
+        robots = {k: v for k, v in now["robots"].items() if k != plan_id}
+        if robots:
+            self._fleets[fleet_key] = {**now, "robots": robots}
+        else:
+            del self._fleets[fleet_key]
+
+
+_FLEET = "\0fleet "
+"""The prefix of a fleet's lock key (no plan id holds a NUL)."""
 
 
 def _owner(key: str) -> str:

@@ -35,9 +35,18 @@ from service.stores.base import (
     pack,
     unpack,
 )
+from service.stores.redis_fleets import (
+    _FLEET_DELETE,
+    _FLEET_PUT,
+    _FLEET_STEP,
+    FLEET_TRIES,
+    FleetSteps,
+    _CachedFleet,
+    _split,
+)
 from service.tenants import scoped
 
-__all__ = ["CACHED_PLANS", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
+__all__ = ["CACHED_PLANS", "FLEET_TRIES", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
 
 log = logging.getLogger("service.store")
 
@@ -86,7 +95,7 @@ return 1
 """
 
 
-class RedisStore(Store):
+class RedisStore(FleetSteps, Store):
     """Maps and plans in Redis, for any number of replicas.
 
     A step decides on the record this replica last read or wrote, then one script writes it
@@ -114,9 +123,14 @@ class RedisStore(Store):
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
         self._step = _Collector(self._redis, self._redis.register_script(_STEP))
         self._put = self._redis.register_script(_PUT)
+        self._fleet_step = _Collector(self._redis, self._redis.register_script(_FLEET_STEP))
+        self._fleet_put = self._redis.register_script(_FLEET_PUT)
+        self._fleet_delete = self._redis.register_script(_FLEET_DELETE)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
+        # Scoped fleet name -> (version, state or None: no fleet), as last read or written.
+        self._fleets: OrderedDict[str, _CachedFleet] = OrderedDict()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"
@@ -204,6 +218,10 @@ class RedisStore(Store):
 
     async def delete_plan(self, plan_id: str) -> bool:
         key = scoped(plan_id)
+        value = await self._get(f"planner:plan:{key}")
+        fleet = None if value is None else orjson.loads(_split(value)[1]).get("fleet")
+        if fleet is not None:
+            return await self._leave(plan_id, key, scoped(fleet))
         with self._reaching:
             gone = await self._redis.delete(f"planner:plan:{key}", f"planner:path:{key}")
         self._plans.pop(key, None)
@@ -278,6 +296,7 @@ class RedisStore(Store):
 
     async def close(self) -> None:
         await self._step.close()
+        await self._fleet_step.close()
         await self._redis.aclose()
 
     async def _get(self, key: str) -> bytes | None:
@@ -313,14 +332,6 @@ class _Reaching:
                 raise InsufficientStorage(msg) from exc
             log.warning("redis at %s refused a command: %s", self.address, exc)
             raise StoreUnavailable(UNAVAILABLE) from exc
-
-
-def _split(value: bytes) -> tuple[int, bytes]:
-    """A stored plan's version and record (0 for a record written before versions)."""
-    if value[:1] == b"{":
-        return 0, value
-    version, _, json = value.partition(b" ")
-    return int(version), json
 
 
 _Call = tuple[list[str], list[Any], "asyncio.Future[Any]"]

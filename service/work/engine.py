@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 import planner
+import planner.fleets
 from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
@@ -435,6 +436,10 @@ class Engine:
             goal_used=point("goal_used"),
             goal_tolerance=float(ends.get("goal_tolerance", 0.0)),
         )
+
+    async def fleet_zones(self, map_id: str, robot_radius: float) -> planner.fleets.Zones | None:
+        """The passage zones of a fleet's map for its robots' radius (docs/fleets.md)."""
+        return None
 
     async def step(
         self, session: planner.Session, obstacles: Any, *, position: Any, seq: int | None

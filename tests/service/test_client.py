@@ -379,6 +379,7 @@ ROUTES = {
     "path": ("get", "/plan/{plan_id}/path"),
     "step": ("post", "/plan/{plan_id}/step"),
     "simulate": ("post", "/maps/{map_id}/simulate"),
+    "fleet": ("get", "/fleets/{fleet}"),
 }
 
 
@@ -450,7 +451,7 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
     assert step == set(schemas.StepCreate.model_fields)
     route = set(get_type_hints(RouteFields))
-    assert route - plan_fields == {"waypoints"}
+    assert route - plan_fields == {"waypoints", "fleet"}
     plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}
     assert plan | route == set(schemas.PlanCreate.model_fields)
 

@@ -1,0 +1,394 @@
+"""Fleets over HTTP (docs/fleets.md): N robots of one fleet with seeded starts and goals, stepped
+in synchronous ticks (every robot steps once a tick, the steps of a tick sent concurrently in a
+random order), on a map with a one-lane corridor and on the largest shared ROS map, against the
+memory store (one server) and Redis (two replicas, a robot's steps alternating replicas).
+
+Counts, after every tick: collisions (two robots in one cell, two that swapped cells, or two
+whose centers are closer than the sum of their radii), robots waiting inside a passage while
+another robot is in it; at the end, whether all arrived within 4 x the sum of their solo path
+lengths + 50 ticks (else a deadlock), and the step's p50/p99 (HTTP round trip).
+
+    .venv/bin/python benchmarks/fleet.py [--seeds 20] [--robots 16] [--store memory redis]
+
+tests/service/test_fleet_scenarios.py drives the same code at smaller sizes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import numpy.typing as npt
+
+import planner
+
+ROOT = Path(__file__).resolve().parents[1]
+CORRIDOR_RADIUS = 0.325
+"""The robots of the corridor scenarios (meters): a 0.8 m lane holds one of them at a time."""
+ROS_RADIUS = 0.22
+
+
+def corridor_map(
+    *, resolution: float = 0.1, lane_m: float = 0.8, length_m: float = 2.0, room_m: float = 4.0
+) -> planner.RobotMap:
+    """Two square rooms of ``room_m`` joined by a straight one-lane corridor ``lane_m`` wide and
+    ``length_m`` long, in the middle of their facing walls; walls one cell thick around."""
+    room = round(room_m / resolution)
+    lane = round(lane_m / resolution)
+    length = round(length_m / resolution)
+    h, w = room + 2, 2 * room + length + 4
+    occ = np.full((h, w), 100, dtype=np.int8)
+    occ[1 : 1 + room, 1 : 1 + room] = 0
+    occ[1 : 1 + room, w - 1 - room : w - 1] = 0
+    top = 1 + (room - lane) // 2
+    occ[top : top + lane, 1 + room : w - 1 - room] = 0
+    return planner.RobotMap(occ, planner.MapFrame((h, w), resolution, (0.0, 0.0, 0.0)))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Robots (start, goal cells) of one radius on one map."""
+
+    name: str
+    robot_map: planner.RobotMap
+    radius: float
+    robots: tuple[tuple[tuple[int, int], tuple[int, int]], ...]
+
+
+def _spread(
+    cells: npt.NDArray[np.int64], count: int, apart: float, rng: np.random.Generator
+) -> list[tuple[int, int]]:
+    """``count`` of ``cells`` (rows of ``(r, c)``) at least ``apart`` cells from each other."""
+    chosen: list[tuple[int, int]] = []
+    for i in rng.permutation(len(cells)):
+        r, c = int(cells[i, 0]), int(cells[i, 1])
+        if all((r - a) ** 2 + (c - b) ** 2 > apart * apart for a, b in chosen):
+            chosen.append((r, c))
+            if len(chosen) == count:
+                return chosen
+    raise ValueError(f"cannot place {count} robots {apart:.1f} cells apart")
+
+
+def corridor_scenario(per_side: int, seed: int, *, resolution: float = 0.1) -> Scenario:
+    """``per_side`` robots in each room, each going to the other room, starts and goals away
+    from the corridor's mouths (farther than the waiting zone)."""
+    m = corridor_map(resolution=resolution)
+    rng = np.random.default_rng(seed)
+    space = planner.configuration_space(m, robot_radius=CORRIDOR_RADIUS)
+    h, w = m.shape
+    room = h - 2
+    cells = np.argwhere(space.traversable == 1)
+    far = round(2.0 / resolution)  # the waiting zone reaches ~1.5 m into a room
+    left = cells[cells[:, 1] <= room - far]
+    right = cells[cells[:, 1] >= w - 1 - room + far]
+    apart = 2 * CORRIDOR_RADIUS / resolution + 2
+    ls, rs = _spread(left, 2 * per_side, apart, rng), _spread(right, 2 * per_side, apart, rng)
+    robots = [(ls[i], rs[per_side + i]) for i in range(per_side)]
+    robots += [(rs[i], ls[per_side + i]) for i in range(per_side)]
+    robots = [robots[i] for i in rng.permutation(len(robots))]
+    return Scenario(f"corridor x{2 * per_side}", m, CORRIDOR_RADIUS, tuple(robots))
+
+
+def random_scenario(
+    robot_map: planner.RobotMap, count: int, seed: int, *, radius: float = ROS_RADIUS
+) -> Scenario:
+    """``count`` robots with random starts and goals on the map's largest traversable region,
+    all of them far apart (more than the sum of radii and a margin)."""
+    space = planner.configuration_space(robot_map, robot_radius=radius)
+    region = _largest_region(space.traversable)
+    rng = np.random.default_rng(seed)
+    apart = (2 * radius + 0.3) / robot_map.resolution
+    ends = _spread(np.argwhere(region), 2 * count, apart, rng)
+    robots = tuple((ends[i], ends[count + i]) for i in range(count))
+    return Scenario(f"random x{count}", robot_map, radius, robots)
+
+
+def _largest_region(traversable: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
+    """The largest 4-connected region of traversable cells (a flood fill, numpy only)."""
+    free = traversable.astype(bool)
+    left = free.copy()
+    best = np.zeros_like(free)
+    while left.any():
+        r, c = np.argwhere(left)[0]
+        region = np.zeros_like(free)
+        region[r, c] = True
+        while True:
+            grown = region.copy()
+            grown[1:] |= region[:-1]
+            grown[:-1] |= region[1:]
+            grown[:, 1:] |= region[:, :-1]
+            grown[:, :-1] |= region[:, 1:]
+            grown &= free
+            if (grown == region).all():
+                break
+            region = grown
+        left &= ~region
+        if region.sum() > best.sum():
+            best = region
+    return best
+
+
+def map_body(robot_map: planner.RobotMap) -> dict[str, Any]:
+    """The map as a rosbridge ``nav_msgs/OccupancyGrid`` (row 0 at the origin)."""
+    h, w = robot_map.shape
+    ox, oy, yaw = robot_map.origin
+    return {
+        "occupancy_grid": {
+            "info": {
+                "resolution": robot_map.resolution,
+                "width": w,
+                "height": h,
+                "origin": {
+                    "position": {"x": ox, "y": oy, "z": 0.0},
+                    "orientation": {"x": 0.0, "y": 0.0, "z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
+                },
+            },
+            "data": np.flipud(robot_map.occupancy).ravel().tolist(),
+        }
+    }
+
+
+@dataclass
+class Outcome:
+    """What one run of a scenario counted."""
+
+    robots: int
+    arrived: int = 0
+    ticks: int = 0
+    budget: int = 0
+    collisions: list[str] = field(default_factory=list)
+    passage_waits: list[str] = field(default_factory=list)
+    step_ms: list[float] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+
+    @property
+    def deadlock(self) -> bool:
+        return self.arrived < self.robots
+
+
+def _passage_cells(robot_map: planner.RobotMap, radius: float) -> list[set[int]]:
+    find = getattr(planner, "find_passages", None)
+    if find is None:
+        return []
+    return [set(p.cells.tolist()) for p in find(robot_map, radius)]
+
+
+async def run(
+    clients: Sequence[httpx.AsyncClient],
+    scenario: Scenario,
+    *,
+    fleet: str,
+    seed: int,
+    max_ticks: int | None = None,
+) -> Outcome:
+    """Upload the map, create the fleet's plans, step every robot once a tick (concurrently, in
+    a random order; a robot's steps alternate between ``clients``) until all arrived or the
+    budget is spent; delete the plans."""
+    m, radius = scenario.robot_map, scenario.radius
+    res, w = m.resolution, m.shape[1]
+    answer = await clients[0].post("/maps", json=map_body(m))
+    answer.raise_for_status()
+    map_id = answer.json()["map_id"]
+    plan_ids, solo = [], 0
+    outcome = Outcome(len(scenario.robots))
+    try:
+        for start, goal in scenario.robots:
+            body = {"map_id": map_id, "start": list(start), "goal": list(goal),
+                    "robot_radius": radius, "fleet": fleet}  # fmt: skip
+            made = await clients[0].post("/plan", json=body)
+            if made.status_code != 201:
+                raise RuntimeError(f"plan {body}: {made.status_code} {made.text[:300]}")
+            plan_ids.append(made.json()["plan_id"])
+            solo += len(made.json()["preview"]["path"]) - 1
+        outcome.budget = 4 * solo + 50 if max_ticks is None else max_ticks
+        rng = np.random.default_rng(seed)
+        passages = _passage_cells(m, radius)
+        where = [tuple(start) for start, _ in scenario.robots]
+        done = [False] * len(plan_ids)
+        for tick in range(outcome.budget):
+            order = rng.permutation(len(plan_ids))
+            answers: dict[int, dict[str, Any]] = {}
+
+            async def step(i: int, tick: int = tick, answers: dict[int, Any] = answers) -> None:
+                client = clients[(tick + i) % len(clients)]
+                t0 = time.perf_counter()
+                got = await client.post(f"/plan/{plan_ids[i]}/step", json={"seq": tick})
+                outcome.step_ms.append((time.perf_counter() - t0) * 1000)
+                if got.status_code != 200:
+                    outcome.errors.append(f"tick {tick} robot {i}: {got.status_code} {got.text}")
+                    return
+                answers[i] = got.json()
+
+            await asyncio.gather(*(step(int(i)) for i in order))
+            before = list(where)
+            for i, a in answers.items():
+                where[i] = tuple(a["position"])
+                done[i] = a["status"] == "arrived"
+            outcome.ticks = tick + 1
+            _check(outcome, tick, before, where, answers, passages, radius / res, w)
+            if all(done):
+                break
+        outcome.arrived = sum(done)
+    finally:
+        if os.environ.get("FLEET_DEBUG"):
+            print((await clients[0].get(f"/fleets/{fleet}")).json(), file=sys.stderr)
+        for plan_id in plan_ids:
+            await clients[0].delete(f"/plan/{plan_id}")
+    return outcome
+
+
+def _check(
+    outcome: Outcome,
+    tick: int,
+    before: list[Any],
+    after: list[Any],
+    answers: dict[int, dict[str, Any]],
+    passages: list[set[int]],
+    radius_cells: float,
+    width: int,
+) -> None:
+    n = len(after)
+    for i in range(n):
+        for j in range(i + 1, n):
+            (a, b), (c, d) = after[i], after[j]
+            if (a, b) == (c, d):
+                outcome.collisions.append(f"tick {tick}: robots {i} and {j} in cell {a, b}")
+            elif before[i] == after[j] and before[j] == after[i] and before[i] != after[i]:
+                outcome.collisions.append(f"tick {tick}: robots {i} and {j} swapped")
+            elif (a - c) ** 2 + (b - d) ** 2 < (2 * radius_cells) ** 2 - 1e-9:
+                outcome.collisions.append(f"tick {tick}: robots {i} and {j} closer than 2r")
+    for p, cells in enumerate(passages):
+        inside = [i for i in range(n) if after[i][0] * width + after[i][1] in cells]
+        if len(inside) > 1:
+            waiting = [i for i in inside if answers.get(i, {}).get("move") == "WAIT"]
+            if waiting:
+                outcome.passage_waits.append(f"tick {tick}: {waiting} wait in passage {p}")
+
+
+def _percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(values, q)) if values else float("nan")
+
+
+# -- servers ---------------------------------------------------------------------------------
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _wait(url: str, process: subprocess.Popen[bytes]) -> None:
+    deadline = time.monotonic() + 120
+    while True:
+        assert process.poll() is None, "the server stopped"
+        assert time.monotonic() < deadline, "the server did not start"
+        try:
+            httpx.get(f"{url}/healthz", timeout=2)
+            return
+        except httpx.TransportError:
+            time.sleep(0.1)
+
+
+@contextmanager
+def servers(store: str, directory: Path) -> Iterator[list[str]]:
+    """One uvicorn server on the memory store, or a redis-server and two replicas on it."""
+    started: list[subprocess.Popen[bytes]] = []
+    try:
+        url = "memory://"
+        count = 1
+        if store == "redis":
+            binary = shutil.which("redis-server")
+            assert binary, "redis-server is not on PATH"
+            port = _free_port()
+            args = [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "",
+                    "--appendonly", "no", "--dir", str(directory)]  # fmt: skip
+            started.append(subprocess.Popen(args, stdout=subprocess.DEVNULL))
+            time.sleep(0.3)
+            url, count = f"redis://127.0.0.1:{port}/0", 2
+        urls = []
+        for _ in range(count):
+            port = _free_port()
+            env = {**os.environ, "PLANNER_STORE_URL": url, "PLANNER_POOL_SIZE": "1"}
+            args = [sys.executable, "-m", "uvicorn", "service.main:app", "--host", "127.0.0.1",
+                    "--port", str(port), "--log-level", "warning"]  # fmt: skip
+            process = subprocess.Popen(args, env=env, cwd=ROOT)
+            started.append(process)
+            urls.append(f"http://127.0.0.1:{port}")
+            _wait(urls[-1], process)
+        yield urls
+    finally:
+        for process in started:
+            process.kill()
+            process.wait(timeout=30)
+
+
+async def _bench(urls: list[str], scenarios: list[tuple[Scenario, int]]) -> list[Outcome]:
+    limits = httpx.Limits(max_connections=64)
+    clients = [httpx.AsyncClient(base_url=u, timeout=60, limits=limits) for u in urls]
+    try:
+        out = []
+        for n, (scenario, seed) in enumerate(scenarios):
+            out.append(await run(clients, scenario, fleet=f"bench-{n}", seed=seed))
+        return out
+    finally:
+        for c in clients:
+            await c.aclose()
+
+
+def _report(store: str, name: str, outcomes: list[Outcome]) -> str:
+    steps = [ms for o in outcomes for ms in o.step_ms]
+    robots = sum(o.robots for o in outcomes)
+    return (
+        f"| {store} | {name} | {len(outcomes)} | {sum(len(o.collisions) for o in outcomes)} | "
+        f"{sum(o.deadlock for o in outcomes)} | {sum(o.arrived for o in outcomes)}/{robots} | "
+        f"{sum(len(o.passage_waits) for o in outcomes)} | "
+        f"{sum(len(o.errors) for o in outcomes)} | {_percentile(steps, 50):.2f} | "
+        f"{_percentile(steps, 99):.2f} |"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--robots", type=int, default=16)
+    parser.add_argument("--random-seeds", type=int, default=3)
+    parser.add_argument("--store", nargs="+", default=["memory", "redis"])
+    args = parser.parse_args()
+    depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
+    print("| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
+          "| step p50 ms | step p99 ms |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for store in args.store:
+        sets = {
+            "corridor swap x2": [(corridor_scenario(1, s), s) for s in range(args.seeds)],
+            "corridor swap x4": [(corridor_scenario(2, s), s) for s in range(args.seeds)],
+            f"depot x{args.robots}": [
+                (random_scenario(depot, args.robots, s), s) for s in range(args.random_seeds)
+            ],
+        }
+        with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as urls:
+            for name, scenarios in sets.items():
+                outcomes = asyncio.run(_bench(urls, scenarios))
+                print(_report(store, name, outcomes), flush=True)
+                for o in outcomes:
+                    for line in (o.collisions + o.passage_waits + o.errors)[:3]:
+                        print("  ", line, file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,148 @@
+"""A fleet's shared state (docs/fleets.md): where each robot stands, where it was last told to
+go, its size, and what it waits for; plain data that a store writes atomically with the
+stepping robot's plan. And what the other robots block for one robot's step."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["Robot", "covering", "disk_offsets", "robot_cells"]
+
+Cell = tuple[int, int]
+
+
+@dataclass(frozen=True, slots=True)
+class Robot:
+    """One robot of a fleet as its fleet keeps it.
+
+    It physically occupies ``cell`` (where it stood when last told) and ``target`` (the cell it
+    was told to move to, where the service records it) until its next step; a robot that never
+    stepped has both at its start.
+    """
+
+    rank: int
+    """Its priority: the order it joined the fleet in (lower first)."""
+    cell: Cell
+    target: Cell
+    radius: float
+    """Meters."""
+    goal: Cell
+    status: str = "ready"
+    waiting_for: str | None = None
+    """The plan_id of the robot it waits for (on its goal, or holding a passage it needs)."""
+    holds: tuple[int, ...] = ()
+    """The passage groups it holds (docs/fleets.md, "Passages")."""
+    wants: int | None = None
+    """The passage group it waits at the border of, if any."""
+    until: float = math.inf
+    """When its plan expires (seconds of the epoch): a robot whose plan expired is gone."""
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "rank": self.rank,
+            "cell": list(self.cell),
+            "target": list(self.target),
+            "radius": self.radius,
+            "goal": list(self.goal),
+            "status": self.status,
+            "waiting_for": self.waiting_for,
+            "holds": list(self.holds),
+            "wants": self.wants,
+            "until": None if math.isinf(self.until) else self.until,
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Robot:
+        (r, c), (tr, tc), (gr, gc) = d["cell"], d["target"], d["goal"]
+        until = d.get("until")
+        return cls(
+            d["rank"], (r, c), (tr, tc), float(d["radius"]), (gr, gc), d.get("status", "ready"),
+            d.get("waiting_for"), tuple(d.get("holds", ())), d.get("wants"),
+            math.inf if until is None else float(until),
+        )  # fmt: skip
+
+    def moved(self, previous: Cell, position: Cell, status: str, **changes: Any) -> Robot:
+        """This robot after a step that told it to go from ``previous`` to ``position``."""
+        return replace(self, cell=previous, target=position, status=status, **changes)
+
+
+@lru_cache(maxsize=256)
+def _offsets(squared: float) -> npt.NDArray[np.int64]:
+    reach = math.isqrt(math.floor(squared))
+    span = np.arange(-reach, reach + 1, dtype=np.int64)
+    dr, dc = np.meshgrid(span, span, indexing="ij")
+    inside = dr * dr + dc * dc <= squared
+    out = np.stack((dr[inside], dc[inside]), axis=1)
+    out.setflags(write=False)
+    return out
+
+
+def disk_offsets(radius_cells: float) -> npt.NDArray[np.int64]:
+    """The ``(n, 2)`` cell offsets whose centers are within ``radius_cells`` of ``(0, 0)``'s
+    (the boundary included: a robot there would touch), always ``(0, 0)`` itself.
+
+    >>> disk_offsets(1.0).tolist()
+    [[-1, 0], [0, -1], [0, 0], [0, 1], [1, 0]]
+    """
+    if not radius_cells >= 0 or not math.isfinite(radius_cells):
+        raise ValueError(f"radius_cells must be finite and >= 0; got {radius_cells!r}")
+    return _offsets(round(radius_cells * radius_cells + 1e-9, 9))
+
+
+def robot_cells(
+    radius: float,
+    others: Iterable[Robot],
+    *,
+    resolution: float,
+    shape: tuple[int, int],
+    margin: int = 0,
+) -> npt.NDArray[np.int64]:
+    """The cells (an ``(n, 2)`` array, inside the map) a robot of ``radius`` meters must not be
+    told to enter because of the ``others``: every cell whose center is within the sum of both
+    radii of another robot's ``cell`` or ``target``, once the step's decision has blocked every
+    cell within Chebyshev ``margin`` of them (its ``dynamic_margin``).
+
+    With a margin, fewer cells are given: a disk of radius ``sqrt((R - m)^2 + m^2)`` (cells;
+    just the center when ``R <= m``), whose cells within Chebyshev ``m`` cover every cell
+    within ``R`` (from a cell at distance ``d <= R``, the move by ``m`` toward the center on
+    each axis lands within that radius), and no more than the margin needs: a robot beside
+    a wall is not boxed in by a disk grown by a margin it already has."""
+    H, W = shape
+    parts = []
+    for other in others:
+        reach = (radius + other.radius) / resolution
+        if margin > 0:
+            reach = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
+        offsets = disk_offsets(reach)
+        centers = np.array(sorted({other.cell, other.target}), dtype=np.int64)
+        parts.append((centers[:, None, :] + offsets[None, :, :]).reshape(-1, 2))
+    if not parts:
+        return np.empty((0, 2), dtype=np.int64)
+    cells = np.concatenate(parts)
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < H) & (cells[:, 1] >= 0) & (cells[:, 1] < W)
+    flat = np.unique(cells[inside, 0] * W + cells[inside, 1])
+    out: npt.NDArray[np.int64] = np.stack(np.divmod(flat, W), axis=1).astype(np.int64)
+    return out
+
+
+def covering(
+    cell: Cell, radius: float, others: Mapping[str, Robot], *, resolution: float
+) -> list[str]:
+    """The plan_ids of the robots (by rank) standing where a robot of ``radius`` meters at
+    ``cell`` would touch them (within the sum of both radii of their cell or target)."""
+    found: list[tuple[int, str]] = []
+    for plan_id, other in others.items():
+        reach = (radius + other.radius) / resolution
+        if any(
+            (r - cell[0]) ** 2 + (c - cell[1]) ** 2 <= reach * reach + 1e-9
+            for r, c in (other.cell, other.target)
+        ):
+            found.append((other.rank, plan_id))
+    return [plan_id for _, plan_id in sorted(found)]

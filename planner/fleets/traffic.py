@@ -1,0 +1,129 @@
+"""The rules of a fleet's traffic for one robot's step (docs/fleets.md): what it must not enter
+(the other robots, with both radii; the passages others hold), and what its fleet records of
+it afterwards (where it stands and was told to go, what it holds, waits at and waits for)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from planner.fleets.robots import Robot, covering, robot_cells
+from planner.fleets.zones import Zones
+
+__all__ = ["Traffic", "after_step", "traffic_for"]
+
+
+@dataclass(frozen=True, slots=True)
+class Traffic:
+    """What one robot's step must keep clear of, by its fleet."""
+
+    robots: npt.NDArray[np.int64]
+    """``(n, 2)`` cells within the sum of radii of another robot's cell or target."""
+    closed: Mapping[int, str]
+    """Passage group -> the plan_id it is closed for (its holder, or the robot of higher
+    priority waiting at it)."""
+    zones: npt.NDArray[np.int64]
+    """``(m, 2)`` cells of the closed groups' zones."""
+
+    def obstacles(
+        self, given: npt.NDArray[np.int64], *, open_zones: bool = False
+    ) -> npt.NDArray[np.int64]:
+        """The step's obstacles: the client's ``given`` cells, the robots' and (unless
+        ``open_zones``) the closed passages' zones."""
+        parts = [given, self.robots] if open_zones else [given, self.robots, self.zones]
+        return np.ascontiguousarray(np.concatenate(parts).astype(np.int64, copy=False))
+
+
+NEAR = 4
+"""Cells (Chebyshev) around the robot within which a robot standing on its goal blocks it: more
+than a move and the decision's ``dynamic_margin`` reach."""
+
+
+def traffic_for(
+    plan_id: str,
+    robots: Mapping[str, Robot],
+    *,
+    resolution: float,
+    shape: tuple[int, int],
+    zones: Zones | None = None,
+    here: tuple[int, int] | None = None,
+    margin: int = 1,
+) -> Traffic:
+    """What the fleet's ``robots`` block for ``plan_id``'s step (the robot at ``here``, else
+    where it was told to be): every other robot's cell and target with both radii, and the
+    zone of every passage group that another robot holds or that a robot of higher priority
+    (lower rank) waits at and ``plan_id`` does not hold.
+
+    A robot standing on this one's goal blocks only the cells this step could reach (its
+    decision's ``margin`` included): the robot still approaches its goal, its searches
+    finding the way there, and it waits beside the other, never inside its radius. (Blocked
+    whole, it would never leave its start: robots whose goals are each other's starts would
+    wait for each other forever.)"""
+    me = robots[plan_id]
+    others = {k: v for k, v in robots.items() if k != plan_id}
+    on_goal = covering(me.goal, me.radius, others, resolution=resolution)
+    cells = robot_cells(
+        me.radius, [o for k, o in others.items() if k not in on_goal],
+        resolution=resolution, shape=shape, margin=margin,
+    )  # fmt: skip
+    if on_goal:
+        r, c = me.target if here is None else here
+        near = robot_cells(
+            me.radius, [others[k] for k in on_goal], resolution=resolution, shape=shape,
+            margin=margin,
+        )  # fmt: skip
+        reach = NEAR + margin
+        keep = (np.abs(near[:, 0] - r) <= reach) & (np.abs(near[:, 1] - c) <= reach)
+        cells = np.concatenate((cells, near[keep]))
+    closed: dict[int, str] = {}
+    if zones is not None and zones.count:
+        for group in range(zones.count):
+            if group in me.holds:
+                continue
+            holders = sorted((o.rank, k) for k, o in others.items() if group in o.holds)
+            if holders:
+                closed[group] = holders[0][1]
+                continue
+            ahead = sorted(
+                (o.rank, k) for k, o in others.items() if o.wants == group and o.rank < me.rank
+            )
+            if ahead:
+                closed[group] = ahead[0][1]
+    zone_cells = np.empty((0, 2), np.int64)
+    if zones is not None and closed:
+        zone_cells = zones.cells_of(sorted(closed))
+    return Traffic(cells, closed, zone_cells)
+
+
+def after_step(
+    me: Robot,
+    others: Mapping[str, Robot],
+    *,
+    previous: tuple[int, int],
+    position: tuple[int, int],
+    status: str,
+    traffic: Traffic,
+    zones: Zones | None,
+    resolution: float,
+    would_enter: int | None = None,
+) -> Robot:
+    """The robot as its fleet records it after a step that told it to go from ``previous`` to
+    ``position`` with ``status``: it holds every passage group whose zone holds either cell;
+    waiting, it waits at the closed group it ``would_enter`` (the group's holder is whom it
+    waits for), else for the robot standing on its goal, if any."""
+    holds: tuple[int, ...] = ()
+    if zones is not None and zones.count:
+        groups = {zones.group_at(previous), zones.group_at(position)}
+        holds = tuple(sorted(g for g in groups if g >= 0))
+    waiting = status == "waiting"
+    wants = would_enter if waiting and would_enter is not None else None
+    waiting_for = None
+    if wants is not None:
+        waiting_for = traffic.closed.get(wants)
+    elif waiting:
+        first = covering(me.goal, me.radius, others, resolution=resolution)
+        waiting_for = first[0] if first else None
+    return me.moved(previous, position, status, holds=holds, wants=wants, waiting_for=waiting_for)

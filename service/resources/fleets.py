@@ -1,0 +1,144 @@
+"""Fleets (docs/fleets.md): a plan joining its fleet, a fleet robot's step among the others, and
+the fleet as it stands. The fleet's state lives in the store beside its plans, and every change
+to it is written at once with the plan that made it (``Store.put_fleet_plan``,
+``Store.step_plan``): a step is load state (the plan's and the fleet's), decide, save both."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from contextlib import suppress
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import planner
+from planner import quote
+from planner.fleets import Robot, Zones, after_step, covering, traffic_for
+from planner.plans.ends import cell_of
+from service.errors import NotFound
+from service.stores.base import FleetRecord
+from service.work.engine import Engine
+
+__all__ = ["FleetView", "Moved", "get_fleet", "join", "step_in_fleet"]
+
+
+@dataclass(frozen=True, slots=True)
+class FleetView:
+    """A fleet's state, its map's frame and its passages (with their groups)."""
+
+    fleet: str
+    state: FleetRecord
+    frame: planner.MapFrame
+    zones: Zones | None
+
+
+@dataclass(frozen=True, slots=True)
+class Moved:
+    """A fleet robot's step: its answer, whom it waits for, and the fleet's new state."""
+
+    step: planner.Step
+    waiting_for: str | None
+    fleet: FleetRecord
+
+
+def join(
+    fleet: str, plan_id: str, map_id: str, plan: planner.Plan
+) -> Callable[[FleetRecord | None], FleetRecord]:
+    """The fleet's new state with the plan's robot in it, from its state now (None: a new fleet
+    on the plan's map, its radius the robot's). ``InvalidInput`` when the fleet is on another
+    map (``FLEET_MAP_MISMATCH``) or another robot stands where the robot starts."""
+    radius = float(plan.params.robot_radius)
+    resolution = plan.analysis.frame.resolution
+
+    def apply(state: FleetRecord | None) -> FleetRecord:
+        if state is None or not state["robots"]:
+            state = {"map_id": map_id, "radius": radius, "next": 0, "robots": {}}
+        elif state["map_id"] != map_id:
+            msg = (
+                f"FLEET_MAP_MISMATCH: map_id {quote(map_id)} is not the map of fleet "
+                f"{quote(fleet)} ({quote(state['map_id'])})"
+            )
+            raise planner.InvalidInput(msg, field="map_id", code="FLEET_MAP_MISMATCH")
+        robots = {k: Robot.from_dict(v) for k, v in state["robots"].items()}
+        taken = covering(plan.start, radius, robots, resolution=resolution)
+        if taken:
+            msg = (
+                f"start {list(plan.start)} is taken: robot {quote(taken[0])} of fleet "
+                f"{quote(fleet)} "
+                "stands there (within the sum of both radii); delete its plan first"
+            )
+            raise planner.InvalidInput(msg, field="start", code="FLEET_START_TAKEN")
+        robot = Robot(state["next"], plan.start, plan.start, radius, plan.goal)
+        return {
+            **state,
+            "next": state["next"] + 1,
+            "robots": {**state["robots"], plan_id: robot.as_dict()},
+        }
+
+    return apply
+
+
+async def step_in_fleet(
+    engine: Engine,
+    plan_id: str,
+    session: planner.Session,
+    obstacles: list[list[int]],
+    fleet: FleetRecord,
+    *,
+    position: Any,
+    seq: int | None,
+) -> Moved:
+    """The robot's step, keeping clear of its fleet: the other robots (their cells and targets,
+    with both radii) and the passages another robot holds are obstacles besides the client's.
+    Next to a passage closed to it, the step is first tried with it open: a robot that would
+    enter waits at it (``wants``), and robots of lower priority let it go first."""
+    plan = session.plan
+    frame = plan.analysis.frame
+    robots = {k: Robot.from_dict(v) for k, v in fleet["robots"].items()}
+    me = robots.get(plan_id)
+    if me is None:  # its fleet expired meanwhile: it joins again, last
+        cell = session.state.position
+        me = Robot(
+            int(fleet.get("next", 0)), cell, cell, float(plan.params.robot_radius), plan.goal
+        )
+        robots[plan_id] = me
+        fleet = {**fleet, "next": int(fleet.get("next", 0)) + 1}
+    zones = await engine.fleet_zones(fleet["map_id"], float(fleet["radius"]))
+    here = None
+    if position is not None:
+        with suppress(planner.InvalidInput):  # else the step refuses it
+            here = cell_of(plan.analysis, position, "position")
+    traffic = traffic_for(
+        plan_id, robots, resolution=frame.resolution, shape=plan.analysis.shape, zones=zones,
+        here=here, margin=plan.params.dynamic_margin,
+    )  # fmt: skip
+    given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
+    would_enter = None
+    if traffic.closed and zones is not None:
+        trial = planner.Session(session.route, session.state.copy(), poses=False)
+        tried = await engine.step(
+            trial, traffic.obstacles(given, open_zones=True), position=position, seq=seq
+        )
+        group = zones.group_at(tried.position)
+        if group in traffic.closed and zones.group_at(tried.previous) != group:
+            would_enter = group
+    step = await engine.step(session, traffic.obstacles(given), position=position, seq=seq)
+    others = {k: v for k, v in robots.items() if k != plan_id}
+    moved = after_step(
+        me, others, previous=step.previous, position=step.position, status=step.status,
+        traffic=traffic, zones=zones, resolution=frame.resolution, would_enter=would_enter,
+    )  # fmt: skip
+    state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
+    return Moved(step, moved.waiting_for, state)
+
+
+async def get_fleet(engine: Engine, fleet: str) -> FleetView:
+    """The fleet's state now; ``NotFound`` when it has no robot."""
+    state = await engine.store.get_fleet(fleet)
+    if state is None or not state["robots"]:
+        msg = f"fleet: no fleet {quote(fleet)} (no plan of it is alive)"
+        raise NotFound(msg, field="fleet")
+    robot_map = await engine.robot_map(state["map_id"])
+    zones = await engine.fleet_zones(state["map_id"], float(state["radius"]))
+    return FleetView(fleet, state, robot_map.frame, zones)

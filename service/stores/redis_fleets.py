@@ -1,0 +1,318 @@
+"""The Redis store's fleets (docs/fleets.md, docs/redis-store.md): a fleet's state is one key,
+``planner:fleet:{fleet}``, version-fenced as a plan's record is; a fleet robot's step writes its
+plan and its fleet in one script, only if neither moved on since the step read them."""
+
+from __future__ import annotations
+
+import random
+import time
+from collections import OrderedDict
+from collections.abc import Awaitable, Callable
+from contextlib import AbstractContextManager
+from typing import Any
+
+import orjson
+
+from planner import quote
+from service.errors import StoreUnavailable
+from service.stores.base import (
+    Cells,
+    FleetDecide,
+    FleetRecord,
+    PlanLocks,
+    PlanRecord,
+    T,
+    Update,
+    live_fleet,
+    pack,
+    stamp_robot,
+)
+from service.tenants import scoped
+
+__all__ = ["FLEET_TRIES", "FleetSteps"]
+
+FLEET_TRIES = 64
+"""Times a fleet robot's step decides before answering 503 when other replicas' steps of the
+same fleet keep writing first (each lost try means another robot of the fleet was recorded)."""
+CACHED_FLEETS = 4096
+"""Fleet states each replica keeps of the fleets it read or wrote last."""
+_Cached = tuple[int, PlanRecord]
+_CachedFleet = tuple[int, FleetRecord | None]
+"""A fleet as this replica last read or wrote it: its version and state (0, None: none)."""
+_FLEET = "\0fleet "
+"""The prefix of a fleet's lock key (no plan id holds a NUL)."""
+
+
+# The fleet's version check, shared by the fleet scripts: KEYS[f] the fleet, ARGV[e] the version
+# prefix decided on ('': there was no fleet). Returns {3, value} ('' for none) when it moved on.
+_FLEET_FENCE = """
+local fleet = redis.call('GET', KEYS[{f}])
+if ARGV[{e}] == '' then
+  if fleet then return {{3, fleet}} end
+elseif not fleet then return {{3, ''}}
+elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{3, fleet}} end
+"""
+
+# A fleet robot's step in one round trip: _STEP's keys and arguments, then KEYS[3] the fleet
+# (the map moves to KEYS[4]), ARGV[8] the fleet's version prefix decided on, ARGV[9] its new
+# value. Besides _STEP's answers, {3, value}: another robot of the fleet was recorded first.
+_FLEET_STEP = (
+    """
+local now = redis.call('GET', KEYS[1])
+if not now then return {0} end
+if now == ARGV[2] then return {1} end
+if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
+"""
+    + _FLEET_FENCE.format(f=3, e=8)
+    + """
+redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
+if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
+redis.call('PEXPIRE', KEYS[2], ARGV[3])
+redis.call('SET', KEYS[3], ARGV[9], 'PX', ARGV[3])
+if KEYS[4] then redis.call('PEXPIRE', KEYS[4], ARGV[5]) end
+if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
+return {1}
+"""
+)
+
+# A new plan of a fleet, joining it: KEYS the fleet, the plan, its path (and its map); ARGV the
+# fleet's version prefix, its new value, the TTL, the plan's value, the cells, the map's TTL.
+_FLEET_PUT = (
+    _FLEET_FENCE.format(f=1, e=1)
+    + """
+redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
+redis.call('SET', KEYS[2], ARGV[4], 'PX', ARGV[3])
+if ARGV[5] ~= '' then redis.call('APPEND', KEYS[3], ARGV[5]) end
+redis.call('PEXPIRE', KEYS[3], ARGV[3])
+if KEYS[4] then redis.call('PEXPIRE', KEYS[4], ARGV[6]) end
+return {1}
+"""
+)
+
+# A fleet's plan deleted, leaving it: KEYS the plan, its path, the fleet; ARGV the fleet's
+# version prefix and its new value ('': the fleet goes with its last robot). {1, deleted keys}.
+_FLEET_DELETE = (
+    _FLEET_FENCE.format(f=3, e=1)
+    + """
+local gone = redis.call('DEL', KEYS[1], KEYS[2])
+if ARGV[2] == '' then redis.call('DEL', KEYS[3])
+else redis.call('SET', KEYS[3], ARGV[2], 'KEEPTTL') end
+return {1, gone}
+"""
+)
+
+
+class FleetSteps:
+    """The fleet methods of :class:`~service.stores.redis.RedisStore` (its other half: the
+    plan's record, its cache and its step script)."""
+
+    _ttl_ms: int
+    _map_ttl_ms: int
+    _locks: PlanLocks
+    _plans: OrderedDict[str, _Cached]
+    _fleets: OrderedDict[str, _CachedFleet]
+    _reaching: AbstractContextManager[None]
+    _fleet_step: Any  # the step script's collector
+    _fleet_put: Callable[..., Awaitable[Any]]
+    _fleet_delete: Callable[..., Awaitable[Any]]
+
+    async def update_plan(self, plan_id: str, decide: Any) -> Update[Any] | None:
+        raise NotImplementedError
+
+    async def _read(self, key: str) -> _Cached | None:
+        raise NotImplementedError
+
+    def _parse(self, key: str, value: object) -> _Cached:
+        raise NotImplementedError
+
+    async def _write(self, key: str, version: int, update: Update[T]) -> list[bytes | int]:
+        raise NotImplementedError
+
+    def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached:
+        raise NotImplementedError
+
+    def _keys(self, key: str, record: PlanRecord) -> list[str]:
+        raise NotImplementedError
+
+    async def _get(self, key: str) -> bytes | None:
+        raise NotImplementedError
+
+    async def step_plan(self, plan_id: str, decide: FleetDecide[T]) -> Update[T] | None:
+        key = scoped(plan_id)
+        cached = self._plans.get(key)
+        if cached is None:
+            cached = await self._read(key)
+            if cached is None:
+                return None
+        fleet = cached[1].get("fleet")
+        if fleet is None:
+            return await self.update_plan(plan_id, lambda record: decide(record, None))
+        fleet_key = scoped(fleet)
+        # One step of a fleet at a time on this replica (the fleet's lock, then the plan's):
+        # only other replicas' steps can outdate the fleet state it decides on.
+        async with self._locks.hold(_FLEET + fleet_key), self._locks.hold(key):
+            return await self._step_in_fleet(plan_id, key, fleet_key, decide)
+
+    async def _step_in_fleet(
+        self, plan_id: str, key: str, fleet_key: str, decide: FleetDecide[T]
+    ) -> Update[T] | None:
+        cached = self._plans.get(key)
+        fresh = cached is None
+        if cached is None:
+            cached = await self._read(key)
+            if cached is None:
+                return None
+        fleet = self._fleets.get(fleet_key) or await self._read_fleet(fleet_key)
+        for _ in range(FLEET_TRIES):
+            version, record = cached
+            try:
+                update = await decide(record, live_fleet(fleet[1], time.time()))
+            except Exception:
+                if fresh:
+                    raise
+                now = await self._read(key)  # refused on a copy another replica outdated?
+                if now is None:
+                    return None
+                if now[0] == version:
+                    raise
+                cached, fresh = now, True
+                continue
+            if update.record is None:  # a replay: only checked
+                if fresh:
+                    return update
+                answer = await self._write(key, version, update)
+            else:
+                answer = await self._write_in_fleet(key, version, fleet_key, fleet[0], update)
+            if answer[0] == 1:
+                return update
+            if answer[0] == 0:
+                self._plans.pop(key, None)
+                return None
+            if answer[0] == 2:
+                cached, fresh = self._parse(key, answer[1]), True
+            else:
+                fleet = self._parse_fleet(fleet_key, answer[1])
+        msg = (
+            f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps of its fleet were "
+            f"recorded first {FLEET_TRIES} times in a row; retry later"
+        )
+        raise StoreUnavailable(msg, field="plan_id")
+
+    async def _write_in_fleet(
+        self, key: str, version: int, fleet_key: str, fleet_version: int, update: Update[T]
+    ) -> list[bytes | int]:
+        """A fleet robot's step in one round trip: the record as :meth:`_write` writes it, and
+        the fleet's new state, if neither moved on since ``version`` and ``fleet_version``."""
+        assert update.record is not None
+        assert update.fleet is not None
+        expect = b"%d " % version if version else b"{"
+        written, fleet_written = random.getrandbits(62) + 1, random.getrandbits(62) + 1
+        plan_id = key.rpartition(".")[2]
+        state = stamp_robot(update.fleet, plan_id, time.time() + self._ttl_ms / 1000)
+        channel, message = update.event or ("", b"")
+        keys = self._keys(key, update.record)
+        keys.insert(2, f"planner:fleet:{fleet_key}")
+        args: list[bytes | int | str] = [
+            expect, b"%d %b" % (written, orjson.dumps(update.record)), self._ttl_ms,
+            pack(update.append), self._map_ttl_ms, channel, message,
+            b"%d " % fleet_version if fleet_version else b"",
+            b"%d %b" % (fleet_written, orjson.dumps(state)),
+        ]  # fmt: skip
+        with self._reaching:
+            answer: list[bytes | int] = await self._fleet_step(keys=keys, args=args)
+        if answer[0] == 1:
+            self._remember(key, written, update.record)
+            self._remember_fleet(fleet_key, fleet_written, state)
+        return answer
+
+    async def put_fleet_plan(
+        self,
+        plan_id: str,
+        record: PlanRecord,
+        join: Callable[[FleetRecord | None], FleetRecord],
+        *,
+        append: Cells = (),
+    ) -> None:
+        key, fleet_key = scoped(plan_id), scoped(record["fleet"])
+        json = orjson.dumps(record)
+        keys = [f"planner:fleet:{fleet_key}", *self._keys(key, record)]
+        async with self._locks.hold(_FLEET + fleet_key):
+            fleet = await self._read_fleet(fleet_key)
+            for _ in range(FLEET_TRIES):
+                state = join(live_fleet(fleet[1], time.time()))
+                state = stamp_robot(state, plan_id, time.time() + self._ttl_ms / 1000)
+                version, fleet_version = random.getrandbits(62) + 1, random.getrandbits(62) + 1
+                args: list[bytes | int] = [
+                    b"%d " % fleet[0] if fleet[0] else b"",
+                    b"%d %b" % (fleet_version, orjson.dumps(state)), self._ttl_ms,
+                    b"%d %b" % (version, json), pack(append), self._map_ttl_ms,
+                ]  # fmt: skip
+                with self._reaching:
+                    answer = await self._fleet_put(keys=keys, args=args)
+                if answer[0] == 1:
+                    self._remember(key, version, orjson.loads(json))
+                    self._remember_fleet(fleet_key, fleet_version, state)
+                    return
+                fleet = self._parse_fleet(fleet_key, answer[1])
+        msg = f"fleet: fleet {quote(record['fleet'])} is busy; retry later"
+        raise StoreUnavailable(msg, field="fleet")
+
+    async def get_fleet(self, fleet: str) -> FleetRecord | None:
+        value = await self._get(f"planner:fleet:{scoped(fleet)}")
+        if value is None:
+            return None
+        state = live_fleet(orjson.loads(_split(value)[1]), time.time())
+        return state if state and state["robots"] else None
+
+    async def _read_fleet(self, fleet_key: str) -> _CachedFleet:
+        value = await self._get(f"planner:fleet:{fleet_key}")
+        return self._parse_fleet(fleet_key, value or b"")
+
+    def _parse_fleet(self, fleet_key: str, value: object) -> _CachedFleet:
+        assert isinstance(value, bytes)  # no decode_responses
+        if not value:
+            return self._remember_fleet(fleet_key, 0, None)
+        version, json = _split(value)
+        return self._remember_fleet(fleet_key, version, orjson.loads(json))
+
+    def _remember_fleet(
+        self, fleet_key: str, version: int, state: FleetRecord | None
+    ) -> _CachedFleet:
+        entry = self._fleets[fleet_key] = (version, state)
+        self._fleets.move_to_end(fleet_key)
+        if len(self._fleets) > CACHED_FLEETS:
+            self._fleets.popitem(last=False)
+        return entry
+
+    async def _leave(self, plan_id: str, key: str, fleet_key: str) -> bool:
+        """Delete a fleet's plan and its robot in the fleet at once."""
+        keys = [f"planner:plan:{key}", f"planner:path:{key}", f"planner:fleet:{fleet_key}"]
+        async with self._locks.hold(_FLEET + fleet_key):
+            fleet = await self._read_fleet(fleet_key)
+            for _ in range(FLEET_TRIES):
+                version, state = fleet
+                robots = {} if state is None else dict(state["robots"])
+                robots.pop(plan_id, None)
+                live = live_fleet({**(state or {}), "robots": robots}, time.time())
+                new = b""
+                if state is not None and live is not None and live["robots"]:
+                    new = b"%d %b" % (random.getrandbits(62) + 1, orjson.dumps(live))
+                with self._reaching:
+                    answer = await self._fleet_delete(
+                        keys=keys, args=[b"%d " % version if version else b"", new]
+                    )
+                if answer[0] == 1:
+                    self._plans.pop(key, None)
+                    self._fleets.pop(fleet_key, None)
+                    return bool(answer[1])
+                fleet = self._parse_fleet(fleet_key, answer[1])
+        msg = f"plan_id: the fleet of plan {quote(plan_id)} is busy; retry later"
+        raise StoreUnavailable(msg, field="plan_id")
+
+
+def _split(value: bytes) -> tuple[int, bytes]:
+    """A stored plan's version and record (0 for a record written before versions)."""
+    if value[:1] == b"{":
+        return 0, value
+    version, _, json = value.partition(b" ")
+    return int(version), json

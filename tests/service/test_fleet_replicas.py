@@ -1,0 +1,39 @@
+"""A fleet on Redis served by two replicas, each robot's steps alternating between them and the
+steps of a tick sent at once: no two robots are ever told into one cell, to swap, or closer than
+the sum of their radii (the fleet's state is version-fenced in Redis), and all arrive."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+import httpx
+
+from tests.service.conftest import RedisServer, replicas
+from tests.service.test_fleets import F, room
+
+
+def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_path: Path) -> None:
+    ends = (((15, 3), (15, 28)), ((15, 28), (15, 3)), ((3, 15), (28, 15)), ((28, 15), (3, 15)))
+    scenario = F.Scenario("cross", room(), 0.25, ends)
+
+    async def main(urls: list[str]) -> list[object]:
+        clients = [httpx.AsyncClient(base_url=u, timeout=60, trust_env=False) for u in urls]
+        try:
+            return [
+                await F.run(clients, scenario, fleet=f"cross-{seed}", seed=seed)
+                for seed in range(2)
+            ]
+        finally:
+            for c in clients:
+                await c.aclose()
+
+    with replicas(redis_server.url, tmp_path, 2) as started:
+        outcomes = asyncio.run(main([r.url for r in started]))
+        for outcome in outcomes:
+            assert outcome.errors == []  # type: ignore[attr-defined]
+            assert outcome.collisions == []  # type: ignore[attr-defined]
+            assert outcome.arrived == 4  # type: ignore[attr-defined]
+        # The fleet left Redis with its last plan.
+        with httpx.Client(base_url=started[1].url, trust_env=False) as c:
+            assert c.get("/fleets/cross-0").status_code == 404

@@ -1,0 +1,234 @@
+"""Fleets (docs/fleets.md): plans of one fleet keep clear of each other, also when their steps
+arrive at once; a robot on another's goal makes it wait; fleets are per map and per tenant."""
+
+from __future__ import annotations
+
+import asyncio
+import importlib.util
+import sys
+from pathlib import Path
+from typing import Any
+
+import httpx
+import numpy as np
+import pytest
+from pydantic import SecretStr
+
+import planner
+from service.config import Settings
+from service.main import create_app
+
+SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet.py"
+
+
+def _load() -> Any:
+    spec = importlib.util.spec_from_file_location("bench_fleet", SCRIPT)
+    assert spec is not None
+    assert spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up while it is executed
+    spec.loader.exec_module(module)
+    return module
+
+
+F = _load()
+pytestmark = pytest.mark.anyio
+SETTINGS = Settings(pool_size=1)
+
+
+def room(side: int = 30, resolution: float = 0.1) -> planner.RobotMap:
+    """An empty square room, walls one cell thick."""
+    occ = np.pad(np.zeros((side, side), np.int8), 1, constant_values=100)
+    return planner.RobotMap(occ, planner.MapFrame(occ.shape, resolution, (0.0, 0.0, 0.0)))
+
+
+@pytest.fixture
+async def client() -> Any:
+    app = create_app(SETTINGS)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
+            yield c
+
+
+async def _map(client: httpx.AsyncClient, robot_map: planner.RobotMap) -> str:
+    answer = await client.post("/maps", json=F.map_body(robot_map))
+    assert answer.status_code in (200, 201), answer.text
+    return str(answer.json()["map_id"])
+
+
+async def _plan(
+    client: httpx.AsyncClient, map_id: str, start: list[int], goal: list[int], **extra: Any
+) -> httpx.Response:
+    body = {"map_id": map_id, "start": start, "goal": goal, "robot_radius": 0.25, **extra}
+    return await client.post("/plan", json=body)
+
+
+async def test_robots_crossing_a_room_never_collide_and_all_arrive(
+    client: httpx.AsyncClient,
+) -> None:
+    # Four robots crossing through the middle at once, two pairs head-on.
+    ends = (((15, 3), (15, 28)), ((15, 28), (15, 3)), ((3, 15), (28, 15)), ((28, 15), (3, 15)))
+    scenario = F.Scenario("cross", room(), 0.25, ends)
+    for seed in range(2):
+        outcome = await F.run([client], scenario, fleet=f"cross-{seed}", seed=seed)
+        assert outcome.errors == []
+        assert outcome.collisions == []
+        assert outcome.arrived == 4, outcome
+
+
+async def test_without_a_fleet_robots_ignore_each_other(client: httpx.AsyncClient) -> None:
+    """The control: the same head-on pair without ``fleet`` do meet (what fleets prevent)."""
+    map_id = await _map(client, room())
+    a = (await _plan(client, map_id, [15, 3], [15, 28])).json()["plan_id"]
+    b = (await _plan(client, map_id, [15, 28], [15, 3])).json()["plan_id"]
+    met = False
+    for seq in range(40):
+        pa = (await client.post(f"/plan/{a}/step", json={"seq": seq})).json()["position"]
+        pb = (await client.post(f"/plan/{b}/step", json={"seq": seq})).json()["position"]
+        met |= (pa[0] - pb[0]) ** 2 + (pa[1] - pb[1]) ** 2 < 5**2
+    assert met
+
+
+async def test_a_robot_on_the_goal_makes_the_other_wait_until_it_is_deleted(
+    client: httpx.AsyncClient,
+) -> None:
+    map_id = await _map(client, room())
+    parked = (await _plan(client, map_id, [15, 20], [15, 21], fleet="f")).json()["plan_id"]
+    made = await _plan(client, map_id, [15, 3], [15, 21], fleet="f")
+    assert made.status_code == 201, made.text
+    assert made.json()["fleet"] == "f"
+    mover = made.json()["plan_id"]
+    assert (await client.post(f"/plan/{parked}/step", json={})).json()["status"] == "arrived"
+    answer: dict[str, Any] = {}
+    for _ in range(40):
+        answer = (await client.post(f"/plan/{mover}/step", json={})).json()
+    assert answer["status"] == "waiting"
+    assert answer["waiting_for"] == parked
+    r, c = answer["position"]
+    assert (r - 15) ** 2 + (c - 21) ** 2 > (0.5 / 0.1) ** 2  # kept the sum of radii away
+    fleet = (await client.get("/fleets/f")).json()
+    assert fleet["map_id"] == map_id
+    assert [robot["plan_id"] for robot in fleet["robots"]] == [parked, mover]
+    assert fleet["robots"][0]["status"] == "arrived"
+    assert fleet["robots"][1]["waiting_for"] == parked
+    assert fleet["robots"][1]["position"] == answer["position"]
+    assert (await client.delete(f"/plan/{parked}")).status_code == 204
+    for _ in range(20):
+        answer = (await client.post(f"/plan/{mover}/step", json={})).json()
+    assert answer["status"] == "arrived"
+    assert answer["waiting_for"] is None
+    assert [robot["plan_id"] for robot in (await client.get("/fleets/f")).json()["robots"]] == [
+        mover
+    ]
+    assert (await client.delete(f"/plan/{mover}")).status_code == 204
+    gone = await client.get("/fleets/f")
+    assert gone.status_code == 404
+    assert gone.json()["code"] == "NOT_FOUND"
+
+
+async def test_a_robot_that_never_stepped_counts_at_its_start(client: httpx.AsyncClient) -> None:
+    map_id = await _map(client, room())
+    made = await _plan(client, map_id, [15, 15], [5, 5], fleet="f")  # never steps
+    assert made.status_code == 201, made.text
+    mover = (await _plan(client, map_id, [15, 3], [15, 28], fleet="f")).json()["plan_id"]
+    for seq in range(80):
+        r, c = (await client.post(f"/plan/{mover}/step", json={"seq": seq})).json()["position"]
+        assert (r - 15) ** 2 + (c - 15) ** 2 > 5**2
+
+
+async def test_fleet_map_mismatch_and_taken_start_are_refused(client: httpx.AsyncClient) -> None:
+    one, other = await _map(client, room()), await _map(client, room(side=20))
+    assert (await _plan(client, one, [5, 5], [20, 20], fleet="f")).status_code == 201
+    wrong = await _plan(client, other, [5, 5], [10, 10], fleet="f")
+    assert wrong.status_code == 422
+    assert wrong.json()["code"] == "FLEET_MAP_MISMATCH"
+    assert "FLEET_MAP_MISMATCH" in wrong.json()["detail"]
+    taken = await _plan(client, one, [6, 7], [20, 5], fleet="f")  # 0.22 m from the other
+    assert taken.status_code == 422
+    assert taken.json()["code"] == "FLEET_START_TAKEN"
+    # The same with the map upload.
+    body = {**F.map_body(room(side=20)), "start": [5, 5], "goal": [10, 10], "fleet": "f"}
+    assert (await client.post("/maps", json=body)).json()["code"] == "FLEET_MAP_MISMATCH"
+    # Another fleet on the other map is another fleet.
+    assert (await _plan(client, other, [5, 5], [10, 10], fleet="g")).status_code == 201
+
+
+@pytest.mark.parametrize("name", ["", "a" * 65, "has space", "slash/", "ünï", 7, None])
+async def test_bad_fleet_names_are_refused(client: httpx.AsyncClient, name: Any) -> None:
+    map_id = await _map(client, room())
+    answer = await _plan(client, map_id, [5, 5], [20, 20], fleet=name)
+    if name is None:
+        assert answer.status_code == 201
+        assert answer.json()["fleet"] is None
+        return
+    assert answer.status_code == 422
+    assert "fleet" in answer.text
+    if isinstance(name, str) and name and "/" not in name:
+        assert (await client.get(f"/fleets/{name}")).status_code == 422
+
+
+async def test_two_tenants_fleets_of_one_name_never_see_each_other() -> None:
+    settings = SETTINGS.model_copy(update={"api_keys": SecretStr("key-a,key-b")})
+    app = create_app(settings)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        clients = [
+            httpx.AsyncClient(transport=transport, base_url="http://s", headers={"X-API-Key": k})
+            for k in ("key-a", "key-b")
+        ]
+        a, b = clients
+        try:
+            map_a, map_b = await _map(a, room()), await _map(b, room())
+            assert map_a == map_b  # the same map, stored once per tenant
+            pa = (await _plan(a, map_a, [15, 3], [15, 28], fleet="f")).json()["plan_id"]
+            # The same start in the other tenant's fleet "f": not taken there.
+            made = await _plan(b, map_b, [15, 3], [15, 28], fleet="f")
+            assert made.status_code == 201, made.text
+            pb = made.json()["plan_id"]
+            assert [r["plan_id"] for r in (await a.get("/fleets/f")).json()["robots"]] == [pa]
+            assert [r["plan_id"] for r in (await b.get("/fleets/f")).json()["robots"]] == [pb]
+            for seq in range(30):  # both drive the same way, through each other's cells
+                sa = (await a.post(f"/plan/{pa}/step", json={"seq": seq})).json()
+                sb = (await b.post(f"/plan/{pb}/step", json={"seq": seq})).json()
+                assert sa["position"] == sb["position"]
+            assert (await b.get(f"/plan/{pa}")).status_code == 404
+        finally:
+            for c in clients:
+                await c.aclose()
+
+
+async def test_concurrent_steps_never_assign_one_cell(client: httpx.AsyncClient) -> None:
+    """Eight robots in a small room, all stepped at once every tick, crowding its middle."""
+    rng = np.random.default_rng(3)
+    cells = [(r, c) for r in range(2, 18, 4) for c in (2, 17)]
+    goals = [cells[i] for i in rng.permutation(len(cells))]
+    scenario = F.Scenario("crowd", room(side=20), 0.15, tuple(zip(cells, goals, strict=True)))
+    outcome = await F.run([client], scenario, fleet="crowd", seed=3, max_ticks=120)
+    assert outcome.errors == []
+    assert outcome.collisions == []
+    assert outcome.ticks == 120 or outcome.arrived == 8
+
+
+async def test_a_replayed_step_answers_the_same_and_moves_nobody(client: httpx.AsyncClient) -> None:
+    map_id = await _map(client, room())
+    a = (await _plan(client, map_id, [15, 3], [15, 28], fleet="f")).json()["plan_id"]
+    first = (await client.post(f"/plan/{a}/step", json={"seq": 0})).json()
+    again = (await client.post(f"/plan/{a}/step", json={"seq": 0})).json()
+    assert first == again
+    fleet = (await client.get("/fleets/f")).json()
+    assert fleet["robots"][0]["position"] == first["position"]
+    assert fleet["robots"][0]["previous"] == first["previous"]
+
+
+def test_store_keeps_no_lock_after_fleet_steps() -> None:
+    async def main() -> None:
+        app = create_app(SETTINGS)
+        async with app.router.lifespan_context(app):
+            transport = httpx.ASGITransport(app=app)
+            async with httpx.AsyncClient(transport=transport, base_url="http://s") as c:
+                scenario = F.Scenario("cross", room(), 0.25, (((15, 3), (15, 28)),))
+                await F.run([c], scenario, fleet="x", seed=0)
+            assert app.state.engine.store.lock_count == 0
+
+    asyncio.run(main())
