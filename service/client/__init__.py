@@ -28,13 +28,12 @@ model's shape (a server of another version) raises ``pydantic.ValidationError``.
 imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
 """
 
+from schemas import NavPath, PlanDetail
 from service.client.clients import (
     Analysis,
     AsyncPlannerClient,
     MapInfo,
-    NavPath,
     Plan,
-    PlanDetail,
     PlanFields,
     PlannerClient,
     Preview,
