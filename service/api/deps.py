@@ -20,12 +20,12 @@ import planner
 from planner import quote
 from service.config import Settings
 from service.edge.guards import check_depth
-from service.errors import TooLarge
+from service.errors import TooLarge, responses
 from service.work.engine import Engine
 
 __all__ = [
     "MULTIPART_PARTS",
-    "PNG_RESPONSE",
+    "PNG_ROUTE",
     "CellQuery",
     "EngineDep",
     "MapRoute",
@@ -55,9 +55,14 @@ CellQuery = Annotated[
     ),
 ]
 
-PNG_RESPONSE: dict[int | str, dict[str, Any]] = {
-    200: {"content": {"image/png": {}}, "description": "A PNG picture."}
+PNG_ROUTE: dict[str, Any] = {
+    "response_class": Response,
+    "responses": {
+        200: {"content": {"image/png": {}}, "description": "A PNG picture."},
+        **responses(404, 413, 422),
+    },
 }
+"""The arguments of a route that answers a PNG picture."""
 
 
 class _OrjsonRequest(Request):

@@ -28,14 +28,13 @@ model's shape (a server of another version) raises ``pydantic.ValidationError``.
 imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
 """
 
+from schemas import NavPath, PlanDetail
 from service.client.clients import (
     Analysis,
     AsyncPlannerClient,
     Fleet,
     MapInfo,
-    NavPath,
     Plan,
-    PlanDetail,
     PlanFields,
     PlannerClient,
     Preview,

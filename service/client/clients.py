@@ -27,25 +27,6 @@ from schemas import (
 )
 from service.client.errors import raise_for
 
-__all__ = [
-    "Analysis",
-    "AsyncPlannerClient",
-    "Fleet",
-    "MapInfo",
-    "NavPath",
-    "Plan",
-    "PlanDetail",
-    "PlanFields",
-    "PlannerClient",
-    "Preview",
-    "RouteFields",
-    "SimulateFields",
-    "Simulation",
-    "Step",
-    "StepFields",
-    "UploadMapFields",
-]
-
 CellIn = Sequence[int] | Mapping[str, float]
 """A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
 ``"yaw"`` in radians) where the API takes one."""
