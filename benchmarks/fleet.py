@@ -30,11 +30,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import edt
 import httpx
 import numpy as np
 import numpy.typing as npt
 
 import planner
+import planner.fleets
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR_RADIUS = 0.325
@@ -83,16 +85,19 @@ def _spread(
     raise ValueError(f"cannot place {count} robots {apart:.1f} cells apart")
 
 
-def corridor_scenario(per_side: int, seed: int, *, resolution: float = 0.1) -> Scenario:
+def corridor_scenario(
+    per_side: int, seed: int, *, resolution: float = 0.1, room_m: float = 5.0
+) -> Scenario:
     """``per_side`` robots in each room, each going to the other room, starts and goals away
-    from the corridor's mouths (farther than the waiting zone)."""
-    m = corridor_map(resolution=resolution)
+    from the corridor's mouths (farther than the waiting zone and a robot's diameter)."""
+    m = corridor_map(resolution=resolution, room_m=room_m)
     rng = np.random.default_rng(seed)
     space = planner.configuration_space(m, robot_radius=CORRIDOR_RADIUS)
     h, w = m.shape
     room = h - 2
     cells = np.argwhere(space.traversable == 1)
-    far = round(2.0 / resolution)  # the waiting zone reaches ~1.5 m into a room
+    reach = planner.fleets.wait_distance(CORRIDOR_RADIUS) + 2 * CORRIDOR_RADIUS + 0.2
+    far = round(reach / resolution)
     left = cells[cells[:, 1] <= room - far]
     right = cells[cells[:, 1] >= w - 1 - room + far]
     apart = 2 * CORRIDOR_RADIUS / resolution + 2
@@ -107,9 +112,19 @@ def random_scenario(
     robot_map: planner.RobotMap, count: int, seed: int, *, radius: float = ROS_RADIUS
 ) -> Scenario:
     """``count`` robots with random starts and goals on the map's largest traversable region,
-    all of them far apart (more than the sum of radii and a margin)."""
+    all of them far apart (more than the sum of radii and a margin), none of them parked in a
+    passage's waiting zone or a robot's diameter from it (a robot parked there would hold the
+    passage for good)."""
     space = planner.configuration_space(robot_map, robot_radius=radius)
     region = _largest_region(space.traversable)
+    zones = planner.fleets.passage_zones(
+        space.traversable, planner.find_passages(robot_map, radius),
+        resolution=robot_map.resolution, robot_radius=radius,
+    )  # fmt: skip
+    if zones.count:
+        inside = np.ascontiguousarray(zones.group.reshape(robot_map.shape) >= 0)
+        away = edt.edt(~inside, black_border=False) * robot_map.resolution > 2 * radius + 0.1
+        region &= away
     rng = np.random.default_rng(seed)
     apart = (2 * radius + 0.3) / robot_map.resolution
     ends = _spread(np.argwhere(region), 2 * count, apart, rng)
@@ -181,10 +196,7 @@ class Outcome:
 
 
 def _passage_cells(robot_map: planner.RobotMap, radius: float) -> list[set[int]]:
-    find = getattr(planner, "find_passages", None)
-    if find is None:
-        return []
-    return [set(p.cells.tolist()) for p in find(robot_map, radius)]
+    return [set(p.cells.tolist()) for p in planner.find_passages(robot_map, radius)]
 
 
 async def run(

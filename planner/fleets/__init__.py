@@ -2,7 +2,7 @@
 
 from planner.fleets.robots import Robot, covering, disk_offsets, robot_cells
 from planner.fleets.traffic import Traffic, after_step, traffic_for
-from planner.fleets.zones import Zones, no_zones
+from planner.fleets.zones import Zones, no_zones, passage_zones, wait_distance
 
 __all__ = [
     "Robot",
@@ -12,6 +12,8 @@ __all__ = [
     "covering",
     "disk_offsets",
     "no_zones",
+    "passage_zones",
     "robot_cells",
     "traffic_for",
+    "wait_distance",
 ]

@@ -27,6 +27,8 @@ class Traffic:
     priority waiting at it)."""
     zones: npt.NDArray[np.int64]
     """``(m, 2)`` cells of the closed groups' zones."""
+    on_goal: tuple[str, ...] = ()
+    """The robots (by rank) whose cells, as this step blocks them, cover the robot's goal."""
 
     def obstacles(
         self, given: npt.NDArray[np.int64], *, open_zones: bool = False
@@ -64,7 +66,7 @@ def traffic_for(
     wait for each other forever.)"""
     me = robots[plan_id]
     others = {k: v for k, v in robots.items() if k != plan_id}
-    on_goal = covering(me.goal, me.radius, others, resolution=resolution)
+    on_goal = _on_goal(me, others, resolution=resolution, shape=shape, margin=margin)
     cells = robot_cells(
         me.radius, [o for k, o in others.items() if k not in on_goal],
         resolution=resolution, shape=shape, margin=margin,
@@ -80,22 +82,44 @@ def traffic_for(
         cells = np.concatenate((cells, near[keep]))
     closed: dict[int, str] = {}
     if zones is not None and zones.count:
+        # A robot holds the groups whose zones hold its cell or its target.
+        mine = zones.groups_of(me.cell, me.target)
+        held = {k: zones.groups_of(o.cell, o.target) for k, o in others.items()}
         for group in range(zones.count):
-            if group in me.holds:
+            if group in mine:
                 continue
-            holders = sorted((o.rank, k) for k, o in others.items() if group in o.holds)
-            if holders:
-                closed[group] = holders[0][1]
-                continue
+            holders = sorted((others[k].rank, k) for k, gs in held.items() if group in gs)
             ahead = sorted(
                 (o.rank, k) for k, o in others.items() if o.wants == group and o.rank < me.rank
             )
-            if ahead:
-                closed[group] = ahead[0][1]
+            if holders or ahead:
+                closed[group] = (holders or ahead)[0][1]
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
         zone_cells = zones.cells_of(sorted(closed))
-    return Traffic(cells, closed, zone_cells)
+    return Traffic(cells, closed, zone_cells, tuple(on_goal))
+
+
+def _on_goal(
+    me: Robot,
+    others: Mapping[str, Robot],
+    *,
+    resolution: float,
+    shape: tuple[int, int],
+    margin: int,
+) -> list[str]:
+    """The robots (by rank) whose cells, grown by the decision's ``margin``, hold ``me``'s
+    goal: those within the sum of radii of it (:func:`covering`), and those the margin brings
+    to it."""
+    found = set(covering(me.goal, me.radius, others, resolution=resolution))
+    gr, gc = me.goal
+    for k, other in others.items():
+        if k in found:
+            continue
+        cells = robot_cells(me.radius, [other], resolution=resolution, shape=shape, margin=margin)
+        if (np.maximum(np.abs(cells[:, 0] - gr), np.abs(cells[:, 1] - gc)) <= margin).any():
+            found.add(k)
+    return sorted(found, key=lambda k: others[k].rank)
 
 
 def after_step(
@@ -116,14 +140,12 @@ def after_step(
     waits for), else for the robot standing on its goal, if any."""
     holds: tuple[int, ...] = ()
     if zones is not None and zones.count:
-        groups = {zones.group_at(previous), zones.group_at(position)}
-        holds = tuple(sorted(g for g in groups if g >= 0))
+        holds = tuple(sorted(zones.groups_of(previous, position)))
     waiting = status == "waiting"
     wants = would_enter if waiting and would_enter is not None else None
     waiting_for = None
     if wants is not None:
         waiting_for = traffic.closed.get(wants)
-    elif waiting:
-        first = covering(me.goal, me.radius, others, resolution=resolution)
-        waiting_for = first[0] if first else None
+    elif waiting and traffic.on_goal:
+        waiting_for = traffic.on_goal[0]
     return me.moved(previous, position, status, holds=holds, wants=wants, waiting_for=waiting_for)

@@ -105,25 +105,31 @@ async def step_in_fleet(
         robots[plan_id] = me
         fleet = {**fleet, "next": int(fleet.get("next", 0)) + 1}
     zones = await engine.fleet_zones(fleet["map_id"], float(fleet["radius"]))
+    margin = plan.params.dynamic_margin
     here = None
     if position is not None:
         with suppress(planner.InvalidInput):  # else the step refuses it
             here = cell_of(plan.analysis, position, "position")
     traffic = traffic_for(
         plan_id, robots, resolution=frame.resolution, shape=plan.analysis.shape, zones=zones,
-        here=here, margin=plan.params.dynamic_margin,
+        here=here, margin=margin,
     )  # fmt: skip
     given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
-    would_enter = None
-    if traffic.closed and zones is not None:
+    tried = None
+    near = here or me.target
+    if traffic.closed and zones is not None and zones.near(near, list(traffic.closed), margin + 2):
         trial = planner.Session(session.route, session.state.copy(), poses=False)
         tried = await engine.step(
             trial, traffic.obstacles(given, open_zones=True), position=position, seq=seq
         )
-        group = zones.group_at(tried.position)
-        if group in traffic.closed and zones.group_at(tried.previous) != group:
-            would_enter = group
     step = await engine.step(session, traffic.obstacles(given), position=position, seq=seq)
+    would_enter = None
+    if tried is not None and zones is not None and tried.position != tried.previous:
+        # With the passages open it would have gone on, toward a closed one: it waits at it.
+        for group in traffic.closed:
+            if zones.near(tried.position, [group], margin):
+                would_enter = group
+                break
     others = {k: v for k, v in robots.items() if k != plan_id}
     moved = after_step(
         me, others, previous=step.previous, position=step.position, status=step.status,

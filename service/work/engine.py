@@ -437,9 +437,17 @@ class Engine:
             goal_tolerance=float(ends.get("goal_tolerance", 0.0)),
         )
 
-    async def fleet_zones(self, map_id: str, robot_radius: float) -> planner.fleets.Zones | None:
-        """The passage zones of a fleet's map for its robots' radius (docs/fleets.md)."""
-        return None
+    async def fleet_zones(self, map_id: str, robot_radius: float) -> planner.fleets.Zones:
+        """The passage zones of a fleet's map for its robots' radius (docs/fleets.md): found
+        once per map and radius, in the pool, and kept in the analysis cache."""
+
+        async def compute() -> planner.fleets.Zones:
+            robot_map = await self.robot_map(map_id)
+            return await self.pool.run(_zones, robot_map, robot_radius)
+
+        key = ("zones", scoped(map_id), float(robot_radius))
+        zones, _ = await self.cache.get_or_compute(key, compute)
+        return zones
 
     async def step(
         self, session: planner.Session, obstacles: Any, *, position: Any, seq: int | None
@@ -471,6 +479,14 @@ class Engine:
             finally:
                 wave.release()
         return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
+
+
+def _zones(robot_map: planner.RobotMap, robot_radius: float) -> planner.fleets.Zones:
+    space = planner.configuration_space(robot_map, robot_radius=robot_radius)
+    passages = planner.find_passages(robot_map, robot_radius)
+    return planner.fleets.passage_zones(
+        space.traversable, passages, resolution=robot_map.resolution, robot_radius=robot_radius
+    )
 
 
 def _analyse(robot_map: planner.RobotMap, p: planner.Params) -> planner.Analysis:

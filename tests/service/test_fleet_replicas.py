@@ -1,6 +1,7 @@
 """A fleet on Redis served by two replicas, each robot's steps alternating between them and the
 steps of a tick sent at once: no two robots are ever told into one cell, to swap, or closer than
-the sum of their radii (the fleet's state is version-fenced in Redis), and all arrive."""
+the sum of their radii (the fleet's state is version-fenced in Redis), none waits in a passage
+another is in, and all arrive (in a room, and through a one-lane corridor)."""
 
 from __future__ import annotations
 
@@ -20,10 +21,15 @@ def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_p
     async def main(urls: list[str]) -> list[object]:
         clients = [httpx.AsyncClient(base_url=u, timeout=60, trust_env=False) for u in urls]
         try:
-            return [
+            runs = [
                 await F.run(clients, scenario, fleet=f"cross-{seed}", seed=seed)
                 for seed in range(2)
             ]
+            # Two robots swapping through a one-lane corridor, and four.
+            for per_side in (1, 2):
+                corridor = F.corridor_scenario(per_side, 0)
+                runs.append(await F.run(clients, corridor, fleet=f"lane-{per_side}", seed=0))
+            return runs
         finally:
             for c in clients:
                 await c.aclose()
@@ -33,7 +39,8 @@ def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_p
         for outcome in outcomes:
             assert outcome.errors == []  # type: ignore[attr-defined]
             assert outcome.collisions == []  # type: ignore[attr-defined]
-            assert outcome.arrived == 4  # type: ignore[attr-defined]
+            assert outcome.passage_waits == []  # type: ignore[attr-defined]
+            assert outcome.arrived == outcome.robots  # type: ignore[attr-defined]
         # The fleet left Redis with its last plan.
         with httpx.Client(base_url=started[1].url, trust_env=False) as c:
             assert c.get("/fleets/cross-0").status_code == 404

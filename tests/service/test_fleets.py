@@ -60,7 +60,7 @@ async def _map(client: httpx.AsyncClient, robot_map: planner.RobotMap) -> str:
 async def _plan(
     client: httpx.AsyncClient, map_id: str, start: list[int], goal: list[int], **extra: Any
 ) -> httpx.Response:
-    body = {"map_id": map_id, "start": start, "goal": goal, "robot_radius": 0.25, **extra}
+    body = {"map_id": map_id, "start": start, "goal": goal, "robot_radius": 0.25} | extra
     return await client.post("/plan", json=body)
 
 
@@ -75,6 +75,55 @@ async def test_robots_crossing_a_room_never_collide_and_all_arrive(
         assert outcome.errors == []
         assert outcome.collisions == []
         assert outcome.arrived == 4, outcome
+
+
+@pytest.mark.parametrize(("per_side", "seeds"), [(1, (0, 1, 2)), (2, (0, 1))])
+async def test_robots_swapping_through_a_one_lane_corridor_take_turns(
+    client: httpx.AsyncClient, per_side: int, seeds: tuple[int, ...]
+) -> None:
+    """Without passages taken one at a time, two robots meet head-on in the corridor and wait
+    for each other forever: here every robot arrives in budget, no two collide, and none waits
+    in the corridor while another is in it."""
+    for seed in seeds:
+        scenario = F.corridor_scenario(per_side, seed)
+        outcome = await F.run([client], scenario, fleet=f"corridor-{seed}", seed=seed)
+        assert outcome.errors == []
+        assert outcome.collisions == []
+        assert outcome.passage_waits == []
+        assert outcome.arrived == 2 * per_side, outcome
+
+
+async def test_the_fleet_shows_who_holds_the_passage(client: httpx.AsyncClient) -> None:
+    scenario = F.corridor_scenario(1, 0)
+    map_id = await _map(client, scenario.robot_map)
+    (a_start, a_goal), (b_start, b_goal) = scenario.robots
+    a = (await _plan(client, map_id, list(a_start), list(a_goal), fleet="d",
+                     robot_radius=0.325)).json()["plan_id"]  # fmt: skip
+    b = (await _plan(client, map_id, list(b_start), list(b_goal), fleet="d",
+                     robot_radius=0.325)).json()["plan_id"]  # fmt: skip
+    fleet = (await client.get("/fleets/d")).json()
+    assert fleet["robot_radius"] == 0.325
+    (passage,) = fleet["passages"]
+    assert passage["held_by"] == []
+    assert 0.75 <= passage["width_m"] <= 0.85
+    held_by: set[str] = set()
+    waited_for: set[str] = set()
+    for seq in range(400):
+        for plan_id in (a, b):
+            step = (await client.post(f"/plan/{plan_id}/step", json={"seq": seq})).json()
+            if step["waiting_for"] is not None:
+                waited_for.add(step["waiting_for"])
+        fleet = (await client.get("/fleets/d")).json()
+        (passage,) = fleet["passages"]
+        assert len(passage["held_by"]) <= 1
+        held_by |= set(passage["held_by"])
+        robots = {r["plan_id"]: r for r in fleet["robots"]}
+        for plan_id in passage["held_by"]:
+            assert robots[plan_id]["holds"] == [0]
+        if all(r["status"] == "arrived" for r in fleet["robots"]):
+            break
+    assert held_by == {a, b}  # each held it in turn
+    assert waited_for  # and one waited for the other
 
 
 async def test_without_a_fleet_robots_ignore_each_other(client: httpx.AsyncClient) -> None:

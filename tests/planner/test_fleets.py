@@ -1,0 +1,178 @@
+"""The fleet rules' pieces (planner/fleets): the robots' disks against a brute-force reference,
+the margin's erosion covering every cell of the disk, and passage zones that wait clear of a
+passage's mouths without leaking through walls."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+import planner
+from planner.fleets import (
+    Robot,
+    after_step,
+    covering,
+    disk_offsets,
+    passage_zones,
+    robot_cells,
+    traffic_for,
+    wait_distance,
+)
+
+
+def _naive_disk(radius: float) -> set[tuple[int, int]]:
+    reach = math.ceil(radius) + 1
+    return {
+        (dr, dc)
+        for dr in range(-reach, reach + 1)
+        for dc in range(-reach, reach + 1)
+        if math.hypot(dr, dc) <= radius + 1e-9
+    }
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.5, 1.0, 1.5, 2.0, 2.2360679775, 3.25, 6.5, 8.8])
+def test_disk_offsets_are_the_cells_within_the_radius(radius: float) -> None:
+    assert set(map(tuple, disk_offsets(radius).tolist())) == _naive_disk(radius)
+
+
+def _dilate(cells: set[tuple[int, int]], margin: int) -> set[tuple[int, int]]:
+    span = range(-margin, margin + 1)
+    return {(r + a, c + b) for r, c in cells for a, b in itertools.product(span, span)}
+
+
+@pytest.mark.parametrize("margin", [1, 2, 3])
+@pytest.mark.parametrize("radii", [(0.05, 0.05), (0.15, 0.15), (0.22, 0.3), (0.325, 0.325)])
+def test_the_margin_grown_cells_cover_every_cell_within_both_radii(
+    margin: int, radii: tuple[float, float]
+) -> None:
+    mine, theirs = radii
+    other = Robot(0, (30, 30), (31, 32), theirs, (0, 0))
+    given = robot_cells(mine, [other], resolution=0.05, shape=(64, 64), margin=margin)
+    blocked = _dilate(set(map(tuple, given.tolist())), margin)
+    reach = (mine + theirs) / 0.05
+    for r, c in itertools.product(range(64), range(64)):
+        near = min(math.hypot(r - 30, c - 30), math.hypot(r - 31, c - 32))
+        if near <= reach:
+            assert (r, c) in blocked, (r, c)
+    # ... and it gives fewer cells than the whole disk.
+    whole = robot_cells(mine, [other], resolution=0.05, shape=(64, 64))
+    assert len(given) < len(whole)
+
+
+def test_robot_cells_stay_inside_the_map_and_cover_cell_and_target() -> None:
+    a = Robot(0, (0, 0), (1, 1), 0.05, (5, 5))
+    cells = robot_cells(0.05, [a], resolution=0.1, shape=(4, 4))
+    assert set(map(tuple, cells.tolist())) == {(0, 0), (0, 1), (1, 0), (1, 1), (1, 2), (2, 1)}
+
+
+def test_covering_lists_the_robots_touching_a_cell_by_rank() -> None:
+    others = {
+        "b": Robot(2, (10, 10), (10, 11), 0.2, (0, 0)),
+        "a": Robot(1, (10, 14), (10, 14), 0.2, (0, 0)),
+        "far": Robot(0, (40, 40), (40, 40), 0.2, (0, 0)),
+    }
+    assert covering((10, 12), 0.2, others, resolution=0.1) == ["a", "b"]
+    assert covering((20, 20), 0.2, others, resolution=0.1) == []
+
+
+def _corridor() -> planner.RobotMap:
+    """Two rooms 4 m wide joined by a 0.8 m x 2 m corridor, 0.1 m cells; and behind the left
+    room's right wall, nothing: the zone must not leak into the other room through it."""
+    occ = np.full((42, 104), 100, dtype=np.int8)
+    occ[1:41, 1:41] = 0
+    occ[1:41, 63:103] = 0
+    occ[17:25, 41:63] = 0
+    return planner.RobotMap(occ, planner.MapFrame(occ.shape, 0.1, (0.0, 0.0, 0.0)))
+
+
+def test_a_corridors_zone_reaches_the_waiting_distance_into_each_room_and_no_farther() -> None:
+    m = _corridor()
+    radius = 0.325
+    space = planner.configuration_space(m, robot_radius=radius)
+    passages = planner.find_passages(m, radius)
+    assert len(passages) == 1
+    zones = passage_zones(space.traversable, passages, resolution=0.1, robot_radius=radius)
+    assert zones.count == 1
+    assert zones.passages == ((0,),)
+    grid = zones.group.reshape(m.shape)
+    inside = np.argwhere(grid == 0)
+    neck = np.array(np.divmod(passages[0].cells, m.shape[1])).T
+    reach = wait_distance(radius) / 0.1
+    d = np.min(np.hypot(*(inside[:, None, :] - neck[None, :, :]).transpose(2, 0, 1)), axis=1)
+    assert d.max() <= reach + 1e-9
+    # It reaches about the waiting distance past both ends of the neck, on the corridor's axis.
+    first, last = int(neck[:, 1].min()), int(neck[:, 1].max())
+    assert first <= 41
+    assert last >= 62
+    assert grid[21, first - round(reach) + 1] == 0
+    assert grid[21, last + round(reach) - 1] == 0
+    assert grid[21, first - round(reach) - 2] == -1
+    assert grid[21, last + round(reach) + 2] == -1
+    # Only traversable cells, and only the corridor's side of the walls.
+    assert (space.traversable[grid == 0] == 1).all()
+    assert zones.group_at((5, 40)) == -1
+
+
+def test_a_passage_held_by_one_robot_is_closed_to_the_others_but_the_waiter_of_rank_first() -> None:
+    m = _corridor()
+    radius = 0.325
+    space = planner.configuration_space(m, robot_radius=radius)
+    zones = passage_zones(
+        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
+    )
+    inside, left, right = (21, 50), (21, 10), (21, 95)
+    robots = {
+        "holder": Robot(5, inside, inside, radius, (21, 95)),
+        "first": Robot(1, left, left, radius, (21, 90), wants=0),
+        "later": Robot(2, right, right, radius, (21, 5)),
+    }
+    for k in ("first", "later"):
+        traffic = traffic_for(k, robots, resolution=0.1, shape=m.shape, zones=zones)
+        assert traffic.closed == {0: "holder"}
+        assert len(traffic.zones) == int((zones.group == 0).sum())
+    assert traffic_for("holder", robots, resolution=0.1, shape=m.shape, zones=zones).closed == {}
+    # The holder gone: the passage is the first waiter's; closed to the later one for it.
+    del robots["holder"]
+    assert traffic_for("first", robots, resolution=0.1, shape=m.shape, zones=zones).closed == {}
+    traffic = traffic_for("later", robots, resolution=0.1, shape=m.shape, zones=zones)
+    assert traffic.closed == {0: "first"}
+    # Waiting at it, the later robot waits for the robot it is closed for.
+    after = after_step(
+        robots["later"], {"first": robots["first"]}, previous=right, position=right,
+        status="waiting", traffic=traffic, zones=zones, resolution=0.1, would_enter=0,
+    )  # fmt: skip
+    assert after.wants == 0
+    assert after.waiting_for == "first"
+    assert after.holds == ()
+    moved = after_step(
+        robots["first"], {}, previous=(21, 40), position=(21, 41), status="moving",
+        traffic=traffic, zones=zones, resolution=0.1,
+    )  # fmt: skip
+    assert moved.holds == (0,)
+    assert moved.wants is None
+
+
+def test_passages_whose_zones_meet_are_one_group() -> None:
+    # Two doors 0.6 m apart in one wall: a robot between them would block both.
+    occ = np.full((42, 62), 100, dtype=np.int8)
+    occ[1:41, 1:30] = 0
+    occ[1:41, 32:61] = 0
+    occ[12:20, 30:32] = 0
+    occ[26:34, 30:32] = 0
+    m = planner.RobotMap(occ, planner.MapFrame(occ.shape, 0.1, (0.0, 0.0, 0.0)))
+    space = planner.configuration_space(m, robot_radius=0.3)
+    passages = planner.find_passages(m, 0.3)
+    assert len(passages) == 2
+    zones = passage_zones(space.traversable, passages, resolution=0.1, robot_radius=0.3)
+    assert zones.passages == ((0, 1),)
+    assert {zones.group_at((16, 31)), zones.group_at((30, 31))} == {0}
+
+
+def test_no_passages_no_zones() -> None:
+    space = np.ones((5, 5), dtype=np.uint8)
+    zones = passage_zones(space, [], resolution=1.0, robot_radius=0.0)
+    assert zones.count == 0
+    assert (zones.group == -1).all()
