@@ -380,18 +380,24 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=16)
     parser.add_argument("--random-seeds", type=int, default=3)
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
+    parser.add_argument("--scenarios", nargs="+", default=["swap2", "swap4", "depot"])
     args = parser.parse_args()
     depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
     print("| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
           "| step p50 ms | step p99 ms |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|")
     for store in args.store:
+        every = {
+            "swap2": ("corridor swap x2", lambda s: corridor_scenario(1, s), args.seeds),
+            "swap4": ("corridor swap x4", lambda s: corridor_scenario(2, s), args.seeds),
+            "depot": (
+                f"depot x{args.robots}",
+                lambda s: random_scenario(depot, args.robots, s),
+                args.random_seeds,
+            ),
+        }
         sets = {
-            "corridor swap x2": [(corridor_scenario(1, s), s) for s in range(args.seeds)],
-            "corridor swap x4": [(corridor_scenario(2, s), s) for s in range(args.seeds)],
-            f"depot x{args.robots}": [
-                (random_scenario(depot, args.robots, s), s) for s in range(args.random_seeds)
-            ],
+            every[k][0]: [(every[k][1](s), s) for s in range(every[k][2])] for k in args.scenarios
         }
         with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as urls:
             for name, scenarios in sets.items():

@@ -120,15 +120,27 @@ def robot_cells(
         reach = (radius + other.radius) / resolution
         if margin > 0:
             reach = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
-        offsets = disk_offsets(reach)
-        centers = np.array(sorted({other.cell, other.target}), dtype=np.int64)
-        parts.append((centers[:, None, :] + offsets[None, :, :]).reshape(-1, 2))
+        (r, c), (tr, tc) = other.cell, other.target
+        offsets = _pair(round(reach * reach + 1e-9, 9), tr - r, tc - c)
+        parts.append(offsets + np.array([r, c], dtype=np.int64))
     if not parts:
         return np.empty((0, 2), dtype=np.int64)
-    cells = np.concatenate(parts)
+    cells = np.concatenate(parts) if len(parts) > 1 else parts[0]
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < H) & (cells[:, 1] >= 0) & (cells[:, 1] < W)
-    flat = np.unique(cells[inside, 0] * W + cells[inside, 1])
-    out: npt.NDArray[np.int64] = np.stack(np.divmod(flat, W), axis=1).astype(np.int64)
+    out: npt.NDArray[np.int64] = cells if inside.all() else cells[inside]
+    return out
+
+
+@lru_cache(maxsize=1024)
+def _pair(squared: float, dr: int, dc: int) -> npt.NDArray[np.int64]:
+    """The offsets of the disk about ``(0, 0)`` and of the disk about ``(dr, dc)``, each
+    once (a robot's cell and its target are a move apart: the union, computed once a shape)."""
+    disk = _offsets(squared)
+    if dr == 0 and dc == 0:
+        return disk
+    both = np.concatenate((disk, disk + np.array([dr, dc], dtype=np.int64)))
+    out = np.unique(both, axis=0)
+    out.setflags(write=False)
     return out
 
 

@@ -53,6 +53,7 @@ def traffic_for(
     zones: Zones | None = None,
     here: tuple[int, int] | None = None,
     margin: int = 1,
+    within: int | None = None,
 ) -> Traffic:
     """What the fleet's ``robots`` block for ``plan_id``'s step (the robot at ``here``, else
     where it was told to be): every other robot's cell and target with both radii, and the
@@ -63,16 +64,30 @@ def traffic_for(
     decision's ``margin`` included): the robot still approaches its goal, its searches
     finding the way there, and it waits beside the other, never inside its radius. (Blocked
     whole, it would never leave its start: robots whose goals are each other's starts would
-    wait for each other forever.)"""
+    wait for each other forever.)
+
+    With ``within`` (cells), robots farther than that from this one are left out of its
+    obstacles: they cannot meet it this step, and its searches then plan through them as
+    through any moving obstacle, seeing them when they come near."""
     me = robots[plan_id]
+    r, c = me.target if here is None else here
     others = {k: v for k, v in robots.items() if k != plan_id}
     on_goal = _on_goal(me, others, resolution=resolution, shape=shape, margin=margin)
-    cells = robot_cells(
-        me.radius, [o for k, o in others.items() if k not in on_goal],
-        resolution=resolution, shape=shape, margin=margin,
-    )  # fmt: skip
+    nearby = [
+        o
+        for k, o in others.items()
+        if k not in on_goal
+        and (
+            within is None
+            or min(
+                max(abs(o.cell[0] - r), abs(o.cell[1] - c)),
+                max(abs(o.target[0] - r), abs(o.target[1] - c)),
+            )
+            <= within + (me.radius + o.radius) / resolution
+        )
+    ]
+    cells = robot_cells(me.radius, nearby, resolution=resolution, shape=shape, margin=margin)
     if on_goal:
-        r, c = me.target if here is None else here
         near = robot_cells(
             me.radius, [others[k] for k in on_goal], resolution=resolution, shape=shape,
             margin=margin,
@@ -96,7 +111,7 @@ def traffic_for(
                 closed[group] = (holders or ahead)[0][1]
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
-        zone_cells = zones.cells_of(sorted(closed))
+        zone_cells = np.concatenate([zones.group_cells[g] for g in sorted(closed)])
     return Traffic(cells, closed, zone_cells, tuple(on_goal))
 
 
@@ -112,13 +127,19 @@ def _on_goal(
     goal: those within the sum of radii of it (:func:`covering`), and those the margin brings
     to it."""
     found = set(covering(me.goal, me.radius, others, resolution=resolution))
-    gr, gc = me.goal
-    for k, other in others.items():
-        if k in found:
-            continue
-        cells = robot_cells(me.radius, [other], resolution=resolution, shape=shape, margin=margin)
-        if (np.maximum(np.abs(cells[:, 0] - gr), np.abs(cells[:, 1] - gc)) <= margin).any():
-            found.add(k)
+    rest = [k for k in others if k not in found]
+    if rest:
+        # As robot_cells gives them: disks of the eroded radius about cells and targets; is
+        # one within Chebyshev ``margin`` of the goal?
+        reach = np.array([(me.radius + others[k].radius) / resolution for k in rest])
+        if margin > 0:
+            eroded = np.hypot(reach - margin, margin)
+            reach = np.where(reach <= margin, 0.0, eroded)
+        centers = np.array([[others[k].cell, others[k].target] for k in rest], dtype=np.int64)
+        gap = np.abs(centers - np.array(me.goal, dtype=np.int64))  # (n, 2 centers, 2 axes)
+        near = np.maximum(gap - margin, 0).astype(np.float64)  # the window's nearest cell
+        squared = (near**2).sum(axis=2).min(axis=1)
+        found |= {k for k, hit in zip(rest, squared <= reach**2 + 1e-9, strict=True) if hit}
     return sorted(found, key=lambda k: others[k].rank)
 
 

@@ -48,6 +48,13 @@ class Zones:
     """Each group's passage ids."""
     found: tuple[Any, ...] = ()
     """The passages by id (``planner.find_passages``'s)."""
+    group_cells: tuple[npt.NDArray[np.int64], ...] = ()
+    """Each group's ``(n, 2)`` zone cells (made from ``group`` when not given)."""
+
+    def __post_init__(self) -> None:
+        if len(self.group_cells) != len(self.passages):
+            cells = tuple(self.cells_of([g]) for g in range(len(self.passages)))
+            object.__setattr__(self, "group_cells", cells)
 
     @property
     def count(self) -> int:
@@ -56,7 +63,8 @@ class Zones:
     @property
     def nbytes(self) -> int:
         """Bytes held (for a cache that counts them)."""
-        return int(self.group.nbytes) + sum(int(p.cells.nbytes) for p in self.found)
+        cells = sum(int(p.cells.nbytes) for p in self.found)
+        return int(self.group.nbytes) + cells + sum(int(c.nbytes) for c in self.group_cells)
 
     def groups_of(self, *cells: tuple[int, int]) -> set[int]:
         """The groups whose zones hold any of ``cells``."""

@@ -5,6 +5,7 @@ to it is written at once with the plan that made it (``Store.put_fleet_plan``,
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from contextlib import suppress
 from dataclasses import dataclass
@@ -112,7 +113,7 @@ async def step_in_fleet(
             here = cell_of(plan.analysis, position, "position")
     traffic = traffic_for(
         plan_id, robots, resolution=frame.resolution, shape=plan.analysis.shape, zones=zones,
-        here=here, margin=margin,
+        here=here, margin=margin, within=_nearby(plan),
     )  # fmt: skip
     given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
     tried = None
@@ -137,6 +138,17 @@ async def step_in_fleet(
     )  # fmt: skip
     state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
     return Moved(step, moved.waiting_for, state)
+
+
+NEARBY_M = 3.0
+"""Meters (and the plan's ``horizon_m``, if longer) within which a step sees the fleet's other
+robots as obstacles; farther ones cannot meet it this step."""
+
+
+def _nearby(plan: planner.Plan) -> int:
+    """:data:`NEARBY_M` (or the path ahead's ``horizon_m``, and a meter) in cells."""
+    meters = max(NEARBY_M, float(plan.params.horizon_m) + 1.0)
+    return math.ceil(meters / plan.analysis.frame.resolution)
 
 
 async def get_fleet(engine: Engine, fleet: str) -> FleetView:

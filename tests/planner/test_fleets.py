@@ -176,3 +176,35 @@ def test_no_passages_no_zones() -> None:
     zones = passage_zones(space, [], resolution=1.0, robot_radius=0.0)
     assert zones.count == 0
     assert (zones.group == -1).all()
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_robots_on_the_goal_are_those_whose_blocked_cells_reach_it(seed: int) -> None:
+    """``Traffic.on_goal`` against brute force: another robot is on the goal when the cells the
+    step blocks for it (its cells given, grown by the margin) hold the goal, or when it is
+    within the sum of both radii of the goal."""
+    rng = np.random.default_rng(seed)
+    shape, resolution, margin = (40, 40), 0.05, 1
+    robots = {
+        f"r{i}": Robot(
+            i, (int(r), int(c)), (int(r) + int(dr), int(c) + int(dc)), float(radius), (0, 0)
+        )
+        for i, (r, c, dr, dc, radius) in enumerate(
+            zip(
+                rng.integers(2, 38, 12), rng.integers(2, 38, 12), rng.integers(-1, 2, 12),
+                rng.integers(-1, 2, 12), rng.uniform(0.05, 0.3, 12), strict=True,
+            )
+        )
+    }  # fmt: skip
+    goal = (int(rng.integers(5, 35)), int(rng.integers(5, 35)))
+    robots["me"] = Robot(99, (0, 0), (0, 0), 0.2, goal)
+    traffic = traffic_for("me", robots, resolution=resolution, shape=shape, margin=margin)
+    expected = []
+    for k, other in robots.items():
+        if k == "me":
+            continue
+        given = robot_cells(0.2, [other], resolution=resolution, shape=shape, margin=margin)
+        grown = _dilate(set(map(tuple, given.tolist())), margin)
+        if goal in grown or covering(goal, 0.2, {k: other}, resolution=resolution):
+            expected.append(k)
+    assert list(traffic.on_goal) == sorted(expected, key=lambda k: robots[k].rank)
