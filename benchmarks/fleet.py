@@ -24,7 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -387,7 +387,7 @@ def main() -> None:
           "| step p50 ms | step p99 ms |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|---|")
     for store in args.store:
-        every = {
+        every: dict[str, tuple[str, Callable[[int], Scenario], int]] = {
             "swap2": ("corridor swap x2", lambda s: corridor_scenario(1, s), args.seeds),
             "swap4": ("corridor swap x4", lambda s: corridor_scenario(2, s), args.seeds),
             "depot": (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import XY, Cell, Status
+from schemas.plans import XY, Cell, Pose, Status
 
 __all__ = ["FleetPublic", "FleetRobotPublic", "PassagePublic"]
 
@@ -26,6 +26,10 @@ class FleetRobotPublic(BaseModel):
     radius: float = Field(ge=0, description="The robot's radius, meters.")
     holds: list[int] = Field(
         default_factory=list, description="The ids of the passages it holds (`passages`)."
+    )
+    poses: list[Pose] | None = Field(
+        default=None,
+        description="With `?ahead=true`: its last step's path ahead (`poses`), else null.",
     )
 
 

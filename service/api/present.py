@@ -171,6 +171,16 @@ def fleet_public(view: FleetView) -> FleetPublic:
                     "goal": robot["goal"],
                     "radius": robot["radius"],
                     "holds": [p for g in robot.get("holds", ()) for p in _members(zones, g)],
+                    **(
+                        {}
+                        if view.poses is None
+                        else {
+                            "poses": [
+                                {"x": x, "y": y, "yaw": yaw}
+                                for x, y, yaw in view.poses.get(plan_id, ())
+                            ]
+                        }
+                    ),
                 }
                 for plan_id, robot in robots
             ],

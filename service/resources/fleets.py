@@ -32,6 +32,9 @@ class FleetView:
     state: FleetRecord
     frame: planner.MapFrame
     zones: Zones | None
+    poses: dict[str, list[Any]] | None = None
+    """With ``ahead``: each robot's path ahead (its last step's poses, ``(x, y, yaw)``)."""
+    shape: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,12 +154,20 @@ def _nearby(plan: planner.Plan) -> int:
     return math.ceil(meters / plan.analysis.frame.resolution)
 
 
-async def get_fleet(engine: Engine, fleet: str) -> FleetView:
-    """The fleet's state now; ``NotFound`` when it has no robot."""
+async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> FleetView:
+    """The fleet's state now (with ``ahead``, each robot's path ahead read from its plan);
+    ``NotFound`` when it has no robot."""
     state = await engine.store.get_fleet(fleet)
     if state is None or not state["robots"]:
         msg = f"fleet: no fleet {quote(fleet)} (no plan of it is alive)"
         raise NotFound(msg, field="fleet")
     robot_map = await engine.robot_map(state["map_id"])
     zones = await engine.fleet_zones(state["map_id"], float(state["radius"]))
-    return FleetView(fleet, state, robot_map.frame, zones)
+    poses: dict[str, list[Any]] | None = None
+    if ahead:
+        poses = {}
+        for plan_id in state["robots"]:
+            record = await engine.store.get_plan(plan_id)
+            last = None if record is None else record["state"].get("last_step")
+            poses[plan_id] = [] if last is None else list(last.get("poses") or ())
+    return FleetView(fleet, state, robot_map.frame, zones, poses, robot_map.shape)

@@ -1,0 +1,108 @@
+"""The fleet page ``/fleets/{fleet}/view`` in headless Chromium with no network: every robot with
+its heading and path ahead, the passage and who holds it, following the fleet as it steps."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from pathlib import Path
+
+import httpx
+import orjson
+from playwright.sync_api import Route, sync_playwright
+
+from tests.service.browser import FLAGS, chromium
+from tests.service.conftest import ROOT
+from tests.service.test_fleets import F
+
+FIGURE = ROOT / "docs" / "figures" / "fleet.png"
+
+
+def _fleet(client: httpx.Client, name: str) -> tuple[str, str]:
+    scenario = F.corridor_scenario(1, 0)
+    map_id = client.post("/maps", json=F.map_body(scenario.robot_map)).json()["map_id"]
+    ids = []
+    for start, goal in scenario.robots:
+        body = {"map_id": map_id, "start": list(start), "goal": list(goal),
+                "robot_radius": scenario.radius, "fleet": name}  # fmt: skip
+        answer = client.post("/plan", json=body)
+        assert answer.status_code == 201, answer.text
+        ids.append(answer.json()["plan_id"])
+    return ids[0], ids[1]
+
+
+def test_the_fleet_page_names_nothing_outside_the_service(live_url: str) -> None:
+    with httpx.Client(base_url=live_url, trust_env=False) as client:
+        assert client.get("/fleets/nobody/view").status_code == 404
+        assert client.get("/fleets/bad name/view").status_code == 422
+        _fleet(client, "page")
+        r = client.get("/fleets/page/view")
+        assert r.status_code == 200
+        assert r.headers["content-type"].startswith("text/html")
+        text = r.text.replace("http://www.w3.org/2000/svg", "")  # a name, not a load
+        assert not re.search(r"(https?:)?//[a-z0-9]", text, re.IGNORECASE)
+        fleet = client.get("/fleets/page?ahead=true").json()
+        assert all(robot["poses"] == [] for robot in fleet["robots"])  # none stepped yet
+        assert client.get("/fleets/page").json()["robots"][0]["poses"] is None
+
+
+def test_the_fleet_page_shows_robots_turns_and_the_holder_in_chromium(
+    live_url: str, tmp_path: Path
+) -> None:
+    outside: list[str] = []
+
+    def only_the_service(route: Route) -> None:
+        if route.request.url.startswith(f"{live_url}/"):
+            route.continue_()
+        else:
+            outside.append(route.request.url)
+            route.abort()
+
+    with (
+        httpx.Client(base_url=live_url, trust_env=False, timeout=10) as client,
+        sync_playwright() as playwright,
+    ):
+        a, b = _fleet(client, "door")
+        browser = playwright.chromium.launch(
+            executable_path=chromium(), args=[f for f in FLAGS if f != "--headless"]
+        )
+        try:
+            page = browser.new_page(viewport={"width": 1000, "height": 520})
+            page.route("**/*", only_the_service)
+            page.goto(f"{live_url}/fleets/door/view")
+            page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
+            assert page.locator(".robot").count() == 2
+            assert page.locator(".passage").count() == 1
+            held = None
+            for seq in range(300):
+                for plan_id in (a, b):
+                    client.post(f"/plan/{plan_id}/step", json={"seq": seq})
+                fleet = client.get("/fleets/door").json()
+                holders = fleet["passages"][0]["held_by"]
+                waiting = [r for r in fleet["robots"] if r["waiting_for"]]
+                if holders and waiting:
+                    held = (holders, waiting[0])
+                    break
+            assert held is not None, "no robot waited for the other at the passage"
+            (holder,), waiter = held
+            assert waiter["waiting_for"] == holder
+            page.wait_for_function(
+                "document.querySelector('.passage').dataset.heldBy === "
+                + orjson.dumps(holder).decode(),
+                timeout=2000,
+            )
+            robot = page.locator(f".fleet-robot[data-plan-id='{waiter['plan_id']}'] .robot")
+            assert robot.get_attribute("data-status") == "waiting"
+            assert robot.get_attribute("data-waiting-for") == holder
+            assert orjson.loads(robot.get_attribute("data-cell") or "") == waiter["position"]
+            assert page.locator(".heading").count() == 2
+            assert page.locator(".ahead").count() >= 1
+            shot = tmp_path / "fleet.png"
+            page.screenshot(path=str(shot))
+            assert shot.read_bytes().startswith(b"\x89PNG")
+            if os.environ.get("UPDATE_FIGURES"):  # docs/fleets.md's picture
+                shutil.copyfile(shot, FIGURE)
+        finally:
+            browser.close()
+    assert outside == []
