@@ -374,6 +374,39 @@ def _report(store: str, name: str, outcomes: list[Outcome]) -> str:
     )
 
 
+async def _engine_steps(scenario: Scenario, ticks: int) -> dict[str, list[float]]:
+    """The service's own step (``service.resources.plans.step``, no HTTP, no JSON) of the
+    scenario's robots, one after the other for ``ticks`` ticks: as one fleet, and the same
+    plans with no fleet (robots ignoring each other), milliseconds per step."""
+    from schemas import MapCreate, PlanCreate, StepCreate
+    from service.config import Settings
+    from service.main import create_app
+    from service.resources import maps, plans
+
+    app = create_app(Settings(pool_size=1))
+    out: dict[str, list[float]] = {}
+    async with app.router.lifespan_context(app):
+        engine = app.state.engine
+        view, _ = await maps.add_map(engine, MapCreate.model_validate(map_body(scenario.robot_map)))
+        for fleet in (None, "bench"):
+            ids = []
+            for start, goal in scenario.robots:
+                body = PlanCreate(
+                    map_id=view.map_id, start=list(start), goal=list(goal),
+                    robot_radius=scenario.radius, fleet=fleet,
+                )  # fmt: skip
+                ids.append((await plans.create_plan(engine, body)).plan_id)
+            times = out["fleet" if fleet else "no fleet"] = []
+            for _ in range(ticks):
+                for plan_id in ids:
+                    t0 = time.perf_counter()
+                    await plans.step(engine, plan_id, StepCreate())
+                    times.append((time.perf_counter() - t0) * 1000)
+            for plan_id in ids:
+                await plans.delete_plan(engine, plan_id)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=20)
@@ -381,7 +414,19 @@ def main() -> None:
     parser.add_argument("--random-seeds", type=int, default=3)
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
     parser.add_argument("--scenarios", nargs="+", default=["swap2", "swap4", "depot"])
+    parser.add_argument(
+        "--engine", action="store_true", help="only the step in-process, fleet against none"
+    )
     args = parser.parse_args()
+    if args.engine:
+        depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
+        found = asyncio.run(_engine_steps(random_scenario(depot, args.robots, 0), 100))
+        print("| step (in-process) | steps | p50 ms | p99 ms | mean ms |")
+        print("|---|---|---|---|---|")
+        for name, times in found.items():
+            print(f"| depot x{args.robots}, {name} | {len(times)} | {_percentile(times, 50):.3f} "
+                  f"| {_percentile(times, 99):.3f} | {np.mean(times):.3f} |")  # fmt: skip
+        return
     depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
     print("| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
           "| step p50 ms | step p99 ms |")  # fmt: skip

@@ -21,7 +21,7 @@ from service.errors import NotFound
 from service.stores.base import FleetRecord
 from service.work.engine import Engine
 
-__all__ = ["FleetView", "Moved", "get_fleet", "join", "step_in_fleet"]
+__all__ = ["FleetView", "Moved", "empty", "get_fleet", "join", "step_in_fleet"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +46,11 @@ class Moved:
     fleet: FleetRecord
 
 
+def empty(map_id: str, radius: float) -> FleetRecord:
+    """A fleet with no robot yet, on ``map_id``, its passages for robots of ``radius``."""
+    return {"map_id": map_id, "radius": float(radius), "next": 0, "robots": {}}
+
+
 def join(
     fleet: str, plan_id: str, map_id: str, plan: planner.Plan
 ) -> Callable[[FleetRecord | None], FleetRecord]:
@@ -57,7 +62,7 @@ def join(
 
     def apply(state: FleetRecord | None) -> FleetRecord:
         if state is None or not state["robots"]:
-            state = {"map_id": map_id, "radius": radius, "next": 0, "robots": {}}
+            state = empty(map_id, radius)
         elif state["map_id"] != map_id:
             msg = (
                 f"FLEET_MAP_MISMATCH: map_id {quote(map_id)} is not the map of fleet "

@@ -168,14 +168,13 @@ class FleetSteps:
             try:
                 update = await decide(record, live_fleet(fleet[1], time.time()))
             except Exception:
-                if fresh:
-                    raise
-                now = await self._read(key)  # refused on a copy another replica outdated?
+                # Refused on this replica's copies, which other replicas may have outdated?
+                now, again = await self._read(key), await self._read_fleet(fleet_key)
                 if now is None:
                     return None
-                if now[0] == version:
+                if now[0] == version and again[0] == fleet[0]:
                     raise
-                cached, fresh = now, True
+                cached, fleet, fresh = now, again, True
                 continue
             if update.record is None:  # a replay: only checked
                 if fresh:

@@ -44,3 +44,26 @@ def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_p
         # The fleet left Redis with its last plan.
         with httpx.Client(base_url=started[1].url, trust_env=False) as c:
             assert c.get("/fleets/cross-0").status_code == 404
+
+
+def test_a_fleet_name_used_again_on_another_map_is_a_new_fleet_on_every_replica(
+    redis_server: RedisServer, tmp_path: Path
+) -> None:
+    """A replica that stepped a fleet keeps its copy; the fleet gone and its name taken again on
+    another map through the other replica, a step there decides on the new fleet."""
+    with replicas(redis_server.url, tmp_path, 2) as (one, two):
+        a, b = (httpx.Client(base_url=r.url, trust_env=False, timeout=30) for r in (one, two))
+        with a, b:
+            ids = []
+            lane = F.corridor_scenario(1, 0)  # a map with a passage, then a larger one
+            for robot_map, (start, goal) in ((lane.robot_map, lane.robots[0]),
+                                             (room(side=60), ((55, 5), (5, 55)))):  # fmt: skip
+                map_id = a.post("/maps", json=F.map_body(robot_map)).json()["map_id"]
+                body = {"map_id": map_id, "start": list(start), "goal": list(goal),
+                        "robot_radius": 0.325, "fleet": "again"}  # fmt: skip
+                made = a.post("/plan", json=body)
+                assert made.status_code == 201, made.text
+                ids.append(made.json()["plan_id"])
+                assert b.post(f"/plan/{ids[-1]}/step", json={}).status_code == 200
+                assert a.delete(f"/plan/{ids[-1]}").status_code == 204
+            assert a.get("/fleets/again").status_code == 404

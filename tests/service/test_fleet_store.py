@@ -1,0 +1,147 @@
+"""The stores keep a fleet's state consistent under concurrent steps: each step claims a cell no
+other robot of the fleet holds, decided on the fleet's state; however the steps interleave (one
+process, or two replicas on one Redis), no two robots ever hold one cell. Joining and leaving
+change the fleet at once with the plan; the fleet goes with its last robot."""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any
+
+import pytest
+
+from service.stores import MemoryStore, RedisStore
+from service.stores.base import FleetRecord, Store, Update
+from service.tenants import TENANT
+from tests.service.conftest import RedisServer
+
+pytestmark = pytest.mark.anyio
+
+
+def _join(plan_id: str) -> Any:
+    def apply(fleet: FleetRecord | None) -> FleetRecord:
+        fleet = fleet or {"map_id": "m", "radius": 0.0, "next": 0, "robots": {}}
+        robot = {"rank": fleet["next"], "cell": [0, 0], "target": [0, 0], "radius": 0.0,
+                 "goal": [0, 0], "slot": None}  # fmt: skip
+        return {**fleet, "next": fleet["next"] + 1, "robots": {**fleet["robots"], plan_id: robot}}
+
+    return apply
+
+
+def _claim(plan_id: str) -> Any:
+    """A step taking the lowest slot no other robot of the fleet holds, yielding to the event
+    loop while it decides (as a real step does when it awaits the pool)."""
+
+    async def decide(record: dict[str, Any], fleet: FleetRecord | None) -> Update[int]:
+        assert fleet is not None
+        taken = {r["slot"] for k, r in fleet["robots"].items() if k != plan_id}
+        slot = min(set(range(64)) - taken)
+        await asyncio.sleep(0.001)
+        me = {**fleet["robots"][plan_id], "slot": slot}
+        state = {**fleet, "robots": {**fleet["robots"], plan_id: me}}
+        return Update(slot, {**record, "n": record["n"] + 1}, [(slot, 0)], None, state)
+
+    return decide
+
+
+async def _race(stores: list[Store], robots: int, rounds: int) -> None:
+    plans = [f"p{i}" for i in range(robots)]
+    for plan_id in plans:
+        await stores[0].put_fleet_plan(plan_id, {"fleet": "f", "n": 0}, _join(plan_id))
+    for r in range(rounds):
+        # Every robot steps at once, each on a store of its own in turn (replicas alternate).
+        updates = await asyncio.gather(
+            *(stores[(i + r) % len(stores)].step_plan(p, _claim(p)) for i, p in enumerate(plans))
+        )
+        fleet = await stores[0].get_fleet("f")
+        assert fleet is not None
+        slots = [fleet["robots"][p]["slot"] for p in plans]
+        assert len(set(slots)) == robots, slots  # never one slot for two robots
+        assert sorted(u.answer for u in updates if u is not None) == sorted(slots)
+    for plan_id in plans:
+        record = await stores[1 % len(stores)].get_plan(plan_id)
+        assert record is not None
+        assert record["n"] == rounds
+    # Leaving: the fleet goes with its last robot.
+    for i, plan_id in enumerate(plans):
+        assert await stores[i % len(stores)].delete_plan(plan_id)
+        fleet = await stores[0].get_fleet("f")
+        left = plans[i + 1 :]
+        assert (fleet is None) == (not left)
+        if fleet is not None:
+            assert sorted(fleet["robots"]) == left
+
+
+async def test_memory_store_steps_of_a_fleet_never_claim_one_cell() -> None:
+    store = MemoryStore(ttl_seconds=60)
+    await _race([store], robots=8, rounds=5)
+    assert store.lock_count == 0
+
+
+async def test_two_redis_replicas_steps_of_a_fleet_never_claim_one_cell(
+    redis_server: RedisServer,
+) -> None:
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        await _race([a, b], robots=8, rounds=5)
+        assert a.lock_count == b.lock_count == 0
+    finally:
+        await a.close()
+        await b.close()
+
+
+async def test_fleets_of_two_tenants_are_two_fleets(redis_server: RedisServer) -> None:
+    stores: list[Store] = [
+        MemoryStore(ttl_seconds=60),
+        RedisStore(redis_server.url, ttl_seconds=60),
+    ]
+    try:
+        for store in stores:
+            for tenant in ("a", "b"):
+                token = TENANT.set(tenant)
+                try:
+                    await store.put_fleet_plan(
+                        f"{tenant}1", {"fleet": "f", "n": 0}, _join(f"{tenant}1")
+                    )
+                finally:
+                    TENANT.reset(token)
+            for tenant in ("a", "b"):
+                token = TENANT.set(tenant)
+                try:
+                    fleet = await store.get_fleet("f")
+                    assert fleet is not None
+                    assert list(fleet["robots"]) == [f"{tenant}1"]
+                finally:
+                    TENANT.reset(token)
+    finally:
+        await stores[1].close()
+
+
+async def test_a_step_decided_on_a_replicas_stale_fleet_decides_again(
+    redis_server: RedisServer,
+) -> None:
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        for plan_id in ("x", "y"):
+            await a.put_fleet_plan(plan_id, {"fleet": "f", "n": 0}, _join(plan_id))
+        await a.step_plan("x", _claim("x"))  # a's copy of the fleet: x holds slot 0
+        await b.step_plan("y", _claim("y"))  # b read the fleet: y takes slot 1
+        seen: list[FleetRecord] = []
+        claim = _claim("x")
+
+        async def spy(record: dict[str, Any], fleet: FleetRecord | None) -> Update[int]:
+            assert fleet is not None
+            seen.append(fleet)
+            update: Update[int] = await claim(record, fleet)
+            return update
+
+        # x steps on a again: a's fleet is stale (y moved on b), so it decides twice.
+        await a.step_plan("x", spy)
+        assert len(seen) == 2
+        assert seen[0]["robots"]["y"]["slot"] is None
+        assert seen[1]["robots"]["y"]["slot"] == 1
+    finally:
+        await a.close()
+        await b.close()
