@@ -53,6 +53,8 @@ from planner.maps.ros_maps import (
     parse_ros_map,
     read_ros_map,
 )
+from planner.maps.zones import KeepoutMask, SpeedZone, Zones, speed_limits
+from planner.maps.zoning import keepout_mask, zone_map
 from planner.params import PRESETS, Params, resolve_params
 from planner.plans.planning import Plan, clearance_metrics, plan, reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
@@ -73,6 +75,7 @@ __all__ = [
     "CSpace",
     "Episode",
     "InvalidInput",
+    "KeepoutMask",
     "MapFrame",
     "MapYaml",
     "NoValidPath",
@@ -87,10 +90,12 @@ __all__ = [
     "SequenceConflict",
     "Session",
     "SessionState",
+    "SpeedZone",
     "Step",
     "Unsettled",
     "Wave",
     "WaveView",
+    "Zones",
     "analyse",
     "analyse_map",
     "analysis_key",
@@ -107,6 +112,7 @@ __all__ = [
     "goal_wave",
     "grid_map",
     "image_size",
+    "keepout_mask",
     "nav_msgs_path",
     "occupancy_grid_map",
     "params_key",
@@ -131,6 +137,8 @@ __all__ = [
     "run_experiment",
     "simulate",
     "smooth_path",
+    "speed_limits",
     "warm_up",
     "wide_clean",
+    "zone_map",
 ]

@@ -9,7 +9,7 @@ import numpy as np
 
 import planner
 from planner import clearance_metrics
-from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic
+from schemas import MapPublic, PlanDetail, PlanPublic, SimulationPublic, StepPublic, ZonesPublic
 from service.resources.maps import MapView
 from service.resources.plans import PlanView, StepView
 
@@ -55,6 +55,7 @@ def map_public(view: MapView) -> MapPublic:
         resolution=m.resolution,
         origin=list(m.origin),
         plan=plan,
+        zones=None if m.zones is None else ZonesPublic.model_validate(m.zones.as_dict()),
     )
 
 

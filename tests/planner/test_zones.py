@@ -1,0 +1,215 @@
+"""Zones in the planner: polygons' cells and points against the naive even-odd test, the
+simplicity check against exact pair-by-pair arithmetic, zoned maps (cells, ids, zones kept),
+keepout masks, speed caps, and every refusal naming its field."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import planner
+from planner import InvalidInput
+from planner.maps.polygons import check_polygon, points_in_polygon, polygon_cells
+from tests import naive
+
+
+def star(rng: np.random.Generator, n: int, cx: float, cy: float, size: float) -> list[Any]:
+    """A random star-shaped polygon around (cx, cy): simple, often concave."""
+    angles = np.sort(rng.uniform(0, 2 * math.pi, n))
+    radii = rng.uniform(0.2, 1.0, n) * size
+    return [
+        (cx + r * math.cos(a), cy + r * math.sin(a)) for a, r in zip(angles, radii, strict=True)
+    ]
+
+
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(1, 14),
+    st.integers(1, 14),
+    st.integers(3, 12),
+    st.sampled_from([0.0, 0.3, -2.0]),
+)
+def test_polygon_cells_against_naive(seed: int, H: int, W: int, n: int, yaw: float) -> None:
+    rng = np.random.default_rng(seed)
+    res = float(rng.choice([0.05, 0.1, 1.0]))
+    origin = (float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2)), yaw)
+    frame = planner.MapFrame((H, W), res, origin)
+    centers = frame.centers([[rng.integers(H), rng.integers(W)]])[0]
+    polygon = star(rng, n, float(centers[0]), float(centers[1]), res * max(H, W) * 0.7)
+    if len(set(polygon)) < n:
+        return
+    expected = naive.polygon_cells((H, W), res, origin, polygon)
+    np.testing.assert_array_equal(polygon_cells(frame, tuple(polygon)), expected)
+    points = rng.uniform(-3, 3, size=(20, 2)) + centers
+    inside = [naive.in_polygon(x, y, polygon) for x, y in points]
+    assert points_in_polygon(points, tuple(polygon)).tolist() == inside
+
+
+def test_polygon_cells_on_a_big_map_hold_the_area() -> None:
+    """A 30 m x 20 m rectangle on a 0.05 m map holds 600 x 400 centers; a rotated one about as
+    many (within its perimeter's cells)."""
+    frame = planner.MapFrame((1000, 1000), 0.05)
+    rect = ((1.0, 1.0), (31.0, 1.0), (31.0, 21.0), (1.0, 21.0))
+    assert int(polygon_cells(frame, rect).sum()) == 600 * 400
+    a = math.radians(30)
+    rot = tuple(
+        (25 + x * math.cos(a) - y * math.sin(a), 25 + x * math.sin(a) + y * math.cos(a))
+        for x, y in ((-15, -10), (15, -10), (15, 10), (-15, 10))
+    )
+    assert abs(int(polygon_cells(frame, rot).sum()) - 240000) < 2 * (600 + 400) * 2
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 9))
+def test_simplicity_against_exact_pairs(seed: int, n: int) -> None:
+    """Random polygons on a small integer lattice (many touching and collinear edges)."""
+    rng = np.random.default_rng(seed)
+    points = [(float(x), float(y)) for x, y in rng.integers(0, 4, size=(n, 2))]
+    if any(points[i] == points[i - 1] for i in range(n)):
+        return
+    area = sum(points[i - 1][0] * points[i][1] - points[i][0] * points[i - 1][1] for i in range(n))
+    if naive.simple(points) and area != 0:
+        assert check_polygon(points, field="keepout[0]") == tuple(points)
+    else:
+        with pytest.raises(InvalidInput, match="intersects itself") as info:
+            check_polygon(points, field="keepout[0]")
+        assert info.value.field == "keepout[0]"
+
+
+@pytest.mark.parametrize(
+    ("points", "field", "words"),
+    [
+        ([(0, 0), (1, 0)], "keepout[0]", "3 to 1000 points; got 2"),
+        ([(0, 0), (1, 0), (math.nan, 1)], "keepout[0][2]", "finite"),
+        ([(0, 0), (1, 0), (math.inf, 1)], "keepout[0][2]", "finite"),
+        ([(0, 0), (1, 0), (1e12, 1)], "keepout[0][2]", "at most"),
+        ([(0, 0), (1, 1), (1, 0), (0, 1)], "keepout[0]", "intersects itself"),
+        ([(0, 0), (2, 0), (1, 0)], "keepout[0]", "intersects itself"),
+        ([(0, 0), (1, 0), (1, 0), (0, 1)], "keepout[0][2]", "repeats point 1"),
+        ([(0, 0), (2, 0), (2, 2), (1, 0)], "keepout[0]", "intersects itself"),
+        (
+            [(0, 0), (4, 0), (4, 2), (2, 0), (0, 2)],
+            "keepout[0]",
+            "edge 0 (points 0, 1) meets edge 2",
+        ),
+        ([{"x": 0, "y": 0}, {"x": 1, "y": 0}, {"x": 1, "z": 1}], "keepout[0][2]", "{x, y}"),
+        ([(0, 0), (1, 0), (True, 1)], "keepout[0][2]", "finite"),
+        ("abc", "keepout[0]", "list of points"),
+    ],
+)
+def test_bad_polygons_name_their_field(points: Any, field: str, words: str) -> None:
+    with pytest.raises(InvalidInput, match=re_escape(words)) as info:
+        check_polygon(points, field="keepout[0]")
+    assert info.value.field == field
+
+
+def re_escape(text: str) -> str:
+    import re
+
+    return re.escape(text)
+
+
+def test_bad_speed_zones_name_their_field() -> None:
+    base = planner.grid_map([[0] * 4] * 4, resolution=0.5)
+    tri = [(0.1, 0.1), (1.9, 0.1), (1.0, 1.9)]
+    for zone, field in [
+        ({"polygon": tri, "max_speed": 0}, "speed[0].max_speed"),
+        ({"polygon": tri, "max_speed": math.nan}, "speed[0].max_speed"),
+        ({"polygon": tri, "max_speed": True}, "speed[0].max_speed"),
+        ({"polygon": tri}, "speed[0].max_speed"),
+        ({"polygon": tri, "max_speed": 1, "speeed": 2}, "speed[0].speeed"),
+        ({"polygon": tri[:2], "max_speed": 1}, "speed[0].polygon"),
+    ]:
+        with pytest.raises(InvalidInput) as info:
+            planner.zone_map(base, speed=[zone])
+        assert info.value.field == field, zone
+    with pytest.raises(InvalidInput, match="holds no cell") as info:
+        planner.zone_map(base, keepout=[tri, [(10, 10), (11, 10), (11, 11)]])
+    assert info.value.field == "keepout[1]"
+
+
+def test_zoned_map_blocks_keepout_and_keeps_its_zones() -> None:
+    grid = np.zeros((20, 30), dtype=np.int64)
+    grid[5, :] = 1
+    grid[15, 3] = -1
+    base = planner.grid_map(grid, resolution=0.1, origin=(1.0, 2.0, 0.0))
+    keepout = [(1.5, 2.5), (2.5, 2.5), (2.5, 3.5), (1.5, 3.5)]
+    speed = [{"polygon": [(3.0, 2.0), (4.0, 2.0), (4.0, 4.0)], "max_speed": 0.25}]
+    zoned = planner.zone_map(base, keepout=[keepout], speed=speed)
+    cells = naive.polygon_cells(base.shape, 0.1, base.origin, keepout)
+    assert cells.sum() == 100
+    expected = np.where(cells, 100, base.occupancy)
+    np.testing.assert_array_equal(zoned.occupancy, expected)
+    assert base.occupancy.max() == 100
+    assert int((base.occupancy == 100).sum()) == 30
+    assert zoned.frame == base.frame
+    assert zoned.zones is not None
+    assert zoned.zones.base_map_id == base.map_id
+    assert zoned.zones.keepout == (tuple(keepout),)
+    assert zoned.zones.speed == (planner.SpeedZone(((3.0, 2.0), (4.0, 2.0), (4.0, 4.0)), 0.25),)
+    # The id: the same zones on the same base give the same id; other zones another.
+    again = planner.zone_map(base, keepout=[keepout], speed=speed)
+    assert again.map_id == zoned.map_id
+    other = planner.zone_map(base, keepout=[keepout], speed=[{**speed[0], "max_speed": 0.3}])
+    assert other.map_id not in (zoned.map_id, base.map_id)
+    # Speed zones alone: the cells are the base's, the id is not.
+    slow = planner.zone_map(base, speed=speed)
+    np.testing.assert_array_equal(slow.occupancy, base.occupancy)
+    assert slow.map_id != base.map_id
+    # Zoning a zoned map adds to its zones.
+    twice = planner.zone_map(zoned, keepout=[[(3.0, 3.0), (3.5, 3.0), (3.5, 3.5)]])
+    assert twice.zones is not None
+    assert twice.zones.base_map_id == zoned.map_id
+    assert len(twice.zones.keepout) == 2
+    assert len(twice.zones.speed) == 1
+    assert planner.Zones.from_dict(twice.zones.as_dict()) == twice.zones
+
+
+def test_a_plain_grid_zoned_keeps_a_distinct_id() -> None:
+    base = planner.grid_map([[0, 0, 0], [0, 0, 0], [0, 0, 0]])
+    zoned = planner.zone_map(base, keepout=[[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]])
+    fresh = planner.grid_map([[0, 0, 0], [0, 0, 0], [1, 0, 0]])
+    np.testing.assert_array_equal(zoned.occupancy, fresh.occupancy)
+    assert zoned.map_id != fresh.map_id
+
+
+def test_keepout_mask_must_match_the_frame() -> None:
+    base = planner.grid_map([[0] * 5] * 4, resolution=0.1, origin=(1.0, 2.0, 0.0))
+    mask = planner.grid_map(
+        [[0] * 5] * 3 + [[1, 1, 0, 0, 0]], resolution=0.1, origin=(1.0, 2.0, 0.0)
+    )
+    bits = planner.keepout_mask(mask, base.frame)
+    zoned = planner.zone_map(base, mask=bits)
+    assert (zoned.occupancy == 100).sum() == 2
+    assert zoned.occupancy[3, :2].tolist() == [100, 100]
+    assert zoned.zones is not None
+    assert zoned.zones.keepout_masks[0].cells == 2
+    for other, field in [
+        (planner.grid_map([[0] * 5] * 3, resolution=0.1, origin=(1.0, 2.0, 0.0)), "image"),
+        (
+            planner.grid_map([[0] * 5] * 4, resolution=0.05, origin=(1.0, 2.0, 0.0)),
+            "yaml.resolution",
+        ),
+        (planner.grid_map([[0] * 5] * 4, resolution=0.1, origin=(1.0, 2.5, 0.0)), "yaml.origin"),
+        (planner.grid_map([[0] * 5] * 4, resolution=0.1, origin=(1.0, 2.0, 0.1)), "yaml.origin"),
+    ]:
+        with pytest.raises(InvalidInput) as info:
+            planner.keepout_mask(other, base.frame)
+        assert info.value.field == field
+
+
+def test_speed_limits_take_the_least_cap() -> None:
+    zones = planner.Zones(
+        base_map_id="x",
+        speed=(
+            planner.SpeedZone(((0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)), 0.5),
+            planner.SpeedZone(((1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)), 0.2),
+        ),
+    )
+    caps = planner.speed_limits(zones, [[0.5, 0.5], [1.5, 1.5], [2.5, 2.5], [5.0, 5.0]])
+    assert caps.tolist() == [0.5, 0.2, 0.2, math.inf]
+    assert planner.speed_limits(None, [[0.5, 0.5]]).tolist() == [math.inf]
