@@ -24,6 +24,7 @@ from planner.analysis.analyse import (
     resolve_wall_cost,
 )
 from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.analysis.rezone import rezone_analysis
 from planner.errors import (
     QUOTE_LIMIT,
     InvalidInput,
@@ -132,6 +133,7 @@ __all__ = [
     "resolve_params",
     "resolve_wall_cost",
     "resumable_wave",
+    "rezone_analysis",
     "route_of",
     "run_episode",
     "run_experiment",

@@ -213,3 +213,87 @@ def test_speed_limits_take_the_least_cap() -> None:
     caps = planner.speed_limits(zones, [[0.5, 0.5], [1.5, 1.5], [2.5, 2.5], [5.0, 5.0]])
     assert caps.tolist() == [0.5, 0.2, 0.2, math.inf]
     assert planner.speed_limits(None, [[0.5, 0.5]]).tolist() == [math.inf]
+
+
+def assert_same_analysis(derived: planner.Analysis, fresh: planner.Analysis) -> None:
+    assert derived.cspace is not None
+    assert fresh.cspace is not None
+    for name in ("blocked", "distance", "traversable", "unknown_cells"):
+        np.testing.assert_array_equal(
+            getattr(derived.cspace, name), getattr(fresh.cspace, name), err_msg=name
+        )
+    np.testing.assert_array_equal(derived.state, fresh.state)
+    np.testing.assert_array_equal(derived.clean, fresh.clean)
+    assert (derived.gates, derived.tunnels) == (fresh.gates, fresh.tunnels)
+    assert derived.params_key == fresh.params_key
+    assert derived.plain == fresh.plain
+    assert derived.zones == fresh.zones
+
+
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(3, 40),
+    st.integers(3, 40),
+    st.sampled_from(["wide", "wfs-mmas", "mmas", "shortest"]),
+    st.sampled_from([0.0, 0.1, 0.25]),
+    st.sampled_from(["blocked", "free"]),
+    st.integers(1, 3),
+)
+def test_rezoned_analysis_is_the_fresh_one(
+    seed: int, H: int, W: int, preset: str, radius: float, unknown: str, zones: int
+) -> None:
+    """The analysis derived from the base's equals the zoned map's own, array for array, for
+    every preset, radius and unknown policy, with zones anywhere (edges, corners, over walls)."""
+    rng = np.random.default_rng(seed)
+    grid = rng.choice([0, 0, 0, 0, 0, 0, 1, -1], size=(H, W))
+    if rng.random() < 0.3:
+        grid[:] = 0  # nothing blocked: the distance is infinite until the zone
+    res = 0.1
+    base = planner.grid_map(grid, resolution=res, origin=(-1.0, 0.5, 0.0))
+    keepout = []
+    for _ in range(zones):
+        x0 = -1.0 + rng.uniform(-0.2, W * res)
+        y0 = 0.5 + rng.uniform(-0.2, H * res)
+        w, h = rng.uniform(0.05, 0.8, size=2)
+        keepout.append([(x0, y0), (x0 + w, y0), (x0 + w, y0 + h), (x0, y0 + h)])
+    try:
+        zoned = planner.zone_map(base, keepout=keepout)
+    except InvalidInput:
+        return  # a zone between cell centers
+    params = planner.resolve_params(preset, robot_radius=radius, unknown=unknown)
+    derived = planner.rezone_analysis(planner.analyse_map(base, params), zoned, params)
+    assert derived is not None
+    assert_same_analysis(derived[0], planner.analyse_map(zoned, params))
+
+
+def test_rezoned_analysis_on_depot_reuses_and_matches(ros: Any) -> None:
+    base = planner.read_ros_map(ros / "depot.yaml")
+    # Among the racks (a small window) and in the open hall (the window grows).
+    for zone in (
+        [(29.0, 7.0), (31.0, 7.0), (31.0, 9.0), (29.0, 9.0)],
+        [(13.0, 3.0), (17.0, 3.0), (17.0, 12.0), (13.0, 12.0)],
+    ):
+        zoned = planner.zone_map(base, keepout=[zone])
+        for params in (
+            planner.resolve_params("wide", robot_radius=0.22),
+            planner.resolve_params("wfs-mmas", robot_radius=0.22, unknown="free"),
+        ):
+            derived = planner.rezone_analysis(planner.analyse_map(base, params), zoned, params)
+            assert derived is not None
+            analysis, window = derived
+            assert window.cells < base.shape[0] * base.shape[1]
+            assert_same_analysis(analysis, planner.analyse_map(zoned, params))
+
+
+def test_rezoning_refuses_what_it_cannot_derive() -> None:
+    base = planner.grid_map([[0, 0, 0], [0, 1, 0], [0, 0, 0]], resolution=0.5)
+    zoned = planner.zone_map(base, speed=[{"polygon": [(0, 0), (1, 0), (1, 1)], "max_speed": 1}])
+    wide = planner.resolve_params("wide", robot_radius=0.1)
+    a = planner.analyse_map(base, wide)
+    other = planner.resolve_params("wide", robot_radius=0.2)
+    assert planner.rezone_analysis(a, zoned, other) is None  # another key
+    unblocked = planner.grid_map([[0, 0, 0], [0, 0, 0], [0, 0, 0]], resolution=0.5)
+    assert planner.rezone_analysis(a, unblocked, wide) is None  # a blocked cell freed
+    same = planner.rezone_analysis(a, zoned, wide)
+    assert same is not None
+    assert_same_analysis(same[0], planner.analyse_map(zoned, wide))

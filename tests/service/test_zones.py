@@ -260,3 +260,35 @@ async def test_zones_are_tenant_scoped() -> None:
             zoned = r.json()["map_id"]
             assert (await client.get(f"/maps/{zoned}", headers=b)).status_code == 404
             assert math.isclose(r.json()["resolution"], 1.0)
+
+
+async def test_a_zoned_maps_analysis_is_derived_from_its_bases(
+    client: httpx.AsyncClient, depot: dict[str, Any], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With the base's analysis cached, the zoned map's is derived from it; the plan is the one
+    a fresh upload of the zoned cells gets."""
+    calls: list[Any] = []
+    derive = planner.rezone_analysis
+
+    def spy(*args: Any) -> Any:
+        out = derive(*args)
+        calls.append(out)
+        return out
+
+    monkeypatch.setattr(planner, "rezone_analysis", spy)
+    base_id = depot["map_id"]
+    ends = {"start": {"x": 3.0, "y": 7.5}, "goal": {"x": 27.0, "y": 7.5}, "robot_radius": RADIUS}
+    r = await client.post(f"/maps/{base_id}/zones", json={"keepout": [points(ZONE)]})
+    zoned_id = r.json()["map_id"]
+    cold = await client.post("/plan", json={"map_id": zoned_id, **ends})  # no base analysis yet
+    assert cold.status_code == 201
+    assert calls == []
+    await client.post("/plan", json={"map_id": base_id, **ends})
+    r = await client.post(f"/maps/{base_id}/zones", json={"keepout": [points(ZONE[::-1])]})
+    derived = await client.post("/plan", json={"map_id": r.json()["map_id"], **ends})
+    assert derived.status_code == 201
+    assert len(calls) == 1
+    assert calls[0] is not None
+    # The same cells (the polygon reversed holds the same centers): the same plan.
+    for key in ("path", "poses", "min_clearance_m", "mean_clearance_m", "arc_cost"):
+        assert derived.json()["preview"][key] == cold.json()["preview"][key], key
