@@ -44,6 +44,7 @@ from service.client.clients import (
     Step,
     StepFields,
     UploadMapFields,
+    ZonesFields,
 )
 from service.client.errors import (
     APIError,
@@ -82,4 +83,5 @@ __all__ = [
     "UnavailableError",
     "UploadMapFields",
     "ValidationError",
+    "ZonesFields",
 ]

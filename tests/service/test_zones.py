@@ -6,6 +6,7 @@ ids, tenants, and every bad request naming its field."""
 from __future__ import annotations
 
 import io
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -292,3 +293,117 @@ async def test_a_zoned_maps_analysis_is_derived_from_its_bases(
     # The same cells (the polygon reversed holds the same centers): the same plan.
     for key in ("path", "poses", "min_clearance_m", "mean_clearance_m", "arc_cost"):
         assert derived.json()["preview"][key] == cold.json()["preview"][key], key
+
+
+async def test_speed_zones_cap_the_poses_and_give_the_duration(client: httpx.AsyncClient) -> None:
+    """A 4 m corridor at 0.1 m a cell, a speed zone over its middle metre: the poses inside
+    carry its max_speed (and only they), the preview's duration drives the poses at the
+    nominal speed capped there, and the step's poses carry it too."""
+    grid = [[0] * 40 for _ in range(10)]
+    r = await client.post("/maps", json={"grid": grid, "resolution": 0.1})
+    base_id = r.json()["map_id"]
+    slow = [(1.5, -1.0), (2.5, -1.0), (2.5, 2.0), (1.5, 2.0)]
+    r = await client.post(
+        f"/maps/{base_id}/zones", json={"speed": [{"polygon": points(slow), "max_speed": 0.2}]}
+    )
+    assert r.status_code == 201, r.text
+    zoned = r.json()
+    assert zoned["occupied_cells"] == 0  # a speed zone blocks nothing
+    ends = {"start": {"x": 0.25, "y": 0.45}, "goal": {"x": 3.75, "y": 0.55}}
+    for nominal in (None, 0.8):
+        params = {} if nominal is None else {"nominal_speed": nominal}
+        r = await client.post("/plan", json={"map_id": zoned["map_id"], **ends, "params": params})
+        assert r.status_code == 201, r.text
+        plan = r.json()
+        assert plan["params"]["nominal_speed"] == (nominal or 0.5)
+        poses = plan["preview"]["poses"]
+        inside = [1.5 < p["x"] < 2.5 for p in poses]
+        assert any(inside)
+        assert not all(inside)
+        for pose, held in zip(poses, inside, strict=True):
+            assert pose.get("max_speed") == (0.2 if held else None), pose
+        expected = 0.0
+        speed = nominal or 0.5
+        for a, b in itertools.pairwise(poses):
+            cap = min(speed, a.get("max_speed", math.inf), b.get("max_speed", math.inf))
+            expected += math.hypot(b["x"] - a["x"], b["y"] - a["y"]) / cap
+        assert plan["preview"]["duration_s"] == pytest.approx(expected, rel=1e-5)
+        assert plan["preview"]["duration_s"] > plan["preview"]["length_poses_m"] / speed
+    # The unzoned map: no pose carries a cap; the duration is the length at the nominal speed.
+    r = await client.post("/plan", json={"map_id": base_id, **ends})
+    plan = r.json()
+    assert all(set(p) == {"x", "y", "yaw"} for p in plan["preview"]["poses"])
+    assert plan["preview"]["duration_s"] == pytest.approx(
+        plan["preview"]["length_poses_m"] / 0.5, rel=1e-5
+    )
+    # A step's poses carry the cap too, within the zone.
+    r = await client.post("/plan", json={"map_id": zoned["map_id"], **ends})
+    plan_id = r.json()["plan_id"]
+    caps = []
+    for _ in range(40):
+        r = await client.post(f"/plan/{plan_id}/step", json={})
+        assert r.status_code == 200, r.text
+        caps += [p.get("max_speed") for p in r.json()["poses"]]
+        if r.json()["status"] == "reached":
+            break
+    assert 0.2 in caps
+    assert None in caps
+
+
+@pytest.mark.parametrize("value", [0, -1, "fast", True, 1e9])
+async def test_nominal_speed_is_checked(client: httpx.AsyncClient, value: Any) -> None:
+    r = await client.post("/maps", json={"grid": [[0, 0], [0, 0]]})
+    body = {"map_id": r.json()["map_id"], "start": [0, 0], "goal": [1, 1]}
+    r = await client.post("/plan", json={**body, "params": {"nominal_speed": value}})
+    assert r.status_code == 422
+    assert r.json()["field"] == "params.nominal_speed"
+
+
+def test_the_client_adds_zones(live_url: str, tmp_path: Path) -> None:
+    """``add_zones`` through the sync and the async client: polygons as JSON (points as dicts
+    or pairs), and a keepout mask's YAML file with its image beside it."""
+    from service.client import AsyncPlannerClient, NotFoundError, PlannerClient, ValidationError
+
+    grid = [[0] * 20 for _ in range(10)]
+    pixels = np.full((10, 20), 254, dtype=np.uint8)
+    pixels[2:5, 3:7] = 0
+    Image.fromarray(pixels).save(tmp_path / "keepout.png")
+    (tmp_path / "keepout.yaml").write_text(
+        "image: keepout.png\nresolution: 0.5\norigin: [0.0, 0.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.25\n"
+    )
+    with PlannerClient(live_url) as client:
+        base = client.upload_map(grid=grid, resolution=0.5)
+        zoned = client.add_zones(
+            base.map_id,
+            keepout=[[(1.0, 1.0), (3.0, 1.0), (3.0, 3.0)]],
+            speed=[{"polygon": [{"x": 5, "y": 0}, {"x": 8, "y": 0}, {"x": 8, "y": 4}],
+                    "max_speed": 0.4}],
+        )  # fmt: skip
+        assert zoned.created is True
+        assert zoned.zones is not None
+        assert zoned.zones.base_map_id == base.map_id
+        assert zoned.zones.speed[0].max_speed == 0.4
+        assert client.get_map(zoned.map_id) == zoned.model_copy(update={"created": None})
+        masked = client.add_zones(base.map_id, yaml=tmp_path / "keepout.yaml")
+        assert masked.occupied_cells == 12
+        assert masked.zones is not None
+        assert masked.zones.keepout_masks[0].cells == 12
+        with pytest.raises(NotFoundError):
+            client.add_zones("0" * 64, keepout=[[(1, 1), (3, 1), (3, 3)]])
+        with pytest.raises(ValidationError) as info:
+            client.add_zones(base.map_id, keepout=[[(1, 1), (3, 3), (3, 1), (1, 3)]])
+        assert info.value.field == "keepout[0]"
+
+    async def run() -> None:
+        async with AsyncPlannerClient(live_url) as client:
+            again = await client.add_zones(
+                base.map_id, keepout=[[(1.0, 1.0), (3.0, 1.0), (3.0, 3.0)]],
+                speed=[{"polygon": [(5, 0), (8, 0), (8, 4)], "max_speed": 0.4}],
+            )  # fmt: skip
+            assert again.map_id == zoned.map_id
+            assert again.created is False
+
+    import asyncio
+
+    asyncio.run(run())
