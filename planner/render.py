@@ -25,6 +25,7 @@ from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_zones import draw_zone_outlines, paint_zones, zone_legend
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 
@@ -109,7 +110,9 @@ def draw(
     drawn as a thin blue line over the cells, with the last pose's heading as an arrow.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
-    on for robot maps) adds a key and a scale bar in meters below the map.
+    on for robot maps) adds a key and a scale bar in meters below the map. On a zoned map,
+    keepout polygons are hatched red and speed zones tinted amber, labelled with their
+    ``max_speed`` (:mod:`planner.render_zones`).
 
     >>> from planner import analyse
     >>> image = draw(analyse([[0, 1], [1, 0]]), cell=3)   # a gate: the red line across it
@@ -149,8 +152,10 @@ def draw(
         lines[cell::cell, :] = True
         lines[:, cell::cell] = True
         big[lines & open_] = COLOURS["grid"]
+    paint_zones(big, analysis, cell)
     _draw_gates(big, analysis.gate_cells().reshape(-1, 4), cell)
     image = Image.fromarray(big, "RGB")
+    draw_zone_outlines(image, analysis, cell)
     pen = ImageDraw.Draw(image)
     half = cell / 2
     for cells, rgb_, _ in [*lines_, *paths]:
@@ -208,7 +213,7 @@ def _with_legend(
     font = ImageFont.load_default(size=14)
     named = [e for e in extra if e[1]]
     keys = [k for k in LEGEND_NAMES if not (named and k == "path")]  # the named paths instead
-    entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named
+    entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named + zone_legend(analysis)
     width = max(image.width, 520)
     pad, box, row = 8, 14, 22
     x = y = pad

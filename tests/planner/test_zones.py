@@ -297,3 +297,34 @@ def test_rezoning_refuses_what_it_cannot_derive() -> None:
     same = planner.rezone_analysis(a, zoned, wide)
     assert same is not None
     assert_same_analysis(same[0], planner.analyse_map(zoned, wide))
+
+
+def test_pictures_hatch_keepout_and_label_speed_zones() -> None:
+    from planner.render import draw
+    from planner.render_zones import ZONE_COLOURS
+
+    base = planner.grid_map([[0] * 30] * 20, resolution=0.5)
+    zoned = planner.zone_map(
+        base,
+        keepout=[[(1.0, 1.0), (4.0, 1.0), (4.0, 4.0), (1.0, 4.0)]],
+        speed=[{"polygon": [(8.0, 1.0), (14.0, 1.0), (14.0, 9.0), (8.0, 9.0)], "max_speed": 0.3}],
+    )
+    cell = 8
+    image = np.asarray(draw(planner.analyse_map(zoned), cell=cell, legend=False))
+    plain = np.asarray(draw(planner.analyse_map(base), cell=cell, legend=False))
+    # The keepout square: cells (rows 12..17, cols 2..7), only its two colours inside.
+    inside = image[13 * cell : 17 * cell, 3 * cell : 7 * cell].reshape(-1, 3)
+    colours = {tuple(int(v) for v in p) for p in inside}
+    assert colours == {ZONE_COLOURS["keepout"], ZONE_COLOURS["keepout_ground"]}
+    # The speed zone: tinted amber, and a label in dark text at its middle.
+    corner = image[12 * cell + 2, 17 * cell + 2]
+    assert tuple(int(v) for v in corner) not in (
+        (255, 255, 255),
+        tuple(plain[12 * cell + 2, 17 * cell + 2]),
+    )
+    middle = image[10 * cell - 6 : 10 * cell + 6, 20 * cell : 24 * cell]
+    assert (middle.sum(axis=2) < 200).any()  # the label's text
+    # Outside the zones the picture is the unzoned map's.
+    np.testing.assert_array_equal(image[:, 29 * cell :], plain[:, 29 * cell :])
+    legend = draw(planner.analyse_map(zoned), cell=cell)
+    assert legend.height > image.shape[0]

@@ -407,3 +407,53 @@ def test_the_client_adds_zones(live_url: str, tmp_path: Path) -> None:
     import asyncio
 
     asyncio.run(run())
+
+
+def test_the_viewer_draws_the_zones_in_chromium(live_url: str) -> None:
+    """The live page of a plan on a zoned map shows its keepout polygon hatched and its speed
+    zone with its max speed, placed by the frame's formula; a plan on an unzoned map shows
+    none, nor their keys."""
+    from playwright.sync_api import sync_playwright
+
+    from tests.service.browser import FLAGS, chromium
+
+    grid = [[0] * 20 for _ in range(10)]
+    keepout = [(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)]
+    slow = [(6.0, 0.5), (9.0, 0.5), (9.0, 4.5)]
+    with httpx.Client(base_url=live_url, trust_env=False, timeout=10) as client:
+        base_id = client.post("/maps", json={"grid": grid, "resolution": 0.5}).json()["map_id"]
+        body = {
+            "keepout": [points(keepout)],
+            "speed": [{"polygon": points(slow), "max_speed": 0.3}],
+        }
+        zoned_id = client.post(f"/maps/{base_id}/zones", json=body).json()["map_id"]
+        ends = {"start": {"x": 0.5, "y": 4.5}, "goal": {"x": 9.5, "y": 0.5}}
+        zoned_plan = client.post("/plan", json={"map_id": zoned_id, **ends}).json()["plan_id"]
+        plain_plan = client.post("/plan", json={"map_id": base_id, **ends}).json()["plan_id"]
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(
+                executable_path=chromium(), args=[f for f in FLAGS if f != "--headless"]
+            )
+            try:
+                page = browser.new_page(viewport={"width": 900, "height": 600})
+                page.goto(f"{live_url}/plan/{zoned_plan}/view")
+                page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
+                assert page.locator("polygon.keepout").count() == 1
+                assert page.locator("polygon.speed-zone").count() == 1
+                label = page.locator("text.speed-label")
+                assert label.text_content() == "0.3 m/s"
+                assert label.get_attribute("data-max-speed") == "0.3"
+                cell = page.evaluate("JSON.parse(document.getElementById('plan-data')"
+                                     ".textContent).cell")  # fmt: skip
+                drawn = page.locator("polygon.keepout").get_attribute("points") or ""
+                xy = [tuple(float(v) for v in p.split(",")) for p in drawn.split()]
+                # x meters -> x / 0.5 cells from the left; y meters -> (10 - y / 0.5) cells down.
+                want = [(x / 0.5 * cell, (10 - y / 0.5) * cell) for x, y in keepout]
+                np.testing.assert_allclose(xy, want, atol=0.01)
+                assert page.locator(".zone-key").count() == 2
+                page.goto(f"{live_url}/plan/{plain_plan}/view")
+                page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
+                assert page.locator("polygon").count() == 0
+                assert page.locator(".zone-key").count() == 0
+            finally:
+                browser.close()
