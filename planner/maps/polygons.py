@@ -67,9 +67,8 @@ def check_polygon(points: Any, *, field: str) -> Polygon:
             msg = f"{field}[{(i + 1) % n}] repeats point {i} {quote(points[i])}"
             raise InvalidInput(msg, field=f"{field}[{(i + 1) % n}]")
     arr = np.asarray(xy, dtype=np.float64)
-    crossing = _crossing(arr)
-    if crossing is not None:
-        i, j = crossing
+    i, j = _crossing(np.ascontiguousarray(arr[:, 0]), np.ascontiguousarray(arr[:, 1]))
+    if i >= 0:
         msg = (
             f"{field} intersects itself: edge {i} (points {i}, {(i + 1) % n}) meets edge {j} "
             f"(points {j}, {(j + 1) % n})"
@@ -102,62 +101,49 @@ def _point(point: Any, field: str) -> tuple[float, float]:
     return float(values[0]) + 0.0, float(values[1]) + 0.0
 
 
-def _crossing(xy: npt.NDArray[np.float64]) -> tuple[int, int] | None:
-    """The first pair of edges ``(i, j)``, ``i < j``, that meet where they should not: any
-    common point for edges that are not neighbours, more than their shared vertex for
-    neighbours (one folding back along the other). None for a simple polygon."""
-    n = len(xy)
-    a, b = xy, np.roll(xy, -1, axis=0)  # edge k runs from a[k] to b[k]
+@njit(cache=True, nogil=True)
+def _orient(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> int:
+    """The sign of the turn a -> b -> c (1: left, -1: right, 0: collinear)."""
+    d = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    return 1 if d > 0 else (-1 if d < 0 else 0)
+
+
+@njit(cache=True, nogil=True)
+def _on(ax: float, ay: float, bx: float, by: float, cx: float, cy: float) -> bool:
+    """Whether c (collinear with a, b) lies within the box of segment a b."""
+    return min(ax, bx) <= cx <= max(ax, bx) and min(ay, by) <= cy <= max(ay, by)
+
+
+@njit(cache=True, nogil=True)
+def _crossing(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int]:
+    """The first pair of edges ``(i, j)``, ``i < j`` (edge k from point k to point k + 1), that
+    meet where they should not: any common point for edges that are not neighbours, more than
+    their shared vertex for neighbours (one folding back along the other); ``(-1, -1)`` for a
+    simple polygon."""
+    n = xs.size
     for i in range(n - 1):
-        j = np.arange(i + 1, n)
-        p, q = a[i], b[i]
-        c, d = a[j], b[j]
-        o1 = _orient(p, q, c)
-        o2 = _orient(p, q, d)
-        o3 = _orient(c, d, p)
-        o4 = _orient(c, d, q)
-        proper = (o1 * o2 < 0) & (o3 * o4 < 0)
-        touch = (
-            ((o1 == 0) & _on(p, q, c))
-            | ((o2 == 0) & _on(p, q, d))
-            | ((o3 == 0) & _on(c, d, p))
-            | ((o4 == 0) & _on(c, d, q))
-        )
-        meets = proper | touch
-        # Neighbours share a vertex: they meet wrongly only when collinear and folding back.
-        after = j == i + 1
-        before = (i == 0) & (j == n - 1)
-        shared = after | before
-        fold = (o1 == 0) & (o2 == 0) & (_dot(q - p, d - c) < 0)
-        bad = np.where(shared, fold, meets)
-        if bad.any():
-            return i, int(j[np.argmax(bad)])
-    return None
-
-
-def _orient(p: Any, q: Any, r: Any) -> npt.NDArray[np.float64]:
-    """The sign of the turn p -> q -> r (positive: left), for r one point or many."""
-    r = np.atleast_2d(r)
-    p, q = np.atleast_2d(p), np.atleast_2d(q)
-    out: npt.NDArray[np.float64] = np.sign(
-        (q[:, 0] - p[:, 0]) * (r[:, 1] - p[:, 1]) - (q[:, 1] - p[:, 1]) * (r[:, 0] - p[:, 0])
-    )
-    return out
-
-
-def _on(p: Any, q: Any, r: Any) -> npt.NDArray[np.bool_]:
-    """Whether r (collinear with p, q) lies within the box of segment p q."""
-    r = np.atleast_2d(r)
-    p, q = np.atleast_2d(p), np.atleast_2d(q)
-    lo, hi = np.minimum(p, q), np.maximum(p, q)
-    out: npt.NDArray[np.bool_] = np.all((lo <= r) & (r <= hi), axis=1)
-    return out
-
-
-def _dot(u: Any, v: Any) -> npt.NDArray[np.float64]:
-    u, v = np.atleast_2d(u), np.atleast_2d(v)
-    out: npt.NDArray[np.float64] = u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1]
-    return out
+        px, py, qx, qy = xs[i], ys[i], xs[(i + 1) % n], ys[(i + 1) % n]
+        for j in range(i + 1, n):
+            cx, cy, dx, dy = xs[j], ys[j], xs[(j + 1) % n], ys[(j + 1) % n]
+            o1 = _orient(px, py, qx, qy, cx, cy)
+            o2 = _orient(px, py, qx, qy, dx, dy)
+            if j == i + 1 or (i == 0 and j == n - 1):
+                # Neighbours share a vertex: wrong only when collinear and folding back.
+                if o1 == 0 and o2 == 0 and (qx - px) * (dx - cx) + (qy - py) * (dy - cy) < 0:
+                    return i, j
+                continue
+            o3 = _orient(cx, cy, dx, dy, px, py)
+            o4 = _orient(cx, cy, dx, dy, qx, qy)
+            if o1 * o2 < 0 and o3 * o4 < 0:
+                return i, j
+            if (
+                (o1 == 0 and _on(px, py, qx, qy, cx, cy))
+                or (o2 == 0 and _on(px, py, qx, qy, dx, dy))
+                or (o3 == 0 and _on(cx, cy, dx, dy, px, py))
+                or (o4 == 0 and _on(cx, cy, dx, dy, qx, qy))
+            ):
+                return i, j
+    return -1, -1
 
 
 def lattice(frame: MapFrame, polygon: Polygon) -> tuple[npt.NDArray[np.float64], ...]:

@@ -28,6 +28,7 @@ from planner.maps.polygons import Polygon, check_polygon, points_in_polygon, pol
 __all__ = [
     "MAX_SPEED",
     "MAX_ZONES",
+    "MAX_ZONE_POINTS",
     "KeepoutMask",
     "SpeedZone",
     "Zones",
@@ -38,6 +39,8 @@ __all__ = [
 
 MAX_ZONES = 256
 """Polygons (keepout and speed together) a map may have at most."""
+MAX_ZONE_POINTS = 10_000
+"""Points a request's polygons may have in all: the work of checking and drawing them."""
 MAX_SPEED = 100.0
 """A speed zone's ``max_speed`` at most, m/s."""
 
@@ -115,6 +118,12 @@ def check_zones(
     if len(keepout) + len(speed) > MAX_ZONES:
         msg = f"at most {MAX_ZONES} zones a request; got {len(keepout) + len(speed)}"
         raise InvalidInput(msg, field="keepout" if keepout else "speed")
+    total = sum(_length(p) for p in keepout) + sum(
+        _length(z.get("polygon")) if isinstance(z, Mapping) else 0 for z in speed
+    )
+    if total > MAX_ZONE_POINTS:
+        msg = f"at most {MAX_ZONE_POINTS} points in all a request's polygons; got {total}"
+        raise InvalidInput(msg, field="keepout" if keepout else "speed")
     polygons = tuple(check_polygon(p, field=f"keepout[{i}]") for i, p in enumerate(keepout))
     zones = []
     for i, zone in enumerate(speed):
@@ -141,6 +150,10 @@ def check_zones(
         polygon = check_polygon(zone["polygon"], field=f"{field}.polygon")
         zones.append(SpeedZone(polygon, float(speed_)))
     return polygons, tuple(zones)
+
+
+def _length(points: Any) -> int:
+    return len(points) if isinstance(points, Sequence) and not isinstance(points, str) else 0
 
 
 def keepout_cells(frame: MapFrame, polygons: Sequence[Polygon]) -> npt.NDArray[np.bool_]:

@@ -328,3 +328,19 @@ def test_pictures_hatch_keepout_and_label_speed_zones() -> None:
     np.testing.assert_array_equal(image[:, 29 * cell :], plain[:, 29 * cell :])
     legend = draw(planner.analyse_map(zoned), cell=cell)
     assert legend.height > image.shape[0]
+
+
+def test_a_request_holds_at_most_ten_thousand_points() -> None:
+    base = planner.grid_map([[0] * 4] * 4, resolution=0.5)
+    ring = [
+        (1 + math.cos(2 * math.pi * k / 1000), 1 + math.sin(2 * math.pi * k / 1000))
+        for k in range(1000)
+    ]
+    with pytest.raises(InvalidInput, match="at most 10000 points in all") as info:
+        planner.zone_map(base, keepout=[ring] * 6, speed=[{"polygon": ring, "max_speed": 1}] * 5)
+    assert info.value.field == "keepout"
+    zoned = planner.zone_map(
+        base, keepout=[ring] * 5, speed=[{"polygon": ring, "max_speed": 1}] * 5
+    )
+    assert zoned.zones is not None
+    assert len(zoned.zones.keepout) == 5
