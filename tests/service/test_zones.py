@@ -457,3 +457,24 @@ def test_the_viewer_draws_the_zones_in_chromium(live_url: str) -> None:
                 assert page.locator(".zone-key").count() == 0
             finally:
                 browser.close()
+
+
+async def test_a_mask_and_polygons_in_one_multipart_request(
+    client: httpx.AsyncClient, depot: dict[str, Any], ros: Path
+) -> None:
+    import json
+
+    files = mask_files(ros, (10, 20, 10, 30))
+    files["data"] = {
+        "speed": json.dumps([{"polygon": points(ZONE), "max_speed": 0.4}]),
+        "keepout": json.dumps([points([(25.0, 2.0), (26.0, 2.0), (26.0, 3.0)])]),
+    }
+    r = await client.post(f"/maps/{depot['map_id']}/zones", **files)
+    assert r.status_code == 201, r.text
+    zones = r.json()["zones"]
+    assert zones["keepout_masks"][0]["cells"] == 200
+    assert zones["speed"][0]["max_speed"] == 0.4
+    assert len(zones["keepout"]) == 1
+    files["data"] = {"speed": "fast"}
+    r = await client.post(f"/maps/{depot['map_id']}/zones", **files)
+    assert r.status_code == 422
