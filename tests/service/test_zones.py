@@ -33,6 +33,7 @@ ZONE = [(13.0, 3.0), (17.0, 3.0), (17.0, 12.0), (13.0, 12.0)]
 BIG = Settings(pool_size=2)
 BOWTIE = [(1, 1), (3, 3), (3, 1), (1, 3)]
 FAR = [(100, 100), (101, 100), (101, 101)]
+SLOW = [(2.0, 5.5), (9.0, 5.5), (9.0, 9.5), (2.0, 9.5)]
 TWO = [{"x": 2, "y": 1}, {"x": 2, "y": 2}]
 
 
@@ -451,12 +452,43 @@ def test_the_viewer_draws_the_zones_in_chromium(live_url: str) -> None:
                 want = [(x / 0.5 * cell, (10 - y / 0.5) * cell) for x, y in keepout]
                 np.testing.assert_allclose(xy, want, atol=0.01)
                 assert page.locator(".zone-key").count() == 2
+                # Stepped into the speed zone, the status line says the cap.
+                for seq in range(40):
+                    answer = client.post(f"/plan/{zoned_plan}/step", json={"seq": seq}).json()
+                    if answer["poses"] and "max_speed" in answer["poses"][0]:
+                        break
+                else:
+                    raise AssertionError("the robot never stood in the speed zone")
+                page.wait_for_function(
+                    "document.getElementById('status').textContent"
+                    ".includes('in a speed zone: at most 0.3 m/s')",
+                    timeout=2000,
+                )
                 page.goto(f"{live_url}/plan/{plain_plan}/view")
                 page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
                 assert page.locator("polygon").count() == 0
                 assert page.locator(".zone-key").count() == 0
             finally:
                 browser.close()
+
+
+async def test_pictures_of_a_zoned_map_draw_its_zones(
+    client: httpx.AsyncClient, depot: dict[str, Any]
+) -> None:
+    base_id = depot["map_id"]
+    body = {"keepout": [points(ZONE)], "speed": [{"polygon": points(SLOW), "max_speed": 0.3}]}
+    zoned_id = (await client.post(f"/maps/{base_id}/zones", json=body)).json()["map_id"]
+    pictures = []
+    for map_id in (base_id, zoned_id):
+        r = await client.get(f"/maps/{map_id}/render.png", params={"cell": 2})
+        assert r.status_code == 200
+        pictures.append(np.asarray(Image.open(io.BytesIO(r.content)).convert("RGB")))
+    plain, zoned = pictures
+    # The middle of the keepout zone (x 15 m, y 7.5 m): red hatching on pale red.
+    y, x = int((307 - 7.5 / 0.05) * 2), int(15 / 0.05 * 2)
+    colours = {tuple(int(v) for v in p) for p in zoned[y - 6 : y + 6, x - 6 : x + 6].reshape(-1, 3)}
+    assert colours == {(200, 0, 0), (255, 205, 205)}
+    assert (plain[y - 6 : y + 6, x - 6 : x + 6] == 255).all()
 
 
 async def test_a_mask_and_polygons_in_one_multipart_request(
