@@ -125,7 +125,7 @@ class ZonesCreate(BaseModel):
         return value
 
     @model_validator(mode="after")
-    def _something(self) -> ZonesCreate:
+    def _at_least_one(self) -> ZonesCreate:
         if (self.yaml is None) != (self.image is None):
             missing = "image" if self.image is None else "yaml"
             raise ValueError(
