@@ -175,7 +175,9 @@ def _fill(us: np.ndarray, vs: np.ndarray, H: int, W: int) -> np.ndarray:
         j = n - 1
         for i in range(n):
             yi, yj = vs[i], vs[j]
-            if (yi > py) != (yj > py):
+            # Rows grow downwards where y grows upwards: "<" here is PNPOLY's ">" in meters,
+            # so a center on an edge is in or out as the crossing test in meters says.
+            if (yi < py) != (yj < py):
                 xs[k] = (us[j] - us[i]) * (py - yi) / (yj - yi) + us[i]
                 k += 1
             j = i

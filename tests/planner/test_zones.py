@@ -344,3 +344,21 @@ def test_a_request_holds_at_most_ten_thousand_points() -> None:
     )
     assert zoned.zones is not None
     assert len(zoned.zones.keepout) == 5
+
+
+def test_polygons_sharing_an_edge_through_centers_never_share_a_cell() -> None:
+    """Edges through cell centers (x 2.5, y 2.5 on a 1 m map): each center on the shared edges
+    falls in exactly one of the polygons, the scanline fill agreeing with the crossing test."""
+    frame = planner.MapFrame((6, 6), 1.0)
+    left = ((0.5, 0.5), (2.5, 0.5), (2.5, 5.5), (0.5, 5.5))
+    right = ((2.5, 0.5), (4.5, 0.5), (4.5, 2.5), (2.5, 2.5))
+    top = ((2.5, 2.5), (4.5, 2.5), (4.5, 5.5), (2.5, 5.5))
+    cells = [polygon_cells(frame, p) for p in (left, right, top)]
+    assert int(np.sum(cells, axis=0).max()) == 1
+    union = np.sum(cells, axis=0) == 1
+    for p, mine in zip((left, right, top), cells, strict=True):
+        np.testing.assert_array_equal(mine, naive.polygon_cells((6, 6), 1.0, (0, 0, 0), p))
+    # Half-open: the left and bottom edges' centers in, the right and top edges' out.
+    expected = np.zeros((6, 6), dtype=bool)
+    expected[1:6, 0:4] = True
+    np.testing.assert_array_equal(union, expected)
