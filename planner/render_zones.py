@@ -101,7 +101,7 @@ def zone_legend(analysis: Analysis) -> list[tuple[tuple[int, int, int], str]]:
     if zones is None:
         return []
     out = []
-    if zones.keepout or zones.keepout_masks:
+    if zones.keepout:  # a keepout mask's cells are drawn as the blocked cells they are
         out.append((ZONE_COLOURS["keepout"], "keepout zone"))
     if zones.speed:
         slowest = min(z.max_speed for z in zones.speed)
