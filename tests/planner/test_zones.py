@@ -362,3 +362,43 @@ def test_polygons_sharing_an_edge_through_centers_never_share_a_cell() -> None:
     expected = np.zeros((6, 6), dtype=bool)
     expected[1:6, 0:4] = True
     np.testing.assert_array_equal(union, expected)
+
+
+@given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 0.15, 0.3]))
+def test_plans_on_zoned_maps_keep_the_radius_from_keepout(seed: int, radius: float) -> None:
+    """On random maps with a random keepout triangle, every plan (and every pose) keeps more
+    than the robot's radius from every keepout cell's center, or there is no plan."""
+    rng = np.random.default_rng(seed)
+    H, W = 24, 30
+    grid = (rng.random((H, W)) < 0.08).astype(int)
+    base = planner.grid_map(grid, resolution=0.1)
+    cx, cy = rng.uniform(0.5, 2.5), rng.uniform(0.5, 1.9)
+    tri = [(cx + 0.6 * math.cos(a), cy + 0.6 * math.sin(a)) for a in rng.uniform(0, 6.28, 3)]
+    try:
+        zoned = planner.zone_map(base, keepout=[tri])
+    except InvalidInput:
+        return  # a degenerate triangle, or one between centers
+    keep = polygon_cells(base.frame, tuple(tri)) & (grid == 0)
+    where = np.argwhere(keep)
+    if where.size == 0:
+        return
+    params = planner.resolve_params("wide", robot_radius=radius)
+    analysis = planner.analyse_map(zoned, params)
+    assert analysis.cspace is not None
+    free = np.argwhere(analysis.cspace.traversable == 1)
+    if len(free) < 2:
+        return
+    for _ in range(3):
+        a, b = free[rng.integers(len(free), size=2)]
+        try:
+            plan = planner.plan(
+                zoned, a.tolist(), b.tolist(), analysis=analysis, **params.as_dict()
+            )
+        except planner.NoValidPath:
+            continue
+        gap = np.hypot(*(plan.path[:, None, :] - where[None, :, :]).transpose(2, 0, 1))
+        assert float(gap.min()) * 0.1 > radius
+        centers = base.frame.centers(where)
+        xy = plan.poses[:, :2]
+        reach = np.hypot(*(xy[:, None, :] - centers[None, :, :]).transpose(2, 0, 1))
+        assert float(reach.min()) > radius
