@@ -46,6 +46,7 @@ from service.client.clients import (
     Step,
     StepFields,
     UploadMapFields,
+    ZonesFields,
 )
 from service.client.errors import (
     APIError,
@@ -86,4 +87,5 @@ __all__ = [
     "UnavailableError",
     "UploadMapFields",
     "ValidationError",
+    "ZonesFields",
 ]
