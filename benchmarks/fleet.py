@@ -117,7 +117,7 @@ def random_scenario(
     passage for good)."""
     space = planner.configuration_space(robot_map, robot_radius=radius)
     region = _largest_region(space.traversable)
-    zones = planner.fleets.passage_zones(
+    zones = planner.fleets.waiting_zones(
         space.traversable, planner.find_passages(robot_map, radius),
         resolution=robot_map.resolution, robot_radius=radius,
     )  # fmt: skip

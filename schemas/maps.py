@@ -7,17 +7,18 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic.json_schema import SkipJsonSchema
 
+from schemas.fleet_names import FleetName
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     EXAMPLE_PLAN,
     STRICT,
     CellOrPoint,
-    FleetName,
     PlanOptions,
     PlanPublic,
     Waypoints,
 )
+from schemas.zones import ZonesPublic
 
 __all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]
 
@@ -80,7 +81,8 @@ class MapEncoding(BaseModel):
         examples=[EXAMPLE_OCCUPANCY_GRID],
     )
     resolution: float | None = Field(
-        default=None, description="With `grid`/`rows`: meters per cell (default 1)."
+        default=None,
+        description="With `grid`/`rows`: meters per cell, 0.0001 to 1000 (default 1).",
     )
     origin: list[float] | None = Field(
         default=None,
@@ -194,3 +196,6 @@ class MapPublic(BaseModel):
         min_length=3, max_length=3, description="`[x, y, yaw]` of the map's lower-left corner."
     )
     plan: PlanPublic | None = Field(default=None, description="When `start` and `goal` were given.")
+    zones: ZonesPublic | None = Field(
+        default=None, description="A zoned map's zones (`POST /maps/{map_id}/zones`), else null."
+    )

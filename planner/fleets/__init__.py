@@ -2,18 +2,18 @@
 
 from planner.fleets.robots import Robot, covering, disk_offsets, robot_cells
 from planner.fleets.traffic import Traffic, after_step, traffic_for
-from planner.fleets.zones import Zones, no_zones, passage_zones, wait_distance
+from planner.fleets.waiting import WaitingZones, no_waiting_zones, wait_distance, waiting_zones
 
 __all__ = [
     "Robot",
     "Traffic",
-    "Zones",
+    "WaitingZones",
     "after_step",
     "covering",
     "disk_offsets",
-    "no_zones",
-    "passage_zones",
+    "no_waiting_zones",
     "robot_cells",
     "traffic_for",
     "wait_distance",
+    "waiting_zones",
 ]

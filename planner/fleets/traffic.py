@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.fleets.robots import Robot, covering, robot_cells
-from planner.fleets.zones import Zones
+from planner.fleets.waiting import WaitingZones
 
 __all__ = ["Traffic", "after_step", "traffic_for"]
 
@@ -50,7 +50,7 @@ def traffic_for(
     *,
     resolution: float,
     shape: tuple[int, int],
-    zones: Zones | None = None,
+    zones: WaitingZones | None = None,
     here: tuple[int, int] | None = None,
     margin: int = 1,
     within: int | None = None,
@@ -151,7 +151,7 @@ def after_step(
     position: tuple[int, int],
     status: str,
     traffic: Traffic,
-    zones: Zones | None,
+    zones: WaitingZones | None,
     resolution: float,
     would_enter: int | None = None,
 ) -> Robot:

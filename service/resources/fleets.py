@@ -15,13 +15,15 @@ import numpy as np
 
 import planner
 from planner import quote
-from planner.fleets import Robot, Zones, after_step, covering, traffic_for
+from planner.fleets import Robot, WaitingZones, after_step, covering, traffic_for
+from planner.fleets import waiting_zones as planner_waiting_zones
 from planner.plans.ends import cell_of
 from service.errors import NotFound
 from service.stores.base import FleetRecord
+from service.tenants import scoped
 from service.work.engine import Engine
 
-__all__ = ["FleetView", "Moved", "empty", "get_fleet", "join", "step_in_fleet"]
+__all__ = ["FleetView", "Moved", "empty", "get_fleet", "join", "step_in_fleet", "waiting_zones"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -31,7 +33,7 @@ class FleetView:
     fleet: str
     state: FleetRecord
     frame: planner.MapFrame
-    zones: Zones | None
+    zones: WaitingZones | None
     poses: dict[str, list[Any]] | None = None
     """With ``ahead``: each robot's path ahead (its last step's poses, ``(x, y, yaw)``)."""
     shape: tuple[int, int] = (0, 0)
@@ -113,7 +115,7 @@ async def step_in_fleet(
         )
         robots[plan_id] = me
         fleet = {**fleet, "next": int(fleet.get("next", 0)) + 1}
-    zones = await engine.fleet_zones(fleet["map_id"], float(fleet["radius"]))
+    zones = await waiting_zones(engine, fleet["map_id"], float(fleet["radius"]))
     margin = plan.params.dynamic_margin
     here = None
     if position is not None:
@@ -148,6 +150,28 @@ async def step_in_fleet(
     return Moved(step, moved.waiting_for, state)
 
 
+async def waiting_zones(engine: Engine, map_id: str, robot_radius: float) -> WaitingZones:
+    """The passages' waiting zones of a fleet's map for its robots' radius: found once per map
+    and radius, in the pool, and kept in the analysis cache."""
+
+    async def compute() -> WaitingZones:
+        robot_map = await engine.robot_map(map_id)
+        return await engine.pool.run(_waiting_zones, robot_map, robot_radius)
+
+    key = ("waiting zones", scoped(map_id), float(robot_radius))
+    zones, _ = await engine.cache.get_or_compute(key, compute)
+    assert isinstance(zones, WaitingZones)
+    return zones
+
+
+def _waiting_zones(robot_map: planner.RobotMap, robot_radius: float) -> WaitingZones:
+    space = planner.configuration_space(robot_map, robot_radius=robot_radius)
+    passages = planner.find_passages(robot_map, robot_radius)
+    return planner_waiting_zones(
+        space.traversable, passages, resolution=robot_map.resolution, robot_radius=robot_radius
+    )
+
+
 NEARBY_M = 3.0
 """Meters (and the plan's ``horizon_m``, if longer) within which a step sees the fleet's other
 robots as obstacles; farther ones cannot meet it this step."""
@@ -167,7 +191,7 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
         msg = f"fleet: no fleet {quote(fleet)} (no plan of it is alive)"
         raise NotFound(msg, field="fleet")
     robot_map = await engine.robot_map(state["map_id"])
-    zones = await engine.fleet_zones(state["map_id"], float(state["radius"]))
+    zones = await waiting_zones(engine, state["map_id"], float(state["radius"]))
     poses: dict[str, list[Any]] | None = None
     if ahead:
         poses = {}

@@ -64,6 +64,8 @@ class StepView:
     obstacles: list[list[int]]
     replayed: bool = False
     """The answer of a retried ``seq``: nothing moved, nothing was written or published."""
+    zones: planner.Zones | None = None
+    """The map's zones: a pose inside a speed zone carries its ``max_speed``."""
     waiting_for: str | None = None
     """A fleet robot waiting: the plan_id of the robot it waits for."""
 
@@ -166,10 +168,14 @@ async def step(
         if replayed:  # the robot did not move again: nothing to write, no event to send
             if fleet is not None:
                 waiting_for = fleet["robots"].get(plan_id, {}).get("waiting_for")
-            return Update(StepView(result, frame, obstacles, True, waiting_for))
+            return Update(
+                StepView(result, frame, obstacles, True, plan.analysis.zones, waiting_for)
+            )
         stored = session.state.as_dict()
         appended = stored.pop("trajectory")[known:]
-        view = StepView(result, frame, obstacles, waiting_for=waiting_for)
+        view = StepView(
+            result, frame, obstacles, zones=plan.analysis.zones, waiting_for=waiting_for
+        )
         message = None if event is None else event(view)
         return Update(view, {**record, "state": stored}, appended, message, new_fleet)
 

@@ -16,10 +16,10 @@ from planner.fleets import (
     after_step,
     covering,
     disk_offsets,
-    passage_zones,
     robot_cells,
     traffic_for,
     wait_distance,
+    waiting_zones,
 )
 
 
@@ -94,7 +94,7 @@ def test_a_corridors_zone_reaches_the_waiting_distance_into_each_room_and_no_far
     space = planner.configuration_space(m, robot_radius=radius)
     passages = planner.find_passages(m, radius)
     assert len(passages) == 1
-    zones = passage_zones(space.traversable, passages, resolution=0.1, robot_radius=radius)
+    zones = waiting_zones(space.traversable, passages, resolution=0.1, robot_radius=radius)
     assert zones.count == 1
     assert zones.passages == ((0,),)
     grid = zones.group.reshape(m.shape)
@@ -120,7 +120,7 @@ def test_a_passage_held_by_one_robot_is_closed_to_the_others_but_the_waiter_of_r
     m = _corridor()
     radius = 0.325
     space = planner.configuration_space(m, robot_radius=radius)
-    zones = passage_zones(
+    zones = waiting_zones(
         space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
     )
     inside, left, right = (21, 50), (21, 10), (21, 95)
@@ -166,14 +166,14 @@ def test_passages_whose_zones_meet_are_one_group() -> None:
     space = planner.configuration_space(m, robot_radius=0.3)
     passages = planner.find_passages(m, 0.3)
     assert len(passages) == 2
-    zones = passage_zones(space.traversable, passages, resolution=0.1, robot_radius=0.3)
+    zones = waiting_zones(space.traversable, passages, resolution=0.1, robot_radius=0.3)
     assert zones.passages == ((0, 1),)
     assert {zones.group_at((16, 31)), zones.group_at((30, 31))} == {0}
 
 
 def test_no_passages_no_zones() -> None:
     space = np.ones((5, 5), dtype=np.uint8)
-    zones = passage_zones(space, [], resolution=1.0, robot_radius=0.0)
+    zones = waiting_zones(space, [], resolution=1.0, robot_radius=0.0)
     assert zones.count == 0
     assert (zones.group == -1).all()
 

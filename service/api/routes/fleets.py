@@ -11,7 +11,7 @@ from fastapi import APIRouter, Path, Query
 from fastapi.responses import HTMLResponse
 
 from schemas import FleetPublic
-from schemas.plans import FLEET_PATTERN
+from schemas.fleet_names import FLEET_PATTERN
 from service.api import present
 from service.api.deps import EngineDep, OrjsonRoute
 from service.errors import responses

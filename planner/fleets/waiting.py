@@ -13,7 +13,14 @@ import edt
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["WAIT_SLACK", "PassageLike", "Zones", "no_zones", "passage_zones", "wait_distance"]
+__all__ = [
+    "WAIT_SLACK",
+    "PassageLike",
+    "WaitingZones",
+    "no_waiting_zones",
+    "wait_distance",
+    "waiting_zones",
+]
 
 WAIT_SLACK = 0.2
 """Meters added to two robot diameters for the waiting distance (:func:`wait_distance`)."""
@@ -38,7 +45,7 @@ def wait_distance(robot_radius: float) -> float:
 
 
 @dataclass(frozen=True, slots=True)
-class Zones:
+class WaitingZones:
     """Passage groups over a map: ``group`` (flat, ``-1`` outside every zone) and each group's
     passage ids."""
 
@@ -90,19 +97,19 @@ class Zones:
         return out.astype(np.int64, copy=False)
 
 
-def no_zones(shape: tuple[int, int]) -> Zones:
+def no_waiting_zones(shape: tuple[int, int]) -> WaitingZones:
     """A map without passages."""
-    return Zones(shape, np.full(shape[0] * shape[1], -1, dtype=np.int32), ())
+    return WaitingZones(shape, np.full(shape[0] * shape[1], -1, dtype=np.int32), ())
 
 
-def passage_zones(
+def waiting_zones(
     traversable: npt.NDArray[np.uint8],
     passages: Sequence[PassageLike],
     *,
     resolution: float,
     robot_radius: float,
     wait_m: float | None = None,
-) -> Zones:
+) -> WaitingZones:
     """The zones of ``passages`` over a configuration space's ``traversable`` cells: from each
     neck, the traversable cells reachable through traversable cells without going farther than
     ``wait_m`` (default :func:`wait_distance`) from the neck, so that a zone does not leak
@@ -111,7 +118,7 @@ def passage_zones(
     held as one, no robot holds one while waiting for the other."""
     shape = (int(traversable.shape[0]), int(traversable.shape[1]))
     if not passages:
-        return no_zones(shape)
+        return no_waiting_zones(shape)
     reach = (wait_distance(robot_radius) if wait_m is None else wait_m) / resolution
     free = traversable.astype(bool)
     zones = []
@@ -151,7 +158,7 @@ def passage_zones(
         for i in ids:
             flat[zones[i].ravel()] = g
     by_id = sorted(passages, key=lambda p: int(p.id))
-    return Zones(shape, flat, tuple(members), tuple(by_id))
+    return WaitingZones(shape, flat, tuple(members), tuple(by_id))
 
 
 def _dilate(mask: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:

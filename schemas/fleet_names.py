@@ -1,0 +1,28 @@
+"""A fleet's name, as requests give it (``schemas.plans``, ``schemas.maps``) and routes take it."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field
+
+__all__ = ["FLEET_PATTERN", "FleetName"]
+
+FLEET_PATTERN = r"^[A-Za-z0-9_.-]{1,64}$"
+"""A fleet's name: 1 to 64 letters, digits, ``_``, ``.``, ``-``."""
+
+FleetName = Annotated[
+    str | None,
+    Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        pattern=FLEET_PATTERN,
+        description="The fleet the robot belongs to (1-64 characters of `[A-Za-z0-9_.-]`, the "
+        "API key's own): each step of a fleet robot keeps clear of the fleet's other robots "
+        "and takes the narrow passages one robot at a time (docs/fleets.md). Every plan of a "
+        "fleet is on one map (else `422` `FLEET_MAP_MISMATCH`).",
+        examples=["warehouse-a"],
+    ),
+]
+"""A plan's fleet."""
