@@ -267,7 +267,7 @@ async def test_the_documented_examples_chain(client: httpx.AsyncClient) -> None:
     answer, shown = r.json(), example("StepPublic")
     for key in ("path_length", "arc_cost", "remaining"):
         assert answer.pop(key) == pytest.approx(shown.pop(key))
-    assert answer == shown
+    assert {k: v for k, v in answer.items() if v is not None} == shown  # (waiting_for: null)
     r = await client.post(f"/maps/{plan['map_id']}/simulate", json=example("SimulationCreate"))
     assert r.status_code == 200, r.text
 

@@ -111,7 +111,7 @@ async def test_the_fleet_shows_who_holds_the_passage(client: httpx.AsyncClient) 
     for seq in range(400):
         for plan_id in (a, b):
             step = (await client.post(f"/plan/{plan_id}/step", json={"seq": seq})).json()
-            if step["waiting_for"] is not None:
+            if step.get("waiting_for") is not None:
                 waited_for.add(step["waiting_for"])
         fleet = (await client.get("/fleets/d")).json()
         (passage,) = fleet["passages"]
