@@ -93,3 +93,75 @@ def test_a_yaml_alias_bomb_is_refused_at_once(client: httpx.Client, server: Repl
     assert took < 2, took
     assert health.stall < 1, health.stall
     assert not health.failures, health.failures
+
+
+def _open_map(client: httpx.Client, side: int, resolution: float) -> str:
+    """A free ``side`` x ``side`` map at ``resolution``, and a plan across it: its id."""
+    body = {
+        "rows": ["." * side] * side,
+        "resolution": resolution,
+        "start": [side // 2, 0],
+        "goal": [side // 2, side - 1],
+        "preset": "shortest",
+    }
+    r = client.post("/maps", json=body)
+    assert r.status_code in (200, 201), r.text[:300]
+    return str(r.json()["plan"]["plan_id"])
+
+
+@pytest.mark.parametrize(("count", "radius"), [(200, 1e6), (2000, 5.0)])
+def test_circles_cost_the_map_not_their_radius(
+    client: httpx.Client, server: Replica, count: int, radius: float
+) -> None:
+    """200 circles of 10**6 m, or 2,000 of 5 m, over a 1000 x 1000 map (50 m a side): a
+    step answers, and /healthz with it (a box of cells per circle took 6.6 s and 2.0 s, on
+    the event loop)."""
+    plan_id = _open_map(client, 1000, 0.05)
+    spots = [(i * 7919 % 5000 / 100, i * 104729 % 5000 / 100) for i in range(count)]
+    circles = [{"x": x, "y": y, "radius": radius} for x, y in spots]
+    with Healthz(server.url) as health:
+        t0 = time.monotonic()
+        r = client.post(f"/plan/{plan_id}/step", json={"dynamic_obstacles": circles})
+        took = time.monotonic() - t0
+    assert r.status_code == 200, r.text[:300]
+    assert r.json()["move"] == "WAIT"  # the robot is under a circle
+    assert took < 2.5, took
+    assert health.stall < 1, health.stall
+    assert not health.failures, health.failures
+
+
+@pytest.fixture(scope="module")
+def hurried(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Replica]:
+    """A server with a 1 s request timeout, and room for 100,000 circles in a step."""
+    env = {
+        "PLANNER_POOL_SIZE": "2",
+        "PLANNER_REQUEST_TIMEOUT_SECONDS": "1",
+        "PLANNER_MAX_DYNAMIC_OBSTACLES": "200000",
+        "PLANNER_MAX_STEP_BODY_BYTES": str(32 << 20),
+    }
+    with replicas("memory://", tmp_path_factory.mktemp("hurried"), 1, env, main=True) as (one,):
+        yield one
+
+
+def test_a_step_stopped_by_the_timeout_does_not_move_the_robot(hurried: Replica) -> None:
+    """100,000 circles that each span every row of the map but cover only a sliver of its
+    right edge: seconds of rasterising, stopped at the request timeout (504), and the robot,
+    free to move east, has not moved; the same seq, retried without them, moves it."""
+    with httpx.Client(base_url=hurried.url, trust_env=False, timeout=60) as client:
+        plan_id = _open_map(client, 300, 0.05)  # 15 m a side
+        far = 1e5
+        sliver = {"x": 15.0 + far - 0.03, "y": 7.5, "radius": far}
+        t0 = time.monotonic()
+        r = client.post(
+            f"/plan/{plan_id}/step", json={"seq": 0, "dynamic_obstacles": [sliver] * 100_000}
+        )
+        took = time.monotonic() - t0
+        assert r.status_code == 504, r.text[:300]
+        assert "PLANNER_REQUEST_TIMEOUT_SECONDS" in r.json()["detail"]
+        assert took < 5, took
+        plan = client.get(f"/plan/{plan_id}").json()
+        assert plan["position"] == [150, 0]
+        assert plan["trajectory"] == [[150, 0]]
+        r = client.post(f"/plan/{plan_id}/step", json={"seq": 0, "dynamic_obstacles": [sliver]})
+        assert r.status_code == 200, r.text[:300]
+        assert r.json()["move"] == "E"
