@@ -27,7 +27,9 @@ class Settings(BaseSettings):
     )
     max_map_cells: int = Field(default=4096 * 4096, ge=1, description="Largest map, in cells.")
     max_body_bytes: int = Field(
-        default=64 * MIB, ge=1024, description="Largest request body, refused before parsing."
+        default=64 * MIB,
+        ge=1024,
+        description="Largest map upload (`POST /maps`), refused before parsing.",
     )
     max_dynamic_obstacles: int = Field(
         default=10_000, ge=0, description="Most dynamic obstacles in one step or simulation."
@@ -68,7 +70,10 @@ class Settings(BaseSettings):
         default=30.0, gt=0, description="A body not arrived in this time gets 408."
     )
     max_step_body_bytes: int = Field(
-        default=MIB, ge=1024, description="Largest body of a step (413 beyond)."
+        default=MIB,
+        ge=1024,
+        description="Largest body of any request but a map upload: a step, a plan, a simulation "
+        "(413 beyond).",
     )
     max_simulation_steps: int = Field(
         default=200_000, ge=1, description="Largest `max_steps` of a simulation (422 beyond)."

@@ -215,14 +215,16 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     # The tags of the cell-or-point unions are no part of where the value was (a tag is never
     # loc[1], which names a body field or a query parameter, such as "cell").
+    # A map can be megabytes: echo only the start of what was received, and only a few errors
+    # (only those are looked at: a body may hold tens of thousands).
+    every = exc.errors()
     errors = [
         {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
-        for e in exc.errors()
+        for e in every[:3]
     ]
-    # A map can be megabytes: echo only the start of what was received, and only a few errors.
-    parts = [_describe(e) for e in errors[:3]]
-    if len(errors) > 3:
-        parts.append(f"and {len(errors) - 3} more errors")
+    parts = [_describe(e) for e in errors]
+    if len(every) > 3:
+        parts.append(f"and {len(every) - 3} more errors")
     first = errors[0]["loc"] if errors else ()
     field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")

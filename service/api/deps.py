@@ -19,7 +19,7 @@ from starlette.formparsers import MultiPartException
 import planner
 from planner import quote
 from service.config import Settings
-from service.edge.guards import check_depth
+from service.edge.guards import check_depth, check_keys, key_limit
 from service.errors import TooLarge
 from service.work.engine import Engine
 
@@ -30,6 +30,7 @@ __all__ = [
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
+    "check_json",
     "check_query",
     "get_engine",
     "json_body",
@@ -104,7 +105,7 @@ class OrjsonRoute(APIRoute):
             # are bytes (an image) and JSON fields the route parses with orjson's own limit.
             multipart = request.headers.get("content-type", "").startswith("multipart/")
             if request.method in ("POST", "PUT", "PATCH") and not multipart:
-                check_depth(await request.body())
+                check_json(request, await request.body())
             request = await self.check_body(request)
             return await handler(request)
 
@@ -116,6 +117,13 @@ class OrjsonRoute(APIRoute):
         return request
 
 
+def check_json(request: Request, body: bytes) -> None:
+    """A JSON body's depth and number of keys, from its bytes, before it is parsed (422)."""
+    check_depth(body)
+    settings = cast(Settings, request.app.state.settings)
+    check_keys(body, key_limit(settings.max_dynamic_obstacles))
+
+
 async def json_body(request: Request, model: type[Model]) -> Model:
     """The request's body as ``model``, validated from its JSON bytes at once
     (``model_validate_json``), with the 422 a body parameter of that model gets: errors under
@@ -124,7 +132,7 @@ async def json_body(request: Request, model: type[Model]) -> Model:
     the plain ``APIRoute`` class, which makes no second ``Request`` (:class:`OrjsonRoute`
     would read and check the body again)."""
     raw = await request.body()
-    check_depth(raw)
+    check_json(request, raw)
     if not raw:
         missing = {"type": "missing", "loc": ("body",), "msg": "Field required", "input": None}
         raise RequestValidationError([missing])
