@@ -78,6 +78,31 @@ class Settings(BaseSettings):
     max_simulation_steps: int = Field(
         default=200_000, ge=1, description="Largest `max_steps` of a simulation (422 beyond)."
     )
+    http_parser: Literal["h11", "httptools"] = Field(
+        default="h11",
+        description="uvicorn's HTTP/1.1 parser: `h11` holds a request's head to "
+        "`PLANNER_MAX_HEADER_BYTES` (431 beyond); `httptools` is faster on small requests but "
+        "holds heads of any size: only behind a proxy that bounds them (docker/nginx.conf).",
+    )
+    max_header_bytes: int = Field(
+        default=16384, ge=1024, description="Largest request head (line and headers), with h11."
+    )
+    keep_alive_seconds: int = Field(
+        default=5, ge=1, description="An idle keep-alive connection is closed after this long."
+    )
+    max_connections: int = Field(
+        default=16384,
+        ge=16,
+        description="Open connections at most; beyond, uvicorn answers every request 503 at once "
+        "(`/healthz` too: keep it above what the clients and the proxy open). The process's "
+        "open-file limit is raised to fit it when the hard limit allows.",
+    )
+    max_requests: int = Field(
+        default=1024,
+        ge=1,
+        description="Requests in progress at most (bodies, work, event streams); beyond, 503 "
+        "`BUSY` with `Retry-After: 1`. `/healthz` and `/readyz` are never refused.",
+    )
     api_keys: SecretStr = Field(
         default=SecretStr(""),
         description="Comma-separated API keys; empty: the service is open.",

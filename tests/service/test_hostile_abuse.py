@@ -10,15 +10,20 @@ step stopped by the request timeout does not move the robot. Meanwhile ``/health
 
 from __future__ import annotations
 
+import contextlib
+import socket
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import httpx
 import pytest
 
 from tests.planner.test_robot_maps import alias_bomb
 from tests.service.conftest import Replica, replicas
+from tests.service.test_nginx import nginx_in_front  # noqa: F401 - a fixture
 
 LIMITS = {
     "PLANNER_POOL_SIZE": "2",
@@ -196,3 +201,136 @@ def test_a_body_of_a_million_unknown_keys_is_refused_unparsed(
         assert "holds 140001 object keys" in r.json()["detail"]
     assert health.stall < 1, health.stall
     assert not health.failures, health.failures
+
+
+def _idle(server: Replica, count: int) -> list[socket.socket]:
+    return [socket.create_connection(("127.0.0.1", server.port), timeout=10) for _ in range(count)]
+
+
+def test_healthz_and_the_api_answer_beside_4100_idle_connections(
+    client: httpx.Client, server: Replica
+) -> None:
+    """4,100 connections that send nothing (uvicorn's limit was 4,096 connections: every
+    route, /healthz too, answered 503)."""
+    sockets = _idle(server, 4100)
+    try:
+        with Healthz(server.url) as health:
+            fresh = httpx.Limits(max_keepalive_connections=0)
+            with httpx.Client(base_url=server.url, trust_env=False, limits=fresh) as other:
+                assert other.get("/readyz").status_code == 200
+                assert other.get("/maps/unknown").status_code == 404
+                plan_id = _open_map(other, 20, 0.1)
+                assert other.post(f"/plan/{plan_id}/step", json={}).status_code == 200
+        assert health.stall < 1, health.stall
+        assert not health.failures, health.failures
+    finally:
+        for sock in sockets:
+            sock.close()
+
+
+def test_a_request_head_over_max_header_bytes_is_refused(server: Replica) -> None:
+    """A header of megabytes (httptools kept every byte: 90 MB on one connection) is cut at
+    PLANNER_MAX_HEADER_BYTES (16 KiB): 400, and the connection closed."""
+    before = _rss_mib(server)
+    with socket.create_connection(("127.0.0.1", server.port), timeout=10) as sock:
+        sock.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\nX-Big: ")
+        answer = b""
+        with contextlib.suppress(OSError):  # the server may close while we still send
+            for _ in range(64):
+                sock.sendall(b"a" * (1 << 20))
+        with contextlib.suppress(OSError):
+            while chunk := sock.recv(4096):
+                answer += chunk
+    assert answer.startswith(b"HTTP/1.1 400"), answer[:100]
+    assert _rss_mib(server) - before < 20
+
+
+def _rss_mib(server: Replica) -> float:
+    status = Path(f"/proc/{server.process.pid}/status").read_text()
+    return int(status.split("VmRSS:")[1].split()[0]) / 1024
+
+
+@pytest.fixture(scope="module")
+def guarded(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Replica]:
+    """A server that takes 8 requests at once, and closes idle connections after 1 s."""
+    env = {"PLANNER_MAX_REQUESTS": "8", "PLANNER_KEEP_ALIVE_SECONDS": "1"}
+    with replicas("memory://", tmp_path_factory.mktemp("guarded"), 1, env, main=True) as (one,):
+        yield one
+
+
+def test_requests_beyond_max_requests_get_503_but_probes_answer(guarded: Replica) -> None:
+    """8 requests in progress (bodies on their way): a 9th is 503 BUSY with Retry-After;
+    /healthz and /readyz still answer; once those end, requests are served again."""
+    pending = _idle(guarded, 8)
+    try:
+        for sock in pending:
+            sock.sendall(
+                b"POST /plan HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                b"Content-Length: 1000\r\n\r\n{"
+            )
+        time.sleep(0.5)
+        with httpx.Client(base_url=guarded.url, trust_env=False, timeout=10) as c:
+            r = c.get("/maps/unknown")
+            assert r.status_code == 503, r.text
+            assert r.json()["code"] == "BUSY"
+            assert "PLANNER_MAX_REQUESTS is 8" in r.json()["detail"]
+            assert r.headers["retry-after"] == "1"
+            assert c.get("/healthz").status_code == 200
+            assert c.get("/readyz").status_code == 200
+    finally:
+        for sock in pending:
+            sock.close()
+    time.sleep(0.5)
+    with httpx.Client(base_url=guarded.url, trust_env=False, timeout=10) as c:
+        assert c.get("/maps/unknown").status_code == 404
+
+
+def test_an_idle_keep_alive_connection_is_closed_after_keep_alive_seconds(
+    guarded: Replica,
+) -> None:
+    with socket.create_connection(("127.0.0.1", guarded.port), timeout=10) as sock:
+        sock.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n")
+        assert sock.recv(4096).startswith(b"HTTP/1.1 200")
+        t0 = time.monotonic()
+        while sock.recv(4096):  # the rest of the answer, then the end: closed by the server
+            pass
+        assert 0.5 < time.monotonic() - t0 < 4
+
+
+def _cut(sock: socket.socket) -> bool:
+    """One more header line on its way; whether the other end has answered or closed."""
+    try:
+        sock.sendall(b"X-Slow: 1\r\n")
+        sock.recv(4096)  # an answer (408) or the end: either way, cut
+    except BlockingIOError:
+        return False
+    except OSError:
+        pass
+    return True
+
+
+def test_trickled_headers_are_cut_by_nginx_in_front(
+    nginx_in_front: tuple[str, list[Any]],  # noqa: F811 - the fixture imported
+) -> None:
+    """Slowloris: 20 connections each sending a header line a second. uvicorn has no timeout
+    for a request's head (benchmarks/abuse.py measures them held open); docker/nginx.conf's
+    client_header_timeout (10 s) closes every one."""
+    url, _ = nginx_in_front
+    port = int(url.rsplit(":", 1)[1])
+    sockets = [socket.create_connection(("127.0.0.1", port), timeout=30) for _ in range(20)]
+    closed: dict[int, float] = {}
+    t0 = time.monotonic()
+    try:
+        for sock in sockets:
+            sock.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+            sock.setblocking(False)
+        while len(closed) < len(sockets) and time.monotonic() - t0 < 20:
+            for i, sock in enumerate(sockets):
+                if i not in closed and _cut(sock):
+                    closed[i] = time.monotonic() - t0
+            time.sleep(1)
+    finally:
+        for sock in sockets:
+            sock.close()
+    assert len(closed) == len(sockets), f"{len(closed)} of 20 closed in 20 s"
+    assert max(closed.values()) < 14, closed
