@@ -26,8 +26,15 @@ class Settings(BaseSettings):
         "`redis://host:port/db` (shared by replicas; `rediss://` for TLS).",
     )
     max_map_cells: int = Field(default=4096 * 4096, ge=1, description="Largest map, in cells.")
+    max_json_map_cells: int = Field(
+        default=2048 * 1024,
+        ge=1,
+        description="Largest map sent as JSON numbers (`grid`, `occupancy_grid`), in cells: "
+        "parsing them holds the event loop (about 0.1 s a million cells); larger maps come as "
+        "`rows` or as an image with its YAML.",
+    )
     max_body_bytes: int = Field(
-        default=64 * MIB,
+        default=32 * MIB,
         ge=1024,
         description="Largest map upload (`POST /maps`), refused before parsing.",
     )

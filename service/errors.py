@@ -129,7 +129,7 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "code": "STORE_UNAVAILABLE",
     },
     413: {
-        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 67108864",
+        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 33554432",
         "field": "body",
         "code": "TOO_LARGE",
     },

@@ -21,6 +21,7 @@ from planner import quote
 from service.config import Settings
 from service.edge.guards import check_depth, check_keys, key_limit
 from service.errors import TooLarge
+from service.resources.maps import json_cells_message
 from service.work.engine import Engine
 
 __all__ = [
@@ -198,13 +199,22 @@ class MapRoute(OrjsonRoute):
             cells = max(body.count(b","), int(np.count_nonzero(_LETTER_BYTES[raw])))
         else:
             cells = int(np.count_nonzero(_CELL_BYTES[raw]))
-        limit = cast(Settings, request.app.state.settings).max_map_cells
+        settings = cast(Settings, request.app.state.settings)
+        limit = settings.max_map_cells
         if cells > limit + CELL_SLACK:
             msg = (
                 f"map: the body holds about {cells} map cells; PLANNER_MAX_MAP_CELLS is {limit} "
                 "(refused before parsing)"
             )
             raise TooLarge(msg, field="map")
+        # Cells as JSON numbers: an OccupancyGrid's commas, a grid's 0 and 1 digits.
+        if b'"occupancy_grid"' in body:
+            numbers = body.count(b",")
+        else:
+            numbers = body.count(b"0") + body.count(b"1")
+        if numbers > settings.max_json_map_cells + CELL_SLACK:
+            message = json_cells_message(f"about {numbers}", settings.max_json_map_cells)
+            raise TooLarge(message, field="map")
         return request
 
 

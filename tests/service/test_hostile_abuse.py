@@ -252,8 +252,13 @@ def _rss_mib(server: Replica) -> float:
 
 @pytest.fixture(scope="module")
 def guarded(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Replica]:
-    """A server that takes 8 requests at once, and closes idle connections after 1 s."""
-    env = {"PLANNER_MAX_REQUESTS": "8", "PLANNER_KEEP_ALIVE_SECONDS": "1"}
+    """A server that takes 8 requests at once, closes idle connections after 1 s, and takes
+    JSON maps of 10,000 cells at most."""
+    env = {
+        "PLANNER_MAX_REQUESTS": "8",
+        "PLANNER_KEEP_ALIVE_SECONDS": "1",
+        "PLANNER_MAX_JSON_MAP_CELLS": "10000",
+    }
     with replicas("memory://", tmp_path_factory.mktemp("guarded"), 1, env, main=True) as (one,):
         yield one
 
@@ -334,3 +339,37 @@ def test_trickled_headers_are_cut_by_nginx_in_front(
             sock.close()
     assert len(closed) == len(sockets), f"{len(closed)} of 20 closed in 20 s"
     assert max(closed.values()) < 14, closed
+
+
+def test_a_json_grid_over_its_limit_is_refused_unparsed(
+    client: httpx.Client, server: Replica
+) -> None:
+    """A 30 MB `grid` (3800 x 3800) held the event loop 3.3 s while it was parsed: over
+    PLANNER_MAX_JSON_MAP_CELLS (2 M cells) it is a 413 from its bytes, naming the encodings
+    that carry a large map cheaply."""
+    body = b'{"grid": [' + b",".join([b"[" + b"0," * 3799 + b"1]"] * 3800) + b"]}"
+    assert len(body) > 28_000_000
+    with Healthz(server.url) as health:
+        r = client.post("/maps", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 413, r.text[:300]
+    detail = r.json()["detail"]
+    assert "PLANNER_MAX_JSON_MAP_CELLS is 2097152" in detail
+    assert "`rows`" in detail
+    assert "image with its YAML" in detail
+    assert health.stall < 1, health.stall
+    assert not health.failures, health.failures
+
+
+def test_json_map_cells_are_counted_exactly_and_rows_are_not_limited(guarded: Replica) -> None:
+    with httpx.Client(base_url=guarded.url, trust_env=False, timeout=30) as c:
+        r = c.post("/maps", json={"grid": [[0] * 100] * 101})  # within the bytes' slack
+        assert r.status_code == 413, r.text[:300]
+        assert r.json()["field"] == "grid"
+        assert "a `grid` or `occupancy_grid` of 10100 cells" in r.json()["detail"]
+        info = {"width": 101, "height": 100, "resolution": 0.05}
+        message = {"info": info, "data": [0] * 10100}
+        r = c.post("/maps", json={"occupancy_grid": message})
+        assert r.status_code == 413, r.text[:300]
+        assert r.json()["field"] == "occupancy_grid"
+        assert c.post("/maps", json={"grid": [[0] * 100] * 100}).status_code == 201
+        assert c.post("/maps", json={"rows": ["." * 200] * 200}).status_code == 201
