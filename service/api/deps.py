@@ -167,13 +167,9 @@ def _body_errors(exc: ValidationError, raw: bytes) -> RequestValidationError:
 # Every cell of a map is one byte of the body: a Moving AI letter in `rows`, a 0 or a 1 in
 # `grid`. Counting those bytes bounds the cells from above; a valid body's other fields (start,
 # goal, preset, params) hold at most a few hundred of them, hence the slack.
-_CELL_BYTES = np.zeros(256, dtype=bool)
-_CELL_BYTES[np.frombuffer(b".GS@OTW01", dtype=np.uint8)] = True
+_CELL_CHARACTERS = b".GS@OTW01"
 CELL_SLACK = 4096
 
-
-_LETTER_BYTES = np.zeros(256, dtype=bool)
-_LETTER_BYTES[np.frombuffer(b".GS@OTW", dtype=np.uint8)] = True
 
 MULTIPART_PARTS = ("yaml", "image")
 """The multipart parts that stay bytes; every other form field is JSON (or a bare word)."""
@@ -194,11 +190,14 @@ class MapRoute(OrjsonRoute):
         if request.headers.get("content-type", "").startswith("multipart/form-data"):
             return await _form_as_json(request)
         body = await request.body()
+        # Each byte value counted by a comparison (several times faster than a table look-up).
         raw = np.frombuffer(body, dtype=np.uint8)
+        counts = {ch: int(np.count_nonzero(raw == ch)) for ch in _CELL_CHARACTERS}
         if b'"occupancy_grid"' in body:
-            cells = max(body.count(b","), int(np.count_nonzero(_LETTER_BYTES[raw])))
+            letters = sum(counts[ch] for ch in b".GS@OTW")
+            cells = max(body.count(b","), letters)
         else:
-            cells = int(np.count_nonzero(_CELL_BYTES[raw]))
+            cells = sum(counts.values())
         settings = cast(Settings, request.app.state.settings)
         limit = settings.max_map_cells
         if cells > limit + CELL_SLACK:
@@ -211,7 +210,7 @@ class MapRoute(OrjsonRoute):
         if b'"occupancy_grid"' in body:
             numbers = body.count(b",")
         else:
-            numbers = body.count(b"0") + body.count(b"1")
+            numbers = counts[ord("0")] + counts[ord("1")]
         if numbers > settings.max_json_map_cells + CELL_SLACK:
             message = json_cells_message(f"about {numbers}", settings.max_json_map_cells)
             raise TooLarge(message, field="map")

@@ -19,27 +19,27 @@ MAX_JSON_DEPTH = 64
 _OPEN = np.zeros(256, dtype=np.int8)
 _OPEN[[ord("["), ord("{")]] = 1
 _OPEN[[ord("]"), ord("}")]] = -1
-_BRACKET = _OPEN != 0
-_COLON = np.zeros(256, dtype=bool)
-_COLON[ord(":")] = True
 
 
 _CHUNK = 1 << 22
 """Bytes looked at at once: the positions found in a chunk take 8 bytes each."""
 
 
-def _outside_strings(body: bytes, marks: npt.NDArray[np.bool_]) -> Iterator[npt.NDArray[np.uint8]]:
-    """The bytes of ``body`` that ``marks`` (a table of 256) flags and that lie outside
+def _outside_strings(body: bytes, marks: bytes) -> Iterator[npt.NDArray[np.uint8]]:
+    """The bytes of ``body`` that are among ``marks`` and that lie outside
     strings, in order, a chunk at a time: a string opens at an odd quote, so a byte is outside
     when an even number of quotes come before it. The work is the flagged bytes and the
     quotes (numpy, sparse), never a Python step per byte."""
     # Escapes first, so that every quote left opens or closes a string.
-    text = body.replace(b"\\\\", b"").replace(b'\\"', b"")
+    text = body.replace(b"\\\\", b"").replace(b'\\"', b"") if b"\\" in body else body
     raw = np.frombuffer(text, dtype=np.uint8)
     quotes_before = 0
     for start in range(0, raw.size, _CHUNK):
         chunk = raw[start : start + _CHUNK]
-        where = np.flatnonzero(marks[chunk])
+        flagged = chunk == marks[0]
+        for mark in marks[1:]:
+            flagged |= chunk == mark  # comparisons: several times faster than a table look-up
+        where = np.flatnonzero(flagged)
         quotes = np.flatnonzero(chunk == ord('"'))
         if where.size and quotes.size:
             where = where[((np.searchsorted(quotes, where) + quotes_before) & 1) == 0]
@@ -63,13 +63,13 @@ def _depth(body: bytes, stop: int | None) -> tuple[int, bool]:
     """:func:`json_depth`, looking no further than the chunk where it passes ``stop``; and
     whether the whole body was looked at."""
     depth = deepest = 0
-    for brackets in _outside_strings(body, _BRACKET):
+    for brackets in _outside_strings(body, b"[]{}"):
         if brackets.size:
             levels = np.cumsum(_OPEN[brackets], dtype=np.int64) + depth
             deepest = max(deepest, int(levels.max()))
             depth = int(levels[-1])
             if stop is not None and deepest > stop:
-                return deepest, False
+                return deepest, len(body) <= _CHUNK  # looked at whole if one chunk
     return deepest, True
 
 
@@ -79,7 +79,7 @@ def json_keys(body: bytes) -> int:
     >>> json_keys(b'{"a": {"b:c": 1, "d": [{"e": ":"}]}}')
     4
     """
-    return sum(colons.size for colons in _outside_strings(body, _COLON))
+    return sum(colons.size for colons in _outside_strings(body, b":"))
 
 
 def key_limit(max_dynamic_obstacles: int) -> int:
