@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections.abc import Callable, Coroutine
 from typing import Annotated, Any, TypeVar, cast
 
-import numpy as np
 import orjson
 from fastapi import Depends, Query, Request, Response
 from fastapi.dependencies.models import Dependant
@@ -167,7 +166,12 @@ def _body_errors(exc: ValidationError, raw: bytes) -> RequestValidationError:
 # Every cell of a map is one byte of the body: a Moving AI letter in `rows`, a 0 or a 1 in
 # `grid`. Counting those bytes bounds the cells from above; a valid body's other fields (start,
 # goal, preset, params) hold at most a few hundred of them, hence the slack.
-_CELL_CHARACTERS = b".GS@OTW01"
+_ALL_BYTES = bytes(range(256))
+_NOT_CELLS = _ALL_BYTES.translate(None, b".GS@OTW01")
+_NOT_LETTERS = _ALL_BYTES.translate(None, b".GS@OTW")
+_NOT_NUMBERS = _ALL_BYTES.translate(None, b"01")
+"""The bytes that are no map cell (no Moving AI letter, no 0 or 1 of a `grid`), no letter, and
+no JSON number's cell (an OccupancyGrid's cells are counted by its commas)."""
 CELL_SLACK = 4096
 
 
@@ -190,14 +194,13 @@ class MapRoute(OrjsonRoute):
         if request.headers.get("content-type", "").startswith("multipart/form-data"):
             return await _form_as_json(request)
         body = await request.body()
-        # Each byte value counted by a comparison (several times faster than a table look-up).
-        raw = np.frombuffer(body, dtype=np.uint8)
-        counts = {ch: int(np.count_nonzero(raw == ch)) for ch in _CELL_CHARACTERS}
+        # Counted by deleting every other byte: one fast pass of C each.
         if b'"occupancy_grid"' in body:
-            letters = sum(counts[ch] for ch in b".GS@OTW")
-            cells = max(body.count(b","), letters)
+            numbers = body.count(b",")
+            cells = max(numbers, len(body.translate(None, _NOT_LETTERS)))
         else:
-            cells = sum(counts.values())
+            cells = len(body.translate(None, _NOT_CELLS))
+            numbers = len(body.translate(None, _NOT_NUMBERS))
         settings = cast(Settings, request.app.state.settings)
         limit = settings.max_map_cells
         if cells > limit + CELL_SLACK:
@@ -206,11 +209,6 @@ class MapRoute(OrjsonRoute):
                 "(refused before parsing)"
             )
             raise TooLarge(msg, field="map")
-        # Cells as JSON numbers: an OccupancyGrid's commas, a grid's 0 and 1 digits.
-        if b'"occupancy_grid"' in body:
-            numbers = body.count(b",")
-        else:
-            numbers = counts[ord("0")] + counts[ord("1")]
         if numbers > settings.max_json_map_cells + CELL_SLACK:
             message = json_cells_message(f"about {numbers}", settings.max_json_map_cells)
             raise TooLarge(message, field="map")
