@@ -22,6 +22,8 @@ _OPEN[[ord("]"), ord("}")]] = -1
 _NOT_OPENING = bytes(range(256)).translate(None, b"[{")
 
 
+_PREFIX = 1 << 16
+"""Bytes of a large body looked at first, for the depth."""
 _CHUNK = 1 << 22
 """Bytes looked at at once: the positions found in a chunk take 8 bytes each."""
 
@@ -105,9 +107,14 @@ def check_keys(body: bytes, limit: int) -> None:
 
 def check_depth(body: bytes, limit: int = MAX_JSON_DEPTH) -> None:
     """``InvalidInput`` (422) naming the depth when ``body`` nests deeper than ``limit``."""
-    if len(body.translate(None, _NOT_OPENING)) <= limit:
-        return  # cannot nest deeper than it has brackets: most bodies stop here (~1 us)
-    depth, whole = _depth(body, limit)
+    depth, whole = 0, True
+    if len(body) > _PREFIX:  # a body nesting too deep mostly does so from its start
+        depth, _ = _depth(body[:_PREFIX], limit)
+        whole = False
+    if depth <= limit:
+        if len(body.translate(None, _NOT_OPENING)) <= limit:
+            return  # cannot nest deeper than it has brackets: most bodies stop here (~1 us)
+        depth, whole = _depth(body, limit)
     if depth > limit:
         deep = f"{depth}" if whole else f"at least {depth}"
         msg = f"the JSON body nests {deep} levels deep; the limit is {limit} (refused unparsed)"
