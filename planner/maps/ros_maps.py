@@ -109,14 +109,15 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
     if len(text) > MAX_YAML_BYTES:
         msg = f"{name} has {len(text)} bytes; a map YAML may have {MAX_YAML_BYTES} at most"
         raise InvalidInput(msg, field=name)
-    loader = _MapYamlLoader(text)
-    loader.field = name
     try:
-        doc = loader.get_single_data()
+        loader = _MapYamlLoader(text)  # bytes are decoded here: not UTF-8 is a YAMLError too
+        loader.field = name
+        try:
+            doc = loader.get_single_data()
+        finally:
+            loader.dispose()
     except yaml.YAMLError as exc:
         raise InvalidInput(f"{name} is not valid YAML: {quote(str(exc))}", field=name) from None
-    finally:
-        loader.dispose()
     if not isinstance(doc, dict):
         raise InvalidInput(f"{name} must be a mapping of keys; got {quote(doc)}", field=name)
     image = doc.get("image", "")

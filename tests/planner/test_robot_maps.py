@@ -209,6 +209,12 @@ def test_a_deep_or_long_yaml_is_refused(text: str, match: str) -> None:
         planner.parse_map_yaml(text)
 
 
+def test_a_yaml_that_is_not_text_is_refused() -> None:
+    with pytest.raises(InvalidInput, match="yaml is not valid YAML") as info:
+        planner.parse_map_yaml(png(np.zeros((1, 1), dtype=np.uint8)))
+    assert info.value.field == "yaml"
+
+
 def test_an_anchor_without_alias_still_reads() -> None:
     meta = planner.parse_map_yaml("image: &i m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
     assert meta.image == "m.pgm"
