@@ -1,16 +1,19 @@
 """Abuse against a real server (``python -m service``, over TCP): requests and connections
 whose size would become time on the event loop or memory in the process.
 
-A YAML alias bomb is refused at once; a step's circles cost what the map's cells cost, whatever
-their radius; a body of a million unknown keys is refused before validation; a JSON grid over
-its limit is refused unparsed; thousands of idle connections leave ``/healthz`` answering; a
-step stopped by the request timeout does not move the robot. Meanwhile ``/healthz``, polled every
-50 ms on fresh connections, keeps answering.
+A YAML alias bomb is refused at once; a step's circles cost what the map's rows cost, whatever
+their radius; a step stopped by the request timeout does not move the robot; a body of a
+million unknown keys is refused before validation; a JSON grid over its limit is refused
+unparsed; 4,100 idle connections leave every route answering; a megabyte header is cut at
+PLANNER_MAX_HEADER_BYTES; requests beyond PLANNER_MAX_REQUESTS get 503 but the probes do not;
+an idle keep-alive connection is closed; trickled headers are cut by nginx in front (uvicorn
+cannot). Meanwhile ``/healthz``, polled every 50 ms on fresh connections, keeps answering.
 """
 
 from __future__ import annotations
 
 import contextlib
+import resource
 import socket
 import threading
 import time
@@ -21,6 +24,7 @@ from typing import Any
 import httpx
 import pytest
 
+from service.__main__ import FILES_BESIDE_CONNECTIONS, open_file_limit
 from tests.planner.test_robot_maps import alias_bomb
 from tests.service.conftest import Replica, replicas
 from tests.service.test_nginx import nginx_in_front  # noqa: F401 - a fixture
@@ -373,3 +377,17 @@ def test_json_map_cells_are_counted_exactly_and_rows_are_not_limited(guarded: Re
         assert r.json()["field"] == "occupancy_grid"
         assert c.post("/maps", json={"grid": [[0] * 100] * 100}).status_code == 201
         assert c.post("/maps", json={"rows": ["." * 200] * 200}).status_code == 201
+
+
+def test_the_open_file_limit_is_raised_to_hold_the_connections() -> None:
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    top = hard if hard != resource.RLIM_INFINITY else soft + 4096
+    try:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (min(soft, top - 1), hard))
+        wanted = top - FILES_BESIDE_CONNECTIONS
+        assert open_file_limit(wanted) == (top, top)
+        assert resource.getrlimit(resource.RLIMIT_NOFILE)[0] == top
+        if hard != resource.RLIM_INFINITY:  # short of it: said, not raised past the hard limit
+            assert open_file_limit(hard) == (hard, hard + FILES_BESIDE_CONNECTIONS)
+    finally:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
