@@ -131,7 +131,7 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "code": "STORE_UNAVAILABLE",
     },
     413: {
-        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 67108864",
+        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 33554432",
         "field": "body",
         "code": "TOO_LARGE",
     },
@@ -219,13 +219,18 @@ async def _service_error(request: Request, exc: Exception) -> JSONResponse:
     return problem(exc.status, exc.message, field=exc.field, code=exc.code)
 
 
+_LOOKED_AT = 32  # validation errors read to describe a 422
+
+
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     # The tags of the cell-or-point unions are no part of where the value was (a tag is never
     # loc[1], which names a body field or a query parameter, such as "cell").
+    # Only the first errors are looked at: a body may hold tens of thousands.
+    every = exc.errors()
     errors = [
         {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
-        for e in exc.errors()
+        for e in every[:_LOOKED_AT]
     ]
     if any(e["loc"] == ("body",) and isinstance(e.get("input"), bytes) for e in errors):
         return problem(422, _not_json(request), field="content-type", code="INVALID_INPUT")
@@ -247,8 +252,9 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
         parts.append(f"{', '.join(_cut(name) for name in missing)}: Field required")
     # A map can be megabytes: echo only the start of what was received, and only a few errors.
     parts += [_describe(e) for e in rest[:3]]
-    if len(rest) > 3:
-        parts.append(f"and {len(rest) - 3} more errors")
+    more = len(rest) - 3 + len(every) - len(errors)
+    if more > 0:
+        parts.append(f"and {more} more errors")
     first = ("body", fields[0]) if fields else errors[0]["loc"] if errors else ()
     field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")

@@ -111,6 +111,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         max_step_bytes=settings.max_step_body_bytes,
         body_timeout=settings.body_timeout_seconds,
         request_timeout=settings.request_timeout_seconds,
+        max_requests=settings.max_requests,
     )
     for router in routers:  # each directly, steps first: one level of route matching
         app.include_router(router)

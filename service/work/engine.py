@@ -59,6 +59,10 @@ MAX_IMAGE_SIDE = 8192
 MAX_IMAGE_PIXELS = 4096 * 4096
 """Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
 
+OBSTACLES_ON_LOOP = 4096
+"""Blocked cells a step may have and still be decided on the event loop (circles covering a
+whole map are a million cells: those steps go to a step worker)."""
+
 PLAIN_MEMO = 65536
 """Maps whose plainness (:attr:`planner.RobotMap.plain`) the engine remembers: with it, a
 warm plan or step builds its cache keys without reading the map from the store."""
@@ -460,6 +464,8 @@ class Engine:
         (never queued behind analyses): it may search (A*, up to the whole map), or wait for
         the thread growing its wave."""
         wave = session.plan.wave
+        if len(obstacles) > OBSTACLES_ON_LOOP:  # checking them alone takes milliseconds
+            return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
         if not isinstance(wave, planner.ResumableWave):
             if session.may_replan_at(position):
                 return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)

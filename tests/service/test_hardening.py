@@ -221,16 +221,23 @@ async def test_simulation_steps_are_capped_and_a_long_one_is_stopped() -> None:
         assert engine.pool.busy == 0
 
 
-async def test_a_step_body_has_its_own_smaller_limit() -> None:
+async def test_only_a_map_upload_has_the_large_body_limit() -> None:
     settings = SMALL.model_copy(update={"max_step_body_bytes": 4096})
     async with serving(settings) as client:
-        _, plan_id = await _plan(client)
+        map_id, plan_id = await _plan(client)
         big = {"dynamic_obstacles": [[4, 4]] * 1000}
         r = await client.post(f"/plan/{plan_id}/step", json=big)
         assert r.status_code == 413
         assert "PLANNER_MAX_STEP_BODY_BYTES is 4096" in r.json()["detail"]
-        r = await client.post("/plan", json={"map_id": "x" * 5000, "start": [0, 0], "goal": [0, 1]})
-        assert r.status_code == 422  # other routes keep the body limit: parsed, refused
+        for url, body in [
+            ("/plan", {"map_id": "x" * 5000, "start": [0, 0], "goal": [0, 1]}),
+            (f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [0, 1], "preset": "x" * 5000}),
+        ]:
+            r = await client.post(url, json=body)
+            assert r.status_code == 413, url
+            assert "PLANNER_MAX_STEP_BODY_BYTES is 4096" in r.json()["detail"]
+        r = await client.post("/maps", json={"rows": ["." * 64] * 64})  # over 4096 bytes
+        assert r.status_code in (200, 201), r.text
 
 
 async def test_api_keys_guard_every_endpoint_but_the_open_ones_and_split_tenants() -> None:

@@ -187,7 +187,7 @@ def test_healthz_answers_while_hundreds_of_connections_trickle_bodies(server: Re
             sock = _connect(server)
             sock.sendall(
                 b"POST /plan HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                b"Content-Length: 100000\r\n\r\n{"
+                b"Content-Length: 60000\r\n\r\n{"
             )
             tricklers.append(sock)
         with httpx.Client(base_url=server.url, trust_env=False) as probe:

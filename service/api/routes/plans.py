@@ -101,7 +101,8 @@ does not take."""
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
     """What the live viewer gets of a step: its answer, and the cells the obstacles blocked
     (it draws cells: circles go out as the cells they blocked)."""
-    return {**answer, "dynamic_obstacles": view.obstacles}
+    cells = view.obstacles
+    return {**answer, "dynamic_obstacles": cells if isinstance(cells, list) else cells.tolist()}
 
 
 @router.post(
