@@ -75,7 +75,7 @@ async def step(plan_id: str, request: Request) -> Response:
         view = await plans.step(engine, plan_id, body)
         answer = present.step_answer(view)
         if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
-            await bus.publish(plan_id, _event(answer, view))
+            await bus.publish(plan_id, orjson.dumps(_event(answer, view)))
     # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
