@@ -25,7 +25,12 @@ from service.stores.base import (
 )
 from service.tenants import TENANT, scoped
 
-__all__ = ["MemoryStore"]
+__all__ = ["MAP_OVERHEAD_BYTES", "MemoryStore"]
+
+MAP_OVERHEAD_BYTES = 1024
+"""What a stored map costs beside its cells (its arrays' headers, frame, id and entry: ~760
+bytes measured with tracemalloc), counted against ``PLANNER_MAP_STORE_BYTES``: so the bound
+holds for many tiny maps too (a key's share holds at most share / 1 KiB maps)."""
 
 _Entry = tuple[float, bytes, bytearray, str | None, PlanRecord]
 
@@ -232,5 +237,5 @@ def _owner(key: str) -> str:
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell."""
-    return int(robot_map.occupancy.nbytes)
+    """The bytes a stored map holds: one per cell, and its bookkeeping."""
+    return int(robot_map.occupancy.nbytes) + MAP_OVERHEAD_BYTES

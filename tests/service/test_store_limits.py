@@ -16,12 +16,16 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
 import redis
 from pydantic import SecretStr
 
+import planner
 from service.config import Settings
+from service.errors import InsufficientStorage
 from service.main import create_app
+from service.stores import MemoryStore
 from tests.service.conftest import SMALL, RedisServer, replicas
 
 ROWS = ["......", ".@@...", "......", "...@..", "......"]
@@ -91,7 +95,7 @@ async def test_a_plan_on_a_map_evicted_after_its_plans_expired_is_404() -> None:
     """The memory store: the map's plan expires (``PLANNER_PLAN_TTL_SECONDS``), another map
     evicts it (``PLANNER_MAP_STORE_BYTES``); its analysis is still cached, yet a new plan on it
     is a 404 naming the map, as ``GET /maps/{map_id}`` is."""
-    settings = SMALL.model_copy(update={"plan_ttl_seconds": 0.3, "map_store_bytes": 1024})
+    settings = SMALL.model_copy(update={"plan_ttl_seconds": 0.3, "map_store_bytes": 3000})
     async with serving(settings) as client:
         rows = ["." * 30] * 30
         r = await client.post("/maps", json={"rows": rows, "start": [0, 0], "goal": [29, 29]})
@@ -209,3 +213,22 @@ async def test_metrics_move_alike_for_another_keys_map_and_an_unknown_one() -> N
 
         for _ in range(6):
             assert await moved(theirs) == await moved(unknown)
+
+
+@pytest.mark.anyio
+async def test_tiny_maps_count_their_bookkeeping_against_the_map_store_bound() -> None:
+    """3 x 3 maps take ~760 bytes each in memory, not 9: 64 KiB of store holds at most 64 of
+    them (older idle ones evicted), and refuses a new one when live plans hold them all."""
+    store = MemoryStore(ttl_seconds=60, max_map_bytes=64 * 1024)
+    tiny = [planner.grid_map(np.array([[(i >> k) & 1 for k in range(3)], [0] * 3, [0] * 3],
+                                      dtype=np.uint8), resolution=1 + i / 1000)
+            for i in range(200)]  # fmt: skip
+    for i, robot_map in enumerate(tiny):
+        assert await store.put_map(f"m{i}", robot_map)
+    maps, _ = await store.counts()
+    assert 0 < maps <= 64
+    assert store.map_bytes <= 64 * 1024
+    for i in range(200 - maps, 200):
+        await store.put_plan(f"p{i}", {"map_id": f"m{i}"})
+    with pytest.raises(InsufficientStorage):
+        await store.put_map("one-more", tiny[0])
