@@ -20,6 +20,7 @@ APIError                 .status_code, .code, .detail, .field, .response
 ├── PayloadTooLargeError 413  body or map over the service's limits (TOO_LARGE)
 ├── ValidationError      422  a bad request (INVALID_INPUT)
 │   └── NoValidPathError 422  the goal cannot be reached (NO_VALID_PATH)
+├── TooManyRequestsError 429  the key's cap of plans or streams (TOO_MANY_PLANS, ...)
 ├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
 └── ServerError          other 5xx
 
@@ -53,6 +54,7 @@ from service.client.errors import (
     NoValidPathError,
     PayloadTooLargeError,
     ServerError,
+    TooManyRequestsError,
     UnavailableError,
     ValidationError,
 )
@@ -79,6 +81,7 @@ __all__ = [
     "Simulation",
     "Step",
     "StepFields",
+    "TooManyRequestsError",
     "UnavailableError",
     "UploadMapFields",
     "ValidationError",

@@ -22,6 +22,7 @@ import redis
 from pydantic import SecretStr
 
 import planner
+from service.client.errors import TooManyRequestsError, raise_for
 from service.config import Settings
 from service.errors import InsufficientStorage
 from service.main import create_app
@@ -123,6 +124,8 @@ async def test_a_key_holds_at_most_its_plans_on_the_memory_store() -> None:
         assert r.status_code == 429, r.text
         assert r.json()["code"] == "TOO_MANY_PLANS"
         assert "PLANNER_MAX_PLANS_PER_TENANT" in r.json()["detail"]
+        with pytest.raises(TooManyRequestsError):  # the Python client's name for it
+            raise_for(r)
         # With a start and a goal, an upload plans too: refused alike.
         upload = await client.post("/maps", json={"rows": ROWS, **PLAN}, headers=a)
         assert upload.status_code == 429

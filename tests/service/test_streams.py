@@ -20,6 +20,7 @@ import httpx
 import orjson
 import pytest
 import redis
+import redis.asyncio
 
 from service.errors import StoreUnavailable, TooManyStreams
 from service.tenants import TENANT
@@ -231,4 +232,36 @@ async def test_redis_out_of_reach_is_503_without_its_exception_text() -> None:
         assert bus.hub.streams("") == 0  # its place is freed
         await asyncio.sleep(0)
     finally:
+        await bus.close()
+
+
+@pytest.mark.anyio
+async def test_redis_lost_ends_the_streams_and_the_next_one_reconnects(
+    redis_server: RedisServer,
+) -> None:
+    """Redis restarted: every open stream ends (``EOFError``: browsers reconnect), and the
+    next subscription opens a new pub/sub connection and hears steps again."""
+    bus = RedisBus(redis_server.url, Hub(max_bytes=1 << 20, max_streams=8))
+    publisher = redis.asyncio.Redis.from_url(redis_server.url)
+    try:
+        first, second = await bus.subscribe("p"), await bus.subscribe("q")
+        await publisher.publish("planner:events:p", b'{"n":1}')
+        assert await first.next() == b'{"n":1}'
+        redis_server.stop()
+        for subscription in (first, second):
+            with pytest.raises(EOFError):
+                await subscription.next()
+            await subscription.close()
+        with pytest.raises(StoreUnavailable):  # still down
+            await bus.subscribe("p")
+        redis_server.start()
+        await publisher.aclose()
+        publisher = redis.asyncio.Redis.from_url(redis_server.url)
+        again = await bus.subscribe("p")
+        await publisher.publish("planner:events:p", b'{"n":2}')
+        assert await again.next() == b'{"n":2}'
+        await again.close()
+        assert bus.hub.streams("") == 0
+    finally:
+        await publisher.aclose()
         await bus.close()
