@@ -323,8 +323,9 @@ class RedisBus(EventBus):
         _PENDING.add(task)
         task.add_done_callback(_PENDING.discard)
 
-    @staticmethod
-    async def _send_unsubscribe(pubsub: PubSub, name: str) -> None:
+    async def _send_unsubscribe(self, pubsub: PubSub, name: str) -> None:
+        if name in self._confirmed:  # a new stream of the plan came meanwhile: still wanted
+            return
         with contextlib.suppress(rx.RedisError, OSError):
             await pubsub.unsubscribe(name)
 
