@@ -265,3 +265,22 @@ async def test_redis_lost_ends_the_streams_and_the_next_one_reconnects(
     finally:
         await publisher.aclose()
         await bus.close()
+
+
+@pytest.mark.anyio
+async def test_a_plans_last_stream_closed_and_a_new_one_opened_at_once_still_hears_it(
+    redis_server: RedisServer,
+) -> None:
+    bus = RedisBus(redis_server.url, Hub(max_bytes=1 << 20, max_streams=8))
+    publisher = redis.asyncio.Redis.from_url(redis_server.url)
+    try:
+        old = await bus.subscribe("p")
+        await old.close()  # its channel's unsubscription is on its way...
+        new = await bus.subscribe("p")  # ...when a new stream of the plan comes
+        await asyncio.sleep(0.1)
+        await publisher.publish("planner:events:p", b'{"n":1}')
+        assert await new.next() == b'{"n":1}'
+        await new.close()
+    finally:
+        await publisher.aclose()
+        await bus.close()
