@@ -24,6 +24,7 @@ from planner.analysis.analyse import (
     resolve_wall_cost,
 )
 from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
+from planner.analysis.passages import Passage, crossed_passages, find_passages
 from planner.errors import (
     QUOTE_LIMIT,
     InvalidInput,
@@ -78,6 +79,7 @@ __all__ = [
     "NoValidPath",
     "ObstacleMotion",
     "Params",
+    "Passage",
     "Plan",
     "PlannerError",
     "ResumableWave",
@@ -100,9 +102,11 @@ __all__ = [
     "clearance_metrics",
     "compare",
     "configuration_space",
+    "crossed_passages",
     "decode_map_image",
     "detour",
     "environment",
+    "find_passages",
     "format_map",
     "goal_wave",
     "grid_map",

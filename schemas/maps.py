@@ -78,7 +78,8 @@ class MapEncoding(BaseModel):
         examples=[EXAMPLE_OCCUPANCY_GRID],
     )
     resolution: float | None = Field(
-        default=None, description="With `grid`/`rows`: meters per cell (default 1)."
+        default=None,
+        description="With `grid`/`rows`: meters per cell, 0.0001 to 1000 (default 1).",
     )
     origin: list[float] | None = Field(
         default=None,

@@ -23,7 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
-from planner.maps.frames import MapFrame, _number, _origin, _resolution
+from planner.maps.frames import MapFrame, _framed, _number, _origin, _resolution
 from planner.maps.grids import grid_array
 
 __all__ = ["MapFrame", "RobotMap", "grid_map", "occupancy_grid_map"]
@@ -136,7 +136,7 @@ def grid_map(
         )
         raise InvalidInput(msg, field=name)
     occupancy = np.where(arr == 1, 100, arr).astype(np.int8)
-    frame = MapFrame(
+    frame = _framed(
         (int(arr.shape[0]), int(arr.shape[1])),
         _resolution(resolution, "resolution"),
         _origin(origin, "origin"),
@@ -160,6 +160,8 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
     resolution = _resolution(_key(info, "resolution", f"{name}.info"), f"{name}.info.resolution")
     pose = _key(info, "origin", f"{name}.info")
     origin = _pose(pose, f"{name}.info.origin")
+    fields = (f"{name}.info.resolution", f"{name}.info.origin")
+    frame = _framed((height, width), resolution, origin, fields=fields)
     data = _key(message, "data", name)
     field = f"{name}.data"
     try:
@@ -185,7 +187,6 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
         msg = f"{field} must hold -1 (unknown) or 0..100; found {values[i].item()} at index {i}"
         raise InvalidInput(msg, field=field)
     occupancy = values.astype(np.int8).reshape(height, width)[::-1]
-    frame = MapFrame((height, width), resolution, origin)
     return RobotMap(np.ascontiguousarray(occupancy), frame)
 
 

@@ -17,7 +17,7 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.params import PARAMETER_RANGES, Params, resolve_params
+from planner.params import PARAMETER_RANGES, SQRT2, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
 from planner.plans.ends import (
     cell_of,
@@ -97,7 +97,9 @@ class Plan:
 
     @property
     def length(self) -> float:
-        """The path's length: 1 a straight move, ``diagonal_cost`` a diagonal one."""
+        """The path's length in cells: 1 a straight move, sqrt 2 a diagonal one, whatever the
+        ``diagonal_cost`` the search weighed diagonals with (the paper's 1.4 in its presets):
+        :attr:`length_m` divided by the resolution."""
         return self._cost[0]
 
     @property
@@ -443,10 +445,11 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
 
 
 def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
-    """(length, arc cost) of a path of cells. The arc cost is the paper's ``PathCost``: the sum
-    of ``k`` over the cells entered after the start."""
+    """(length, arc cost) of a path of cells. The length counts a diagonal sqrt 2 cells (one
+    rule for every length the planner reports); the arc cost is the paper's ``PathCost``: the
+    sum of ``k`` over the cells entered after the start."""
     steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost)
+    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * SQRT2)
     return length, float(wave.k_along(path[1:]).sum())
 
 

@@ -24,25 +24,7 @@ from schemas import (
     SimulationPublic,
     StepPublic,
 )
-from service.client.errors import raise_for
-
-__all__ = [
-    "Analysis",
-    "AsyncPlannerClient",
-    "MapInfo",
-    "NavPath",
-    "Plan",
-    "PlanDetail",
-    "PlanFields",
-    "PlannerClient",
-    "Preview",
-    "RouteFields",
-    "SimulateFields",
-    "Simulation",
-    "Step",
-    "StepFields",
-    "UploadMapFields",
-]
+from service.client.errors import MapFileError, raise_for
 
 CellIn = Sequence[int] | Mapping[str, float]
 """A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
@@ -185,20 +167,30 @@ def _upload_map(fields: UploadMapFields) -> _Call[MapInfo]:
     if yaml is None:
         return _Call("POST", "/maps", _created, {"json": _body(fields)})
     path = Path(yaml)
-    text = path.read_bytes()
-    match = _IMAGE_LINE.search(text.decode("utf-8"))
+    text = _read(path, f"the map YAML {str(path)!r}")
+    match = _IMAGE_LINE.search(text.decode("utf-8", "replace"))
     if match is None:
-        raise ValueError(f"{path}: no 'image:' key names the map's image")
+        raise MapFileError(f"{path}: no 'image:' key names the map's image", path)
     image = path.parent / match.group("name")
     media = _MEDIA.get(image.suffix.lower(), "image/x-portable-graymap")
+    pixels = _read(image, f"the image {str(image)!r} that {path.name} names")
     files = {
         "yaml": (path.name, text, "application/yaml"),
-        "image": (image.name, image.read_bytes(), media),
+        "image": (image.name, pixels, media),
     }
     # Other fields ride along as form fields, each value as JSON.
     extra = _body({k: v for k, v in fields.items() if k != "yaml"})
     data = {k: v if isinstance(v, str) else json.dumps(v) for k, v in extra.items()}
     return _Call("POST", "/maps", _created, {"data": data or None, "files": files})
+
+
+def _read(path: Path, what: str) -> bytes:
+    try:
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise MapFileError(f"{what} does not exist", path) from None
+    except OSError as exc:
+        raise MapFileError(f"{what} cannot be read: {exc.strerror}", path) from None
 
 
 def _get_map(map_id: str) -> _Call[MapInfo]:

@@ -24,6 +24,7 @@ from service.client import (
     APIError,
     AsyncPlannerClient,
     ConflictError,
+    MapFileError,
     MapInfo,
     NotFoundError,
     NoValidPathError,
@@ -238,10 +239,17 @@ def test_a_yaml_without_its_image_is_refused_before_sending(tmp_path: Path) -> N
         raise AssertionError("sent")
 
     with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as planner:
-        with pytest.raises(ValueError, match="image"):
+        with pytest.raises(MapFileError, match="image"):
             planner.upload_map(yaml=tmp_path / "m.yaml")
-        with pytest.raises(FileNotFoundError):
+        # Not a bare FileNotFoundError: the client's error, naming the image the YAML names.
+        with pytest.raises(
+            MapFileError, match=r"n\.pgm' that n\.yaml names does not exist"
+        ) as info:
             planner.upload_map(yaml=tmp_path / "n.yaml")
+        assert info.value.path == tmp_path / "n.pgm"
+        assert isinstance(info.value, ValueError)
+        with pytest.raises(MapFileError, match=r"gone\.yaml"):
+            planner.upload_map(yaml=tmp_path / "gone.yaml")
         with pytest.raises(TypeError, match="exactly one"):
             planner.upload_map(grid=[[0]], rows=["."])
         with pytest.raises(TypeError, match="exactly one"):

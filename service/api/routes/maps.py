@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, Response, status
 from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, Preset
 from schemas.plans import Unknown
 from service.api import present
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
+from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
 from service.resources import maps
 
@@ -54,8 +54,7 @@ async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
 @router.get(
     "/maps/{map_id}/render.png",
     summary="A picture of the map and its analysis",
-    response_class=Response,
-    responses={**PNG_RESPONSE, **responses(404, 413, 422)},
+    **PNG_ROUTE,
 )
 async def render_map(
     map_id: str,

@@ -6,12 +6,14 @@ from __future__ import annotations
 import html
 from collections.abc import AsyncIterator
 from importlib import resources
+from typing import Any
 
 import orjson
 from fastapi import APIRouter
 from fastapi.responses import HTMLResponse, StreamingResponse
 from starlette.background import BackgroundTask
 
+import planner
 from schemas import ErrorPublic
 from service.api.deps import EngineDep
 from service.errors import responses
@@ -49,11 +51,20 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "trajectory": [list(cell) for cell in view_.state.trajectory],
         "resolution": view_.plan.analysis.frame.resolution,
         "origin": list(view_.plan.analysis.frame.origin),
+        "last_step": _last_step(view_.state.last_step),
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
     page = PAGE.replace("__PLAN_ID__", html.escape(plan_id))
     return HTMLResponse(page.replace("__PLAN_DATA__", embedded))
+
+
+def _last_step(step: planner.Step | None) -> dict[str, Any] | None:
+    """What the page's status line says of the latest step (``None``: no step yet)."""
+    if step is None:
+        return None
+    keys = ("seq", "move", "position", "status", "remaining_m")
+    return {key: value for key, value in step.as_dict().items() if key in keys}
 
 
 @router.get(

@@ -1,0 +1,292 @@
+"""Narrow passages: where free space narrows below ``max_width`` between wider spaces and a
+round robot still fits, read on the medial axis (skeleton) of free space over the exact
+distance transform.
+
+A skeleton cell is a *neck* cell when its width (twice its distance to the nearest blocked
+cell's center) is below ``max_width`` and above the robot's diameter; connected neck cells form
+a neck, and a neck is a passage when it opens onto wider skeleton (width >= ``max_width``) at two
+separate mouths. Dead ends (one mouth), pinches too narrow for the robot and open rooms (no neck)
+are not passages.
+
+>>> from planner.maps.robot_maps import grid_map
+>>> rows = [[0] * 9 for _ in range(9)]
+>>> for r in range(9):
+...     rows[r][4] = 0 if r == 4 else 1  # a wall down the middle with a one-cell door
+>>> (door,) = find_passages(grid_map(rows, resolution=0.1), robot_radius=0.05, max_width=0.3)
+>>> (door.row, door.col, round(door.width_m, 2))
+(4, 4, 0.2)
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from skimage.morphology import medial_axis
+
+from planner.analysis.cspace import CSpace, configuration_space
+from planner.errors import InvalidInput, quote
+from planner.maps.robot_maps import RobotMap
+
+__all__ = ["Passage", "crossed_passages", "find_passages"]
+
+#: Slack added to ``2 * robot_radius`` for the default ``max_width``, in meters.
+MAX_WIDTH_SLACK = 0.3
+
+_EIGHT = np.ones((3, 3), dtype=bool)
+_STEPS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
+
+
+@dataclass(frozen=True)
+class Passage:
+    """One narrow passage.
+
+    ``id``: 0..n-1 in the order of ``(row, col)`` of the narrowest cell; ``(x, y)``: that
+    cell's center in meters (map frame); ``width_m``: the width there, center to center (twice
+    the distance to the nearest blocked cell's center); ``length_m``: how far along the passage
+    the width stays below ``max_width``; ``cells``: flat indices (``row * width + col``) of the
+    traversable cells of the neck (its skeleton and the cells across it).
+    """
+
+    id: int
+    x: float
+    y: float
+    width_m: float
+    length_m: float
+    row: int
+    col: int
+    cells: npt.NDArray[np.int64]
+
+
+def find_passages(
+    robot_map: RobotMap, robot_radius: float, max_width: float | None = None
+) -> tuple[Passage, ...]:
+    """The narrow passages of ``robot_map`` for a round robot of ``robot_radius`` meters:
+    necks narrower than ``max_width`` meters (default ``2 * robot_radius + 0.3``) between wider
+    spaces, wider than the robot. Unknown cells and the outside of the map count as blocked."""
+    radius = _meters(robot_radius, "robot_radius")
+    if radius < 0:
+        raise InvalidInput(
+            f"robot_radius must be >= 0 meters; got {quote(robot_radius)}", field="robot_radius"
+        )
+    if max_width is None:
+        widest = 2 * radius + MAX_WIDTH_SLACK
+    else:
+        widest = _meters(max_width, "max_width")
+        if widest <= 2 * radius:
+            raise InvalidInput(
+                f"max_width must be more than the robot's diameter 2 * robot_radius = "
+                f"{2 * radius:g} m; got {quote(max_width)}",
+                field="max_width",
+            )
+    cspace = configuration_space(robot_map, robot_radius=radius, unknown="blocked")
+    return _passages(robot_map, cspace, widest)
+
+
+def crossed_passages(
+    passages: tuple[Passage, ...], path: Any, shape: tuple[int, int]
+) -> tuple[int, ...]:
+    """The ids of the passages a path of ``[row, col]`` cells enters, in the order it first
+    enters each (a passage left and entered again counts again)."""
+    cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    owner = np.full(shape[0] * shape[1], -1, dtype=np.int64)
+    for p in passages:
+        owner[p.cells] = p.id
+    out: list[int] = []
+    last = -1
+    for here in owner[cells[:, 0] * shape[1] + cells[:, 1]].tolist():
+        if here >= 0 and here != last:
+            out.append(here)
+        last = here
+    return tuple(out)
+
+
+def _meters(value: Any, field: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise InvalidInput(f"{field} must be a number of meters; got {quote(value)}", field=field)
+    if not math.isfinite(float(value)):
+        raise InvalidInput(f"{field} must be finite; got {quote(value)}", field=field)
+    return float(value)
+
+
+def _passages(robot_map: RobotMap, cspace: CSpace, max_width: float) -> tuple[Passage, ...]:
+    H, W = robot_map.shape
+    res = cspace.resolution
+    free = cspace.blocked == 0
+    # Padded with a blocked ring: the outside of the map is blocked, as for the distances.
+    skeleton = medial_axis(np.pad(free, 1), rng=0)[1:-1, 1:-1]  # type: ignore[no-untyped-call]
+    distance = cspace.distance.astype(np.float64)
+    limit = max_width / res / 2  # in cells, as a distance
+    below = distance < limit - 1e-9 * max(1.0, limit)
+    fits = cspace.robot_radius / res * (1 + 1e-9)
+    wide = skeleton & ~below
+    labels, _ = ndimage.label(skeleton & below, structure=_EIGHT)
+    found: list[tuple[int, int, float, float, npt.NDArray[np.int64]]] = []
+    for index, box in enumerate(ndimage.find_objects(labels), start=1):
+        if box is None:
+            continue
+        # Two cells around the neck: its mouths, and the cells beside its skeleton.
+        r0, r1 = max(box[0].start - 2, 0), min(box[0].stop + 2, H)
+        c0, c1 = max(box[1].start - 2, 0), min(box[1].stop + 2, W)
+        mine = labels[r0:r1, c0:c1] == index
+        beside = ndimage.binary_dilation(mine, structure=_EIGHT)
+        mouths, groups = ndimage.label(
+            ndimage.binary_dilation(wide[r0:r1, c0:c1] & beside, structure=_EIGHT), _EIGHT
+        )
+        if groups < 2:
+            continue
+        mouths[~(wide[r0:r1, c0:c1] & beside)] = 0
+        band = (beside & free[r0:r1, c0:c1] & below[r0:r1, c0:c1]) | (mouths > 0)
+        local = distance[r0:r1, c0:c1]
+        saddle = _saddle(band, mouths, local, fits)
+        if saddle is None:
+            continue
+        row, col = saddle
+        rows, cols = np.nonzero(mine)
+        length = _length(band & (mouths == 0), mouths) * res
+        ways = band & (mouths == 0) & (cspace.traversable[r0:r1, c0:c1] == 1)
+        br, bc = np.nonzero(ways)
+        cells = np.union1d(
+            _across(rows + r0, cols + c0, distance, cspace.traversable), (br + r0) * W + bc + c0
+        ).astype(np.int64)
+        found.append((row + r0, col + c0, 2.0 * float(local[row, col]) * res, length, cells))
+    found.sort(key=lambda f: (f[0], f[1]))
+    centers = robot_map.frame.centers([[f[0], f[1]] for f in found]).reshape(-1, 2)
+    return tuple(
+        Passage(
+            id=i,
+            x=float(centers[i][0]),
+            y=float(centers[i][1]),
+            width_m=width,
+            length_m=length,
+            row=row,
+            col=col,
+            cells=cells,
+        )
+        for i, (row, col, width, length, cells) in enumerate(found)
+    )
+
+
+def _saddle(
+    band: npt.NDArray[np.bool_],
+    mouths: npt.NDArray[np.int32],
+    distance: npt.NDArray[np.float64],
+    fits: float,
+) -> tuple[int, int] | None:
+    """The narrowest point on the widest ways between the mouths, through the ``band`` of cells
+    along the neck: cells joined in order of decreasing distance (union-find) until the mouths
+    connect; each time two groups of mouths first meet, the cell that joins them is a
+    bottleneck. The narrowest bottleneck the robot passes (distance > ``fits``) is the saddle,
+    centered among the equally narrow cells around it; None when the robot passes none."""
+    rows, cols = np.nonzero(band)
+    order = np.lexsort((cols, rows, -distance[rows, cols]))
+    shape = band.shape
+    parent: dict[int, int] = {}
+    reach: dict[int, int] = {}  # root -> bit set of the mouths it holds
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    best: tuple[int, int] | None = None
+    for k in order.tolist():
+        r, c = int(rows[k]), int(cols[k])
+        here = r * shape[1] + c
+        parent[here] = here
+        mouth = int(mouths[r, c])
+        reach[here] = 1 << mouth if mouth else 0
+        for dr, dc in _STEPS:
+            there = (r + dr) * shape[1] + (c + dc)
+            if not (0 <= r + dr < shape[0] and 0 <= c + dc < shape[1]) or there not in parent:
+                continue
+            a, b = root(here), root(there)
+            if a == b:
+                continue
+            ma, mb = reach[a], reach[b]
+            if ma & ~mb and mb & ~ma and distance[r, c] > fits:
+                best = (r, c)  # two groups of mouths meet here, the robot passing
+            parent[b] = a
+            reach[a] = ma | mb
+    if best is None:
+        return None
+    return _middle(best, band, distance)
+
+
+def _middle(
+    cell: tuple[int, int], band: npt.NDArray[np.bool_], distance: npt.NDArray[np.float64]
+) -> tuple[int, int]:
+    """Among the band's cells as narrow as ``cell`` and joined to it (a door through a thick
+    wall), the one nearest their middle, then the first by ``(row, col)``."""
+    ties, _ = ndimage.label(band & (distance == distance[cell]), structure=_EIGHT)
+    tr, tc = np.nonzero(ties == ties[cell])
+    mr, mc = tr.mean(), tc.mean()
+    order = np.lexsort((tc, tr, (tr - mr) ** 2 + (tc - mc) ** 2))
+    return int(tr[order[0]]), int(tc[order[0]])
+
+
+def _length(neck: npt.NDArray[np.bool_], mouths: npt.NDArray[np.int32]) -> float:
+    """How long the neck is, in cells: the longest of the shortest ways through its cells from
+    one mouth to another (diagonal steps sqrt(2)), mouth cell to mouth cell. Through the band
+    along the skeleton rather than on it: a skeleton zigzags between two equally central rows."""
+    H, W = neck.shape
+    groups = int(mouths.max())
+    longest = 0.0
+    for g in range(1, groups):
+        best = np.full(neck.shape, math.inf)
+        heap = [(0.0, int(r), int(c)) for r, c in zip(*np.nonzero(mouths == g), strict=True)]
+        for _, r, c in heap:
+            best[r, c] = 0.0
+        heapq.heapify(heap)
+        while heap:
+            d, r, c = heapq.heappop(heap)
+            if d > best[r, c] or not (neck[r, c] or mouths[r, c] == g):
+                continue  # stale, or another mouth reached: the way ends there
+            for dr, dc in _STEPS:
+                r2, c2 = r + dr, c + dc
+                if not (0 <= r2 < H and 0 <= c2 < W):
+                    continue
+                if not (neck[r2, c2] or mouths[r2, c2]):
+                    continue
+                nd = d + (math.sqrt(2.0) if dr and dc else 1.0)
+                if nd < best[r2, c2]:
+                    best[r2, c2] = nd
+                    heapq.heappush(heap, (nd, r2, c2))
+        for h in range(g + 1, groups + 1):
+            reached = best[mouths == h]
+            if reached.size and math.isfinite(reached.min()):
+                longest = max(longest, float(reached.min()))
+    return longest
+
+
+def _across(
+    rows: npt.NDArray[np.intp],
+    cols: npt.NDArray[np.intp],
+    distance: npt.NDArray[np.float64],
+    traversable: npt.NDArray[np.uint8],
+) -> npt.NDArray[np.int64]:
+    """The traversable cells of the neck: those within each skeleton cell's clearance disk (the
+    free space the skeleton stands for), as sorted flat indices."""
+    H, W = distance.shape
+    reach = math.ceil(float(distance[rows, cols].max()))
+    r0, r1 = max(int(rows.min()) - reach, 0), min(int(rows.max()) + reach + 1, H)
+    c0, c1 = max(int(cols.min()) - reach, 0), min(int(cols.max()) + reach + 1, W)
+    inside = np.zeros((r1 - r0, c1 - c0), dtype=bool)
+    yy, xx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    for r, c in zip(rows.tolist(), cols.tolist(), strict=True):
+        disk = yy**2 + xx**2 < distance[r, c] ** 2
+        lr, lc = r - reach - r0, c - reach - c0
+        sr0, sc0 = max(lr, 0), max(lc, 0)
+        sr1 = min(lr + 2 * reach + 1, inside.shape[0])
+        sc1 = min(lc + 2 * reach + 1, inside.shape[1])
+        inside[sr0:sr1, sc0:sc1] |= disk[sr0 - lr : sr1 - lr, sc0 - lc : sc1 - lc]
+    inside &= traversable[r0:r1, c0:c1] == 1
+    local_r, local_c = np.nonzero(inside)
+    flat: npt.NDArray[np.int64] = ((local_r + r0) * W + (local_c + c0)).astype(np.int64)
+    return flat

@@ -1,0 +1,162 @@
+"""A slow, obvious reference of the narrow passages: brute-force nearest blocked cells, medial
+points where the nearest blocked cell jumps between neighbours, necks grouped by a breadth-first
+walk, and mouths onto wide free space."""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+EIGHT = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
+
+
+@dataclass
+class RefPassage:
+    width_cells: float  # twice the smallest distance on the neck, in cells
+    narrowest: list[tuple[int, int]]  # the neck cells of that smallest distance
+    neck: set[tuple[int, int]]  # the neck's medial cells
+
+
+def nearest_blocked(blocked: np.ndarray, reach: int) -> np.ndarray:
+    """For every cell, the distance (cells) to the nearest blocked cell's center within
+    ``reach`` cells (the outside of the map counts as blocked; +inf when none is that near), by
+    trying every offset of the window in order of distance."""
+    H, W = blocked.shape
+    padded = np.ones((H + 2 * reach + 2, W + 2 * reach + 2), dtype=bool)
+    padded[reach + 1 : reach + 1 + H, reach + 1 : reach + 1 + W] = blocked
+    offsets = sorted(
+        (
+            (dr * dr + dc * dc, dr, dc)
+            for dr in range(-reach, reach + 1)
+            for dc in range(-reach, reach + 1)
+        ),
+    )
+    dist = np.full((H, W), math.inf)
+    for sq, dr, dc in offsets:
+        if sq > reach * reach:
+            continue
+        r0, c0 = reach + 1 + dr, reach + 1 + dc
+        hit = padded[r0 : r0 + H, c0 : c0 + W] & np.isinf(dist)
+        dist[hit] = math.sqrt(sq)
+    return dist
+
+
+def medial(blocked: np.ndarray, dist: np.ndarray, within: np.ndarray) -> np.ndarray:
+    """The cells of ``within`` whose nearest blocked cells lie on two separate sides: the blocked
+    cells within ``d + 1`` of the cell (its nearest ones, to one cell) fall in two or more groups
+    that do not touch (8-connected) - two walls, a wall and a pillar, a door's two jambs - rather
+    than one stretch of one wall."""
+    H, W = blocked.shape
+    out = np.zeros((H, W), dtype=bool)
+    for r, c in zip(*np.nonzero(within), strict=True):
+        near = dist[r, c] + 1
+        k = math.ceil(near)
+        near_set = {
+            (r + dr, c + dc)
+            for dr in range(-k, k + 1)
+            for dc in range(-k, k + 1)
+            if math.hypot(dr, dc) <= near + 1e-9
+            and (not (0 <= r + dr < H and 0 <= c + dc < W) or blocked[r + dr, c + dc])
+        }
+        out[r, c] = groups(near_set, 1) >= 2
+    return out
+
+
+def passages(
+    occupancy: np.ndarray, resolution: float, robot_radius: float, max_width: float
+) -> list[RefPassage]:
+    """The passages: connected medial cells narrower than ``max_width`` whose neighbours reach
+    wide free cells (width >= ``max_width``) at two places more than two cells apart, and whose
+    widest way between two such mouths stays wider than the robot."""
+    blocked = (occupancy >= 65) | (occupancy < 0)
+    limit = max_width / resolution / 2  # a distance, in cells
+    fits = robot_radius / resolution
+    reach = math.ceil(limit) + 2
+    dist = nearest_blocked(blocked, reach)
+    H, W = blocked.shape
+    neck = medial(blocked, dist, ~blocked & (dist < limit - 1e-9))
+    wide = ~blocked & (dist >= limit - 1e-9)
+    seen: set[tuple[int, int]] = set()
+    out = []
+    for r, c in zip(*np.nonzero(neck), strict=True):
+        if (r, c) in seen:
+            continue
+        comp = {(int(r), int(c))}
+        queue = deque(comp)
+        while queue:
+            a, b = queue.popleft()
+            for dr, dc in EIGHT:
+                n = (a + dr, b + dc)
+                if 0 <= n[0] < H and 0 <= n[1] < W and neck[n] and n not in comp:
+                    comp.add(n)
+                    queue.append(n)
+        seen |= comp
+        contacts = {
+            (a + dr, b + dc)
+            for a, b in comp
+            for dr, dc in EIGHT
+            if 0 <= a + dr < H and 0 <= b + dc < W and wide[a + dr, b + dc]
+        }
+        mouths = split(contacts, 2)
+        ways = [
+            widest(comp, dist, mouths[i], mouths[j])
+            for i in range(len(mouths))
+            for j in range(i + 1, len(mouths))
+        ]
+        passable = [w for w in ways if w > fits * (1 + 1e-9)]
+        if not passable:
+            continue
+        least = min(passable)
+        out.append(RefPassage(2 * least, sorted(p for p in comp if dist[p] == least), comp))
+    return out
+
+
+def widest(
+    cells: set[tuple[int, int]],
+    dist: np.ndarray,
+    source: set[tuple[int, int]],
+    target: set[tuple[int, int]],
+) -> float:
+    """The largest ``d`` such that a way through ``cells`` from a cell next to ``source`` to a
+    cell next to ``target`` keeps every cell's distance >= ``d`` (0 when there is no way)."""
+    values = sorted({float(dist[p]) for p in cells}, reverse=True)
+    for d in values:
+        ok = {p for p in cells if dist[p] >= d}
+        start = {p for p in ok if any((p[0] + a, p[1] + b) in source for a, b in EIGHT)}
+        queue = deque(start)
+        reached = set(start)
+        while queue:
+            a, b = queue.popleft()
+            for dr, dc in EIGHT:
+                n = (a + dr, b + dc)
+                if n in ok and n not in reached:
+                    reached.add(n)
+                    queue.append(n)
+        if any((p[0] + a, p[1] + b) in target for p in reached for a, b in EIGHT):
+            return d
+    return 0.0
+
+
+def split(cells: set[tuple[int, int]], apart: int) -> list[set[tuple[int, int]]]:
+    """``cells`` in groups, two cells within Chebyshev distance ``apart`` in one."""
+    left = set(cells)
+    out = []
+    while left:
+        group = {left.pop()}
+        queue = deque(group)
+        while queue:
+            a, b = queue.popleft()
+            near = {p for p in left if max(abs(p[0] - a), abs(p[1] - b)) <= apart}
+            left -= near
+            group |= near
+            queue.extend(near)
+        out.append(group)
+    return out
+
+
+def groups(cells: set[tuple[int, int]], apart: int) -> int:
+    """How many groups ``cells`` make, two cells within Chebyshev distance ``apart`` in one."""
+    return len(split(cells, apart))
