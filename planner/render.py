@@ -25,6 +25,7 @@ from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_zones import draw_zone_outlines, paint_zones, zone_legend
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 
@@ -113,7 +114,9 @@ def draw(
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
     on for robot maps) adds a key and a scale bar in meters below the map, the green cells
     named ``path_label``. The robot's disc is smaller than the start's and the goal's, which
-    show round it when it stands on them.
+    show round it when it stands on them. On a zoned map,
+    keepout polygons are hatched red and speed zones tinted amber, labelled with their
+    ``max_speed`` (:mod:`planner.render_zones`).
 
     >>> from planner import analyse
     >>> image = draw(analyse([[0, 1], [1, 0]]), cell=3)   # a gate: the red line across it
@@ -153,8 +156,10 @@ def draw(
         lines[cell::cell, :] = True
         lines[:, cell::cell] = True
         big[lines & open_] = COLOURS["grid"]
+    paint_zones(big, analysis, cell)
     _draw_gates(big, analysis.gate_cells().reshape(-1, 4), cell)
     image = Image.fromarray(big, "RGB")
+    draw_zone_outlines(image, analysis, cell)
     pen = ImageDraw.Draw(image)
     half = cell / 2
     for cells, rgb_, _ in [*lines_, *paths]:
@@ -230,6 +235,7 @@ def _with_legend(
 ) -> Image.Image:
     """The image with a key of its colours (``entries``) and a scale bar in meters below it."""
     font = ImageFont.load_default(size=14)
+    entries = [*entries, *zone_legend(analysis)]
     width = max(image.width, 520)
     pad, box, row = 8, 14, 22
     x = y = pad

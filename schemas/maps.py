@@ -17,6 +17,7 @@ from schemas.plans import (
     PlanPublic,
     Waypoints,
 )
+from schemas.zones import ZonesPublic
 
 __all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]
 
@@ -190,3 +191,6 @@ class MapPublic(BaseModel):
         min_length=3, max_length=3, description="`[x, y, yaw]` of the map's lower-left corner."
     )
     plan: PlanPublic | None = Field(default=None, description="When `start` and `goal` were given.")
+    zones: ZonesPublic | None = Field(
+        default=None, description="A zoned map's zones (`POST /maps/{map_id}/zones`), else null."
+    )

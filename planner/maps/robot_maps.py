@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ import numpy.typing as npt
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, _framed, _number, _origin, _resolution
 from planner.maps.grids import grid_array
+from planner.maps.zones import Zones
 
 __all__ = ["MapFrame", "RobotMap", "grid_map", "occupancy_grid_map"]
 
@@ -34,11 +36,13 @@ Occupancy = npt.NDArray[np.int8]
 @dataclass(frozen=True, eq=False)
 class RobotMap:
     """An occupancy map with a frame: ``occupancy`` (``int8`` H x W, ``-1`` unknown, ``0..100``;
-    row 0 at the top) and ``frame`` (resolution, origin). Read-only.
+    row 0 at the top) and ``frame`` (resolution, origin); a zoned map (docs/zones.md) also its
+    ``zones``, its keepout already blocked in ``occupancy``. Read-only.
     """
 
     occupancy: Occupancy
     frame: MapFrame
+    zones: Zones | None = None
 
     def __post_init__(self) -> None:
         self.occupancy.flags.writeable = False
@@ -82,15 +86,19 @@ class RobotMap:
     def map_id(self) -> str:
         """Hex SHA-256 of shape, occupancy, resolution and origin: the same map gets the same id
         whether it came as YAML + image, OccupancyGrid or grid. A plain 0/1 grid keeps its
-        historical id, the hash of ``"{H}x{W}:"`` and its 0/1 bytes."""
+        historical id, the hash of ``"{H}x{W}:"`` and its 0/1 bytes. A zoned map's also hashes
+        its zones (and so its base map's id)."""
         H, W = self.shape
-        if self.plain:
+        if self.plain and self.zones is None:
             cells = (self.occupancy == 100).astype(np.uint8)
             return hashlib.sha256(f"{H}x{W}:".encode() + cells.tobytes()).hexdigest()
         res, (ox, oy, yaw) = self.resolution, self.origin
         # Rounded, so that a yaw gone through a quaternion (OccupancyGrid) hashes as the YAML's.
         frame = f"|res {res:.9g}|origin {_canon(ox, 6)} {_canon(oy, 6)} {_canon(yaw, 9)}"
         data = f"occupancy {H}x{W}:".encode() + self.occupancy.tobytes() + frame.encode()
+        if self.zones is not None:
+            zones = json.dumps(self.zones.as_dict(), sort_keys=True, separators=(",", ":"))
+            data += b"|zones " + zones.encode()
         return hashlib.sha256(data).hexdigest()
 
     def to_occupancy_grid(self) -> dict[str, Any]:

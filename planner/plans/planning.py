@@ -33,6 +33,7 @@ from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
+from planner.poses.speed import drive_time, pose_speeds
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
@@ -190,6 +191,16 @@ class Plan:
         """The index in :attr:`poses` of each waypoint's pose."""
         return [] if self.route is None else list(self.route.waypoint_indices)
 
+    @cached_property
+    def max_speeds(self) -> npt.NDArray[np.float64]:
+        """The speed cap at each of :attr:`poses` (m/s; ``inf`` outside every speed zone)."""
+        return pose_speeds(self.analysis.zones, self.poses)
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds to drive :attr:`poses` at ``nominal_speed``, capped by the speed zones."""
+        return drive_time(self.poses, self.max_speeds, nominal_speed=self.params.nominal_speed)
+
     @property
     def length_poses_m(self) -> float:
         """The length of the poses' polyline, meters."""
@@ -237,6 +248,8 @@ class Plan:
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
             "length_poses_m": round(self.length_poses_m, 6),
+            "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
+            "duration_s": round(self.duration_s, 6),
             "goal_used": None if self.goal_used is None else list(self.goal_used),
             "goal_offset_m": round(self.goal_offset_m, 6),
             "waypoints": [list(cell) for cell in self.waypoints],

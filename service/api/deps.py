@@ -30,6 +30,7 @@ __all__ = [
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
+    "ZonesRoute",
     "check_query",
     "get_engine",
     "json_body",
@@ -212,6 +213,18 @@ class MapRoute(OrjsonRoute):
                 "(refused before parsing)"
             )
             raise TooLarge(msg, field="map")
+        return request
+
+
+class ZonesRoute(OrjsonRoute):
+    """Reads a ``multipart/form-data`` keepout mask (parts ``yaml`` and ``image``, polygons as
+    JSON fields) into the fields of the JSON body, as :class:`MapRoute` does a map."""
+
+    async def check_body(self, request: Request) -> Request:
+        if request.method == "POST" and request.headers.get("content-type", "").startswith(
+            "multipart/form-data"
+        ):
+            return await _form_as_json(request)
         return request
 
 

@@ -47,6 +47,7 @@ from service.client.clients import (
     Step,
     StepFields,
     UploadMapFields,
+    ZonesFields,
 )
 from service.client.errors import (
     APIError,
@@ -89,4 +90,5 @@ __all__ = [
     "UnavailableError",
     "UploadMapFields",
     "ValidationError",
+    "ZonesFields",
 ]

@@ -237,5 +237,6 @@ def _owner(key: str) -> str:
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell, and its bookkeeping."""
-    return int(robot_map.occupancy.nbytes) + MAP_OVERHEAD_BYTES
+    """The bytes a stored map holds: one per cell, a zoned map's zones, and its bookkeeping."""
+    zones = 0 if robot_map.zones is None else len(repr(robot_map.zones))
+    return int(robot_map.occupancy.nbytes) + zones + MAP_OVERHEAD_BYTES

@@ -36,6 +36,7 @@ from service.client import (
     UnavailableError,
     UploadMapFields,
     ValidationError,
+    ZonesFields,
 )
 from tests.service.conftest import ROOT, random_map
 
@@ -382,6 +383,7 @@ def _example(model: type[BaseModel]) -> Any:
 ROUTES = {
     "upload_map": ("post", "/maps"),
     "get_map": ("get", "/maps/{map_id}"),
+    "add_zones": ("post", "/maps/{map_id}/zones"),
     "plan": ("post", "/plan"),
     "get_plan": ("get", "/plan/{plan_id}"),
     "path": ("get", "/plan/{plan_id}/path"),
@@ -457,6 +459,8 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     assert simulate == set(schemas.SimulationCreate.model_fields)
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
     assert step == set(schemas.StepCreate.model_fields)
+    zones = set(get_type_hints(ZonesFields))
+    assert zones == set(schemas.ZonesCreate.model_fields) - {"image"}  # the YAML's image is read
     route = set(get_type_hints(RouteFields))
     assert route - plan_fields == {"waypoints"}
     plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}

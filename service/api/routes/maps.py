@@ -47,7 +47,8 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
 @router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     """The `map_id`, `height`, `width`, `free_cells`, `occupied_cells`, `unknown_cells`,
-    `resolution` and `origin` of an uploaded map."""
+    `resolution` and `origin` of an uploaded map, and a zoned map's `zones` (what
+    `POST /maps/{map_id}/zones` applied; else null)."""
     return present.map_public(await maps.get_map(engine, map_id))
 
 

@@ -37,11 +37,13 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the plan's map, its planned path, the robot (`#robot`, its cell in
     `data-cell`), the dynamic obstacles of the latest step (`.dynamic-obstacle`), its path
     ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
-    yaw in `data-yaw`), updated
+    yaw in `data-yaw`), and on a zoned map its zones (`.keepout` polygons hatched red,
+    `.speed-zone` polygons labelled by `.speed-label` with their max speed), updated
     live from `/plan/{plan_id}/events` as steps arrive. Everything it loads comes from the
     service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
+    zones = view_.plan.analysis.zones
     data = {
         "plan_id": plan_id,
         "height": height,
@@ -52,6 +54,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "resolution": view_.plan.analysis.frame.resolution,
         "origin": list(view_.plan.analysis.frame.origin),
         "last_step": _last_step(view_.state.last_step),
+        "zones": None if zones is None else zones.as_dict(),
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
