@@ -110,6 +110,24 @@ class Settings(BaseSettings):
         description="Requests in progress at most (bodies, work, event streams); beyond, 503 "
         "`BUSY` with `Retry-After: 1`. `/healthz` and `/readyz` are never refused.",
     )
+    max_plans_per_tenant: int = Field(
+        default=10_000,
+        ge=1,
+        description="Live plans one API key (or the open service) may hold in the store at "
+        "once (429 `TOO_MANY_PLANS` beyond).",
+    )
+    max_streams_per_tenant: int = Field(
+        default=20,
+        ge=1,
+        description="Event streams (`/plan/{plan_id}/events`) one API key may hold open on one "
+        "replica (429 `TOO_MANY_STREAMS` beyond).",
+    )
+    stream_queue_bytes: int = Field(
+        default=4 * MIB,
+        ge=1024,
+        description="Bytes of step events waiting for one event stream's reader at most; a "
+        "reader further behind is dropped (its stream ends with `event: dropped`).",
+    )
     api_keys: SecretStr = Field(
         default=SecretStr(""),
         description="Comma-separated API keys; empty: the service is open.",

@@ -10,6 +10,8 @@ ServiceError (here)
 ├── NotFound          unknown map or plan            404
 ├── BodyTimeout       body not arrived in time       408, and the connection closes
 ├── TooLarge          body, map or picture too big   413
+├── TooManyPlans      the key's plans at its cap     429
+├── TooManyStreams    the key's streams at its cap   429
 ├── InsufficientStorage  the map store is full       507
 ├── Busy              too many heavy jobs queued     503, with Retry-After
 ├── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
@@ -44,6 +46,8 @@ __all__ = [
     "StoreUnavailable",
     "TimedOut",
     "TooLarge",
+    "TooManyPlans",
+    "TooManyStreams",
     "Unauthorized",
     "install",
     "problem",
@@ -87,6 +91,15 @@ class InsufficientStorage(ServiceError, status=507, code="STORE_FULL"):
     """The map store is full of maps that live plans still use."""
 
 
+class TooManyPlans(ServiceError, status=429, code="TOO_MANY_PLANS"):
+    """The key already has ``PLANNER_MAX_PLANS_PER_TENANT`` live plans."""
+
+
+class TooManyStreams(ServiceError, status=429, code="TOO_MANY_STREAMS"):
+    """The key already has ``PLANNER_MAX_STREAMS_PER_TENANT`` event streams open on this
+    replica."""
+
+
 class Busy(ServiceError, status=503, code="BUSY"):
     """Too many heavy jobs (analyses, plans, renders, simulations) are queued; retry later."""
 
@@ -124,6 +137,12 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "detail": "seq 7 does not follow the last step's seq 4",
         "field": "seq",
         "code": "SEQUENCE_CONFLICT",
+    },
+    429: {
+        "detail": "this key has 10000 live plans (PLANNER_MAX_PLANS_PER_TENANT); delete plans "
+        "or wait for them to expire",
+        "field": None,
+        "code": "TOO_MANY_PLANS",
     },
     503: {
         "detail": "store unavailable; retry later",

@@ -26,6 +26,25 @@ from schemas import (
 )
 from service.client.errors import MapFileError, raise_for
 
+__all__ = [
+    "Analysis",
+    "AsyncPlannerClient",
+    "MapInfo",
+    "NavPath",
+    "Plan",
+    "PlanDetail",
+    "PlanFields",
+    "PlannerClient",
+    "Preview",
+    "RouteFields",
+    "SimulateFields",
+    "Simulation",
+    "Step",
+    "StepFields",
+    "UploadMapFields",
+    "ZonesFields",
+]
+
 CellIn = Sequence[int] | Mapping[str, float]
 """A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
 ``"yaw"`` in radians) where the API takes one."""

@@ -20,7 +20,7 @@ from planner import quote
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.stores import PlanRecord
-from service.stores.base import Event, Update
+from service.stores.base import Event, Update, unknown_map
 from service.work.engine import (
     Engine,
     cell_size,
@@ -229,9 +229,13 @@ async def require(engine: Engine, plan_id: str) -> None:
 
 
 async def _record(engine: Engine, plan_id: str) -> PlanRecord:
+    """The plan's record; ``NotFound`` naming the plan when it is gone, naming its map when
+    the map is (then the plan cannot be drawn or stepped on any replica: see ``step``)."""
     record = await engine.store.get_plan(plan_id)
     if record is None:
         raise _unknown_plan(plan_id)
+    if "map_id" in record and not await engine.store.has_map(record["map_id"]):
+        raise unknown_map(record["map_id"])
     return record
 
 

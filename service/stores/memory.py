@@ -10,10 +10,27 @@ import orjson
 
 from planner import RobotMap
 from service.errors import InsufficientStorage
-from service.stores.base import Cells, Decide, PlanLocks, PlanRecord, Store, T, Update, pack, unpack
+from service.stores.base import (
+    Cells,
+    Decide,
+    PlanLocks,
+    PlanRecord,
+    Store,
+    T,
+    Update,
+    pack,
+    too_many_plans,
+    unknown_map,
+    unpack,
+)
 from service.tenants import TENANT, scoped
 
-__all__ = ["MemoryStore"]
+__all__ = ["MAP_OVERHEAD_BYTES", "MemoryStore"]
+
+MAP_OVERHEAD_BYTES = 1024
+"""What a stored map costs beside its cells (its arrays' headers, frame, id and entry: ~760
+bytes measured with tracemalloc), counted against ``PLANNER_MAP_STORE_BYTES``: so the bound
+holds for many tiny maps too (a key's share holds at most share / 1 KiB maps)."""
 
 _Entry = tuple[float, bytes, bytearray, str | None, PlanRecord]
 
@@ -22,7 +39,8 @@ class MemoryStore(Store):
     """Everything in this process: for one uvicorn worker.
 
     Maps take at most ``max_map_bytes``: a new map evicts the least recently used maps that no
-    live plan uses, and is refused (507) when those do not free enough.
+    live plan uses, and is refused (507) when those do not free enough. Each tenant holds at
+    most ``max_plans`` live plans (429 beyond).
     """
 
     kind = "memory"
@@ -33,9 +51,12 @@ class MemoryStore(Store):
         ttl_seconds: float,
         max_map_bytes: int | None = None,
         shares: int = 1,
+        max_plans: int | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._ttl = ttl_seconds
+        self._max_plans = max_plans
+        self._plans_of: dict[str, int] = {}  # live plans per tenant
         self._clock = clock
         self.max_map_bytes = max_map_bytes
         self.map_bytes = 0
@@ -56,6 +77,7 @@ class MemoryStore(Store):
             self._maps.move_to_end(key)
             return False
         size = _size(robot_map)
+        self._expire()  # expired plans hold no map
         self._make_room(size)
         self._maps[key] = robot_map  # read-only, and never shared with a writer
         self.map_bytes += size
@@ -69,13 +91,22 @@ class MemoryStore(Store):
             self._maps.move_to_end(key)
         return robot_map
 
+    async def has_map(self, map_id: str) -> bool:
+        return await self.get_map(map_id) is not None
+
     async def counts(self) -> tuple[int, int]:
         self._expire()
         return len(self._maps), len(self._plans)
 
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         self._expire()
-        self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)  # its own copy
+        key = scoped(plan_id)
+        if "map_id" in record and scoped(record["map_id"]) not in self._maps:
+            raise unknown_map(record["map_id"])
+        held = self._plans_of.get(TENANT.get(), 0)
+        if self._max_plans is not None and key not in self._plans and held >= self._max_plans:
+            raise too_many_plans(held)
+        self._write(key, orjson.loads(orjson.dumps(record)), append)  # its own copy
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
         key = scoped(plan_id)
@@ -100,6 +131,8 @@ class MemoryStore(Store):
             map_key = scoped(record["map_id"]) if "map_id" in record else None
             if map_key is not None:
                 self._plans_on[map_key] = self._plans_on.get(map_key, 0) + 1
+            tenant = _owner(key)
+            self._plans_of[tenant] = self._plans_of.get(tenant, 0) + 1
             log = bytearray()
         else:
             log, map_key = entry[2], entry[3]
@@ -174,6 +207,12 @@ class MemoryStore(Store):
         entry = self._plans.pop(key, None)
         if entry is None:
             return False
+        tenant = _owner(key)
+        left = self._plans_of[tenant] - 1
+        if left:
+            self._plans_of[tenant] = left
+        else:
+            del self._plans_of[tenant]
         map_key = entry[3]
         if map_key is not None:
             left = self._plans_on.get(map_key, 1) - 1
@@ -193,11 +232,11 @@ class MemoryStore(Store):
 
 
 def _owner(key: str) -> str:
-    """The tenant of a stored map key (``""`` without keys): map ids themselves hold no dot."""
+    """The tenant of a stored map or plan key (``""`` without keys): ids hold no dot."""
     return key.split(".", 1)[0] if "." in key else ""
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell (and a zoned map's zones)."""
+    """The bytes a stored map holds: one per cell, a zoned map's zones, and its bookkeeping."""
     zones = 0 if robot_map.zones is None else len(repr(robot_map.zones))
-    return int(robot_map.occupancy.nbytes) + zones
+    return int(robot_map.occupancy.nbytes) + zones + MAP_OVERHEAD_BYTES

@@ -33,9 +33,12 @@ from service.stores.base import (
     decode_map,
     encode_map,
     pack,
+    too_many_plans,
+    unknown_map,
     unpack,
 )
-from service.tenants import scoped
+from service.stores.scripts import PUT, STEP
+from service.tenants import TENANT, scoped
 
 __all__ = ["CACHED_PLANS", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
 
@@ -55,36 +58,6 @@ _Cached = tuple[int, PlanRecord]
 """A plan as this replica last read or wrote it: its version and its record (read-only: what a
 step decides on)."""
 
-# A step's one round trip: KEYS the plan, its path (and its map, when maps expire); ARGV the
-# version prefix the step decided on, the new value ('' for none: a replay, only checked), the
-# plan's TTL, the cells to append, the map's TTL, the viewer's channel and message ('': none).
-# Returns {1} (written, or checked), {0} (no such plan: nothing written), {2, value} (another
-# step wrote first: the plan's value now, to decide again on). Every write has a version of its
-# own (random), so a value already there exactly as this call would write it is this call's
-# own write: the same call sent again (the client resends once when an answer is lost) is {1}.
-_STEP = """
-local now = redis.call('GET', KEYS[1])
-if not now then return {0} end
-if ARGV[2] ~= '' and now == ARGV[2] then return {1} end
-if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
-if ARGV[2] == '' then return {1} end
-redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
-if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
-redis.call('PEXPIRE', KEYS[2], ARGV[3])
-if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[5]) end
-if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
-return {1}
-"""
-
-# A new plan (or a replaced one) in one round trip: the same keys and arguments, unfenced.
-_PUT = """
-redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[2])
-if ARGV[3] ~= '' then redis.call('APPEND', KEYS[2], ARGV[3]) end
-redis.call('PEXPIRE', KEYS[2], ARGV[2])
-if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[4]) end
-return 1
-"""
-
 
 class RedisStore(Store):
     """Maps and plans in Redis, for any number of replicas.
@@ -99,7 +72,14 @@ class RedisStore(Store):
     kind = "redis"
     publishes = True
 
-    def __init__(self, url: str, *, ttl_seconds: float, map_ttl_seconds: float = 0) -> None:
+    def __init__(
+        self,
+        url: str,
+        *,
+        ttl_seconds: float,
+        map_ttl_seconds: float = 0,
+        max_plans: int | None = None,
+    ) -> None:
         self._redis = Redis.from_url(
             url,
             socket_timeout=SOCKET_TIMEOUT,
@@ -112,8 +92,9 @@ class RedisStore(Store):
         self._reaching = _Reaching(self.address)
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
-        self._step = _Collector(self._redis, self._redis.register_script(_STEP))
-        self._put = self._redis.register_script(_PUT)
+        self._max_plans = max_plans or 0
+        self._step = _Collector(self._redis, self._redis.register_script(STEP))
+        self._put = self._redis.register_script(PUT)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
@@ -143,16 +124,28 @@ class RedisStore(Store):
         assert isinstance(value, bytes)  # no decode_responses
         return decode_map(value)
 
+    async def has_map(self, map_id: str) -> bool:
+        key = f"planner:map:{scoped(map_id)}"
+        with self._reaching:
+            if self._map_ttl_ms:
+                return bool(await self._redis.pexpire(key, self._map_ttl_ms))
+            return bool(await self._redis.exists(key))
+
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         key = scoped(plan_id)
         # A new plan's version starts at random: a record cached of a plan replaced under the
         # same id is never taken for the new one.
         version, json = random.getrandbits(62) + 1, orjson.dumps(record)
+        value = b"%d %b" % (version, json)
+        args: list[bytes | int | str] = [
+            value, self._ttl_ms, pack(append), self._map_ttl_ms, self._max_plans, key,
+        ]  # fmt: skip
         with self._reaching:
-            await self._put(
-                keys=self._keys(key, record),
-                args=[b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms],
-            )
+            written = await self._put(keys=self._keys(key, record), args=args)
+        if written == 0:
+            raise unknown_map(record["map_id"])
+        if written < 0:
+            raise too_many_plans(-written)
         self._remember(key, version, orjson.loads(json))  # a copy of its own
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
@@ -188,6 +181,9 @@ class RedisStore(Store):
                 if answer[0] == 0:
                     self._plans.pop(key, None)
                     return None
+                if answer[0] == 3:
+                    assert update.record is not None  # only a write checks the map
+                    raise unknown_map(update.record["map_id"])
                 cached, fresh = self._parse(key, answer[1]), True
         msg = (
             f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps on it were recorded "
@@ -205,7 +201,10 @@ class RedisStore(Store):
     async def delete_plan(self, plan_id: str) -> bool:
         key = scoped(plan_id)
         with self._reaching:
-            gone = await self._redis.delete(f"planner:plan:{key}", f"planner:path:{key}")
+            async with self._redis.pipeline(transaction=True) as pipe:
+                pipe.delete(f"planner:plan:{key}", f"planner:path:{key}")
+                pipe.zrem(_plans_of(), key)
+                gone, _ = await pipe.execute()
         self._plans.pop(key, None)
         return bool(gone)
 
@@ -215,8 +214,8 @@ class RedisStore(Store):
         return len(self._locks)
 
     def _keys(self, key: str, record: PlanRecord) -> list[str]:
-        keys = [f"planner:plan:{key}", f"planner:path:{key}"]
-        if self._map_ttl_ms and "map_id" in record:
+        keys = [f"planner:plan:{key}", f"planner:path:{key}", _plans_of()]
+        if "map_id" in record:
             keys.append(f"planner:map:{scoped(record['map_id'])}")
         return keys
 
@@ -229,13 +228,13 @@ class RedisStore(Store):
             keys, args = [f"planner:plan:{key}"], [expect, b""]
         else:
             json = orjson.dumps(update.record)
-            written = random.getrandbits(62) + 1  # a version of its own: see _STEP
+            written = random.getrandbits(62) + 1  # a version of its own: see STEP
             value = b"%d %b" % (written, json)
             channel, message = update.event or ("", b"")
             keys = self._keys(key, update.record)
             args = [
                 expect, value, self._ttl_ms, pack(update.append), self._map_ttl_ms, channel,
-                message,
+                message, key,
             ]  # fmt: skip
         with self._reaching:
             answer: list[bytes | int] = await self._step(keys=keys, args=args)
@@ -313,6 +312,11 @@ class _Reaching:
                 raise InsufficientStorage(msg) from exc
             log.warning("redis at %s refused a command: %s", self.address, exc)
             raise StoreUnavailable(UNAVAILABLE) from exc
+
+
+def _plans_of() -> str:
+    """The key of the current tenant's set of live plans (scored by their expiry, in ms)."""
+    return f"planner:plans-of:{TENANT.get()}"
 
 
 def _split(value: bytes) -> tuple[int, bytes]:

@@ -15,7 +15,7 @@ from service.resources import maps
 
 __all__ = ["router"]
 
-ERRORS = responses(413, 422, 507)
+ERRORS = responses(413, 422, 429, 507)
 
 router = APIRouter(tags=["maps"], route_class=MapRoute)
 

@@ -75,7 +75,7 @@ async def step(plan_id: str, request: Request) -> Response:
         view = await plans.step(engine, plan_id, body)
         answer = present.step_answer(view)
         if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
-            await bus.publish(plan_id, _event(answer, view))
+            await bus.publish(plan_id, orjson.dumps(_event(answer, view)))
     # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
@@ -109,13 +109,15 @@ def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
     "/plan",
     status_code=status.HTTP_201_CREATED,
     summary="Plan from start to goal on an uploaded map",
-    responses=responses(404, 413, 422),
+    responses=responses(404, 413, 422, 429),
 )
 async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
     """Analyse the map (cached per map and analysis parameters), run the goal wave (cached per
     goal) and return the plan with its `preview`: the path with no dynamic obstacles. `422`
     when start or goal is outside the map or blocked, or with `NO_VALID_PATH` when the goal
-    cannot be reached (or only through tight tunnels while `allow_narrow` is false)."""
+    cannot be reached (or only through tight tunnels while `allow_narrow` is false); `404`
+    when the map is not in the store (whatever a replica has cached); `429` `TOO_MANY_PLANS`
+    when the key holds `PLANNER_MAX_PLANS_PER_TENANT` live plans."""
     return present.plan_public(await plans.create_plan(engine, body))
 
 
