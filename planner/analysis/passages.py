@@ -31,9 +31,10 @@ from skimage.morphology import medial_axis
 
 from planner.analysis.cspace import CSpace, configuration_space
 from planner.errors import InvalidInput, quote
+from planner.maps.frames import MapFrame
 from planner.maps.robot_maps import RobotMap
 
-__all__ = ["Passage", "crossed_passages", "find_passages"]
+__all__ = ["Passage", "crossed_passages", "find_passages", "path_narrowest"]
 
 #: Slack added to ``2 * robot_radius`` for the default ``max_width``, in meters.
 MAX_WIDTH_SLACK = 0.3
@@ -91,19 +92,45 @@ def find_passages(
 def crossed_passages(
     passages: tuple[Passage, ...], path: Any, shape: tuple[int, int]
 ) -> tuple[int, ...]:
-    """The ids of the passages a path of ``[row, col]`` cells enters, in the order it first
-    enters each (a passage left and entered again counts again)."""
+    """The ids of the passages a path of ``[row, col]`` cells enters, in the order it enters
+    them (a passage left and entered again counts again)."""
     cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
-    owner = np.full(shape[0] * shape[1], -1, dtype=np.int64)
-    for p in passages:
-        owner[p.cells] = p.id
+    if not passages or not len(cells):
+        return ()
+    flat = np.concatenate([p.cells for p in passages])
+    ids = np.concatenate([np.full(p.cells.size, p.id, dtype=np.int64) for p in passages])
+    order = np.argsort(flat, kind="stable")
+    flat, ids = flat[order], ids[order]
+    wanted = cells[:, 0] * shape[1] + cells[:, 1]
+    at = np.minimum(np.searchsorted(flat, wanted), flat.size - 1)
+    owner = np.where(flat[at] == wanted, ids[at], -1)
     out: list[int] = []
     last = -1
-    for here in owner[cells[:, 0] * shape[1] + cells[:, 1]].tolist():
+    for here in owner.tolist():
         if here >= 0 and here != last:
             out.append(here)
         last = here
     return tuple(out)
+
+
+def path_narrowest(cspace: CSpace, frame: MapFrame, path: Any) -> tuple[float, float, float]:
+    """The narrowest point a path of ``[row, col]`` cells crosses: ``(x, y, width_m)``, the
+    center of its cell nearest to a blocked cell (the first such along the path) and twice that
+    distance, center to center.
+
+    >>> from planner.maps.robot_maps import grid_map
+    >>> m = grid_map([[0, 0, 0], [1, 0, 1], [0, 0, 0]], resolution=0.5)
+    >>> cs = configuration_space(m, unknown="free")  # the outside of the map free
+    >>> path_narrowest(cs, m.frame, [[0, 1], [1, 1], [2, 1]])
+    (0.75, 0.75, 1.0)
+    """
+    cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    if not len(cells):
+        raise InvalidInput("path must hold at least one cell; got none", field="path")
+    here = int(np.argmin(cspace.distance[cells[:, 0], cells[:, 1]]))
+    (x, y), *_ = frame.centers(cells[here : here + 1]).tolist()
+    width = 2.0 * float(cspace.distance[cells[here, 0], cells[here, 1]]) * cspace.resolution
+    return float(x), float(y), width
 
 
 def _meters(value: Any, field: str) -> float:

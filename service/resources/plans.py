@@ -18,6 +18,7 @@ import planner
 from planner import quote
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
+from service.resources import passages
 from service.stores import PlanRecord
 from service.stores.base import Event, Update
 from service.work.engine import (
@@ -86,6 +87,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
+        **await passages.crossings(engine, body.map_id, plan),
     }
     await engine.store.put_plan(plan_id, record, append=stored.pop("trajectory"))
     return PlanView(plan_id, record, plan, state)

@@ -374,6 +374,7 @@ def _example(model: type[BaseModel]) -> Any:
 ROUTES = {
     "upload_map": ("post", "/maps"),
     "get_map": ("get", "/maps/{map_id}"),
+    "passages": ("get", "/maps/{map_id}/passages"),
     "plan": ("post", "/plan"),
     "get_plan": ("get", "/plan/{plan_id}"),
     "path": ("get", "/plan/{plan_id}/path"),

@@ -6,12 +6,12 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Response, status
 
-from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, Preset
+from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, PassagesPublic, Preset
 from schemas.plans import Unknown
 from service.api import present
 from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
-from service.resources import maps
+from service.resources import maps, passages
 
 __all__ = ["router"]
 
@@ -81,3 +81,34 @@ async def render_map(
     given = {name: value for name, value in overrides.items() if value is not None}
     png = await maps.render_map(engine, map_id, preset, field, cell, given)
     return Response(png, media_type="image/png")
+
+
+@router.get(
+    "/maps/{map_id}/passages",
+    summary="The narrow passages of a map for a round robot",
+    responses=responses(404, 422),
+)
+async def get_passages(
+    map_id: str,
+    engine: EngineDep,
+    robot_radius: Annotated[
+        float, Query(ge=0, le=100, description="The robot's radius in meters.")
+    ],
+    max_width: Annotated[
+        float | None,
+        Query(
+            gt=0,
+            le=1000,
+            description="Narrow means narrower than this, meters (default `2 * robot_radius + "
+            "0.3`); more than the robot's diameter.",
+        ),
+    ] = None,
+) -> PassagesPublic:
+    """The places where free space narrows below `max_width` between wider spaces and the robot
+    still fits (width > 2 `robot_radius`): doors, gaps between shelves, narrow corridors. Each
+    passage: `id`, its narrowest point `x`, `y` (meters, map frame), `width_m` there (center to
+    center, to within one `resolution`) and `length_m` (how far the width stays below
+    `max_width`). Unknown cells count as blocked. Computed once for a map, radius and
+    `max_width`, then cached."""
+    found = await passages.map_passages(engine, map_id, robot_radius, max_width)
+    return present.passages_public(found)
