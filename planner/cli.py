@@ -1,5 +1,5 @@
 """``python -m planner``: plan, run Moving AI scenarios, simulate, run the paper's experiment,
-render pictures, or show the bundled demo."""
+render pictures, list a map's narrow passages, or show the bundled demo."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from planner.analysis.analyse import analyse
+from planner.cli_passages import add_command
 from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
@@ -133,6 +134,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     )
     r.add_argument("--seed", type=int, default=0, help="the episode's seed (--animate)")
     r.set_defaults(run=_render)
+    add_command(sub)
     return parser
 
 

@@ -22,9 +22,11 @@ import numpy.typing as npt
 from PIL import Image, ImageDraw, ImageFont
 
 from planner.analysis.analyse import Analysis
+from planner.analysis.passages import Passage
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 
@@ -97,6 +99,7 @@ def draw(
     paths: Sequence[LabelledPath] = (),
     legend: bool | None = None,
     poses: Any = None,
+    passages: Sequence[Passage] = (),
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
     (``None``: :func:`auto_cell`).
@@ -107,6 +110,7 @@ def draw(
     ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
     ``poses`` (``(m, 3)`` ``[x, y, yaw]`` in meters, a plan's :attr:`~planner.Plan.poses`) are
     drawn as a thin blue line over the cells, with the last pose's heading as an arrow.
+    ``passages`` (:func:`planner.find_passages`) are tinted violet, labelled with their width.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
     on for robot maps) adds a key and a scale bar in meters below the map.
@@ -135,6 +139,7 @@ def draw(
         rgb[analysis.state == 1] = COLOURS["obstacle"]
     if analysis.seal_tunnels:  # unsealed tunnel cells are ordinary free cells to the planner
         rgb[analysis.state == 2] = COLOURS["tunnel"]
+    tint_passages(rgb, passages)
     lines_: list[LabelledPath] = []
     for cells, colour in ((preview, "preview"), (path, "path"), (dynamic_obstacles, "dynamic")):
         if cells is not None and cell < 6 and colour != "dynamic":
@@ -159,6 +164,7 @@ def draw(
         pen.line(points, fill=rgb_, width=max(3, cell // 2), joint="curve")
     if poses is not None:
         draw_poses(image, analysis, poses, cell=cell)
+    label_passages(image, passages, cell=cell)
     radius = cs.robot_radius / cs.resolution * cell if cs is not None else 0.0
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
         if cells is not None:
@@ -178,7 +184,10 @@ def draw(
                     width=2,
                 )
     if legend if legend is not None else cs is not None:
-        image = _with_legend(image, analysis, cell, [(rgb_, label) for _, rgb_, label in paths])
+        named = [(rgb_, label) for _, rgb_, label in paths]
+        if passages:
+            named.append((PASSAGE_COLOUR, "narrow passage (width)"))
+        image = _with_legend(image, analysis, cell, named)
     return image
 
 
@@ -207,7 +216,8 @@ def _with_legend(
     """The image with a key of its colours and a scale bar in meters below it."""
     font = ImageFont.load_default(size=14)
     named = [e for e in extra if e[1]]
-    keys = [k for k in LEGEND_NAMES if not (named and k == "path")]  # the named paths instead
+    paths = [e for e in named if e[0] != PASSAGE_COLOUR]
+    keys = [k for k in LEGEND_NAMES if not (paths and k == "path")]  # the named paths instead
     entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named
     width = max(image.width, 520)
     pad, box, row = 8, 14, 22
@@ -252,14 +262,16 @@ def render_map(
     field: Field | None = None,
     wave: Wave | None = None,
     cell: int | None = None,
+    passages: Sequence[Passage] = (),
 ) -> bytes:
-    """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint).
+    """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint),
+    and ``passages`` labelled with their width.
 
     >>> from planner import analyse
     >>> render_map(analyse([[0]]), cell=2)[1:4]
     b'PNG'
     """
-    return _png(draw(analysis, field=field, wave=wave, cell=cell))
+    return _png(draw(analysis, field=field, wave=wave, cell=cell, passages=passages))
 
 
 def render_plan(
@@ -270,13 +282,14 @@ def render_plan(
     field: Field | None = None,
     cell: int | None = None,
     poses: bool = True,
+    passages: Sequence[Passage] = (),
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
     so far and the ``dynamic_obstacles``' cells (the plan endpoint).
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
     green and the preview pale green beneath it. The plan's poses (unless ``poses`` is false) are
-    a blue line over them.
+    a blue line over them; ``passages`` (those it crosses, say) are labelled with their width.
     """
     path, preview, robot = plan.path, None, None
     if trajectory is not None:
@@ -296,6 +309,7 @@ def render_plan(
         wave=plan.wave,
         cell=cell,
         poses=plan.poses if poses else None,
+        passages=passages,
     )
     return _png(image)
 

@@ -13,7 +13,7 @@ from planner.analysis.passages import MAX_WIDTH_SLACK
 from service.tenants import scoped
 from service.work.engine import Engine
 
-__all__ = ["PassageSet", "crossings", "map_passages", "passages_key"]
+__all__ = ["PassageSet", "crossed", "crossings", "map_passages", "passages_key"]
 
 PASSAGE_BYTES = 200
 """What a passage holds besides its cells' array, charged to the cache."""
@@ -69,3 +69,15 @@ async def crossings(engine: Engine, map_id: str, plan: planner.Plan) -> dict[str
         return {"narrowest": [x, y, width], "passages": list(ids)}
 
     return await engine.pool.run(cross)
+
+
+async def crossed(
+    engine: Engine, record: dict[str, Any], plan: planner.Plan
+) -> tuple[planner.Passage, ...]:
+    """The passages a stored plan crosses (its record's ids), to draw them; none on a plain
+    grid or for a record from before passages."""
+    ids = record.get("passages")
+    if not ids:
+        return ()
+    found = await map_passages(engine, record["map_id"], plan.params.robot_radius)
+    return tuple(p for p in found.passages if p.id in set(ids))

@@ -185,8 +185,9 @@ async def render_plan(
     plan = await engine.plan_of(record)
     trajectory = await engine.store.get_trajectory(plan_id)
     size = cell_size(plan.analysis.shape, cell)
+    crossed = await passages.crossed(engine, record, plan)
     return await engine.pool.run(
-        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
+        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size, passages=crossed
     )
 
 

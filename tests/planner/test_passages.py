@@ -3,6 +3,8 @@ rooms or dead ends, and the shared ROS maps against a brute-force medial referen
 
 from __future__ import annotations
 
+import io
+import json
 import math
 from pathlib import Path
 
@@ -215,3 +217,55 @@ def test_ros_maps_against_the_reference(
 ) -> None:
     robot_map = planner.read_ros_map(ros / f"{name}.yaml")
     assert_matches(robot_map, radius, max_width, exact)
+
+
+def violet(png: bytes) -> np.ndarray:
+    """The pixels of the passages' colour (their labels and dots), as a mask."""
+    from PIL import Image
+
+    from planner.render_passages import PASSAGE_COLOUR
+
+    with Image.open(io.BytesIO(png)) as image:
+        rgb = np.asarray(image.convert("RGB"))
+    return np.all(rgb == PASSAGE_COLOUR, axis=2)
+
+
+def test_renders_draw_the_passages_with_their_width() -> None:
+    robot_map = doors_map()
+    found = find_passages(robot_map, RADIUS, 1.1)
+    analysis = planner.analyse_map(robot_map, planner.resolve_params(robot_radius=RADIUS))
+    plain = planner.render_map(analysis, cell=2)
+    drawn = planner.render_map(analysis, cell=2, passages=found)
+    assert not violet(plain).any()
+    mask = violet(drawn)
+    for p in found:  # a dot on each narrowest cell, its label beside it
+        assert mask[p.row * 2 : p.row * 2 + 2, p.col * 2 : p.col * 2 + 2].all()
+        assert mask[p.row * 2 - 8 : p.row * 2 + 8, p.col * 2 + 4 : p.col * 2 + 80].sum() > 20
+    rows = [[0] * 9 for _ in range(9)]
+    for r in range(9):
+        rows[r][4] = 0 if r == 4 else 1
+    tiny = planner.grid_map(rows, resolution=0.1)
+    result = planner.plan(tiny, [4, 0], [4, 8], robot_radius=0.05)
+    (door,) = find_passages(tiny, 0.05, 0.3)
+    assert violet(planner.render_plan(result, cell=24, passages=(door,)))[4 * 24 + 12].any()
+
+
+def test_the_command_line(ros: Path, capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from planner.cli import main
+
+    yaml = str(ros / "depot.yaml")
+    args = ["passages", "--map", yaml, "--robot-radius", "0.35", "--max-width", "1.0"]
+    assert main([*args, "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    found = find_passages(planner.read_ros_map(yaml), 0.35, 1.0)
+    assert [(p["x"], p["width_m"]) for p in answer["passages"]] == [
+        (round(p.x, 6), round(p.width_m, 6)) for p in found
+    ]
+    assert (answer["robot_radius"], answer["max_width"]) == (0.35, 1.0)
+    png = tmp_path / "passages.png"
+    assert main(["passages", "--map", yaml, "--robot-radius", "0.2", "--png", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("depot.yaml: 2 narrow passage(s) for a robot of radius 0.2 m")
+    assert violet(png.read_bytes()).any()
+    assert main(["passages", "--map", yaml, "--robot-radius", "0.2", "--max-width", "0.3"]) == 2
+    assert "max_width" in capsys.readouterr().err

@@ -187,3 +187,27 @@ def test_depot_and_the_client(live_url: str, ros: Path) -> None:
         with pytest.raises(ValidationError) as info:
             client.passages(map_id, 0.5, 0.9)
         assert info.value.field == "max_width"
+
+
+@pytest.mark.anyio
+async def test_pictures_draw_the_passages(client: httpx.AsyncClient) -> None:
+    from tests.planner.test_passages import violet
+
+    map_id = await upload_doors(client)
+    url = f"/maps/{map_id}/render.png?robot_radius=0.2&cell=2"
+    plain = await client.get(url)
+    drawn = await client.get(url + "&passages=true")
+    assert plain.status_code == drawn.status_code == 200, drawn.text
+    assert not violet(plain.content).any()
+    (door,) = planner.find_passages(doors_map(), RADIUS)
+    assert violet(drawn.content)[door.row * 2, door.col * 2]
+    bad = await client.get(url + "&passages=maybe")
+    assert bad.status_code == 422
+    assert bad.json()["field"] == "passages"
+    _, middles = doors_grid()
+    row = round(middles[1][0])
+    body = {"map_id": map_id, "start": [row, 70], "goal": [row, 180], "robot_radius": RADIUS}
+    plan_id = (await client.post("/plan", json=body)).json()["plan_id"]
+    picture = await client.get(f"/plan/{plan_id}/render.png?cell=2")
+    assert picture.status_code == 200
+    assert violet(picture.content)[door.row * 2, door.col * 2]
