@@ -227,7 +227,8 @@ def violet(png: bytes) -> np.ndarray:
 
     with Image.open(io.BytesIO(png)) as image:
         rgb = np.asarray(image.convert("RGB"))
-    return np.all(rgb == PASSAGE_COLOUR, axis=2)
+    mask: np.ndarray = np.all(rgb == PASSAGE_COLOUR, axis=2)
+    return mask
 
 
 def test_renders_draw_the_passages_with_their_width() -> None:
