@@ -211,3 +211,60 @@ async def test_pictures_draw_the_passages(client: httpx.AsyncClient) -> None:
     picture = await client.get(f"/plan/{plan_id}/render.png?cell=2")
     assert picture.status_code == 200
     assert violet(picture.content)[door.row * 2, door.col * 2]
+
+
+def test_the_live_viewer_draws_the_passages_in_chromium(live_url: str) -> None:
+    from playwright.sync_api import sync_playwright
+
+    from tests.service.browser import FLAGS, chromium
+
+    grid, middles = doors_grid()
+    row = round(middles[1][0])
+    body = {
+        "grid": grid.tolist(), "resolution": RESOLUTION, "origin": list(ORIGIN),
+        "start": [row, 70], "goal": [row, 180], "robot_radius": RADIUS,
+    }  # fmt: skip
+    with httpx.Client(base_url=live_url, trust_env=False, timeout=60) as http:
+        r = http.post("/maps", json=body)
+        assert r.status_code in (200, 201), r.text
+        plan_id = r.json()["plan"]["plan_id"]
+        want = http.get(f"/maps/{r.json()['map_id']}/passages?robot_radius={RADIUS}").json()
+        plain = http.post("/maps", json={"rows": ["....", ".@..", "...."], "start": [0, 0],
+                                          "goal": [2, 3]}).json()["plan"]["plan_id"]  # fmt: skip
+    assert len(want["passages"]) == 1
+    outside: list[str] = []
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=chromium(), args=FLAGS)
+        try:
+            page = browser.new_page(viewport={"width": 900, "height": 400})
+
+            def only_the_service(route: Any) -> None:
+                if route.request.url.startswith(f"{live_url}/"):
+                    route.continue_()
+                else:
+                    outside.append(route.request.url)
+                    route.abort()
+
+            page.route("**/*", only_the_service)
+            page.goto(f"{live_url}/plan/{plan_id}/view")
+            page.wait_for_function("document.body.dataset.passages === '1'", timeout=10_000)
+            marks = page.locator(".passage")
+            assert marks.count() == 1
+            (passage,) = want["passages"]
+            assert marks.first.get_attribute("data-width") == str(passage["width_m"])
+            assert marks.first.locator("text").text_content() == f"{passage['width_m']:.2f} m"
+            # Drawn at the passage's point: its cell's center in the board's pixels.
+            m = doors_map()
+            (r0, c0), *_ = m.frame.cells([[passage["x"], passage["y"]]]).tolist()
+            cell = max(1, min(32, 800 // max(m.shape)))
+            dot = marks.first.locator("circle")
+            assert float(dot.get_attribute("cx") or "nan") == pytest.approx((c0 + 0.5) * cell)
+            assert float(dot.get_attribute("cy") or "nan") == pytest.approx((r0 + 0.5) * cell)
+            # A plain grid has no meters: no passages asked for, none drawn.
+            page.goto(f"{live_url}/plan/{plain}/view")
+            page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
+            page.wait_for_timeout(300)
+            assert page.locator(".passage").count() == 0
+        finally:
+            browser.close()
+    assert outside == []

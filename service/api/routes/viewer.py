@@ -35,10 +35,15 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     `data-cell`), the dynamic obstacles of the latest step (`.dynamic-obstacle`), its path
     ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
     yaw in `data-yaw`), updated
-    live from `/plan/{plan_id}/events` as steps arrive. Everything it loads comes from the
-    service."""
+    live from `/plan/{plan_id}/events` as steps arrive; on a robot map, the map's narrow
+    passages for the plan's robot (`.passage`, from `/maps/{map_id}/passages`: a dot and its
+    width in meters). Everything it loads comes from the service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
+    passages = None
+    if not view_.plan.analysis.plain:  # relative to the page: /maps/{map_id}/passages
+        radius = view_.plan.params.robot_radius
+        passages = f"../../maps/{view_.record['map_id']}/passages?robot_radius={radius!r}"
     data = {
         "plan_id": plan_id,
         "height": height,
@@ -48,6 +53,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "trajectory": [list(cell) for cell in view_.state.trajectory],
         "resolution": view_.plan.analysis.frame.resolution,
         "origin": list(view_.plan.analysis.frame.origin),
+        "passages_url": passages,
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
