@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from planner.analysis.analyse import analyse
-from planner.cli_passages import add_command
+from planner.cli_passages import add_command, crossings
 from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
@@ -196,6 +196,7 @@ def _plan(args: argparse.Namespace) -> int:
         params["unknown"] = args.unknown
     form = args.format or ("json" if args.json else "text")
     tolerance = args.goal_tolerance
+    robot_map = None
     if Path(path).suffix.lower() not in (".yaml", ".yml"):
         cells = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
         result = plan(
@@ -217,11 +218,11 @@ def _plan(args: argparse.Namespace) -> int:
                 + (f", goal moved {result.goal_offset_m:.3f} m" if result.goal_used else "")
             )
     if form == "json":  # the API's preview object
-        print(json.dumps(_preview(result.summary())))
+        print(json.dumps({**_preview(result.summary()), **crossings(result, robot_map)[0]}))
     elif form == "nav_msgs":
         print(json.dumps(nav_msgs_path(result.poses, args.frame_id, time.time())))
     if args.png is not None:
-        args.png.write_bytes(render_plan(result))
+        args.png.write_bytes(render_plan(result, passages=crossings(result, robot_map)[1]))
         print(f"wrote {args.png}", file=sys.stderr)
     return 0
 

@@ -10,14 +10,21 @@ from pathlib import Path
 from typing import Any
 
 from planner.analysis.analyse import analyse_map
-from planner.analysis.passages import MAX_WIDTH_SLACK, find_passages
+from planner.analysis.passages import (
+    MAX_WIDTH_SLACK,
+    Passage,
+    crossed_passages,
+    find_passages,
+    path_narrowest,
+)
 from planner.maps.grids import read_map
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.maps.ros_maps import read_ros_map
 from planner.params import resolve_params
+from planner.plans.planning import Plan
 from planner.render import render_map
 
-__all__ = ["add_command"]
+__all__ = ["add_command", "crossings"]
 
 
 def add_command(sub: Any) -> None:
@@ -34,6 +41,21 @@ def add_command(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print the API's answer as JSON")
     p.add_argument("--png", type=Path, metavar="OUT.png", help="also draw them on the map")
     p.set_defaults(run=_passages)
+
+
+def crossings(
+    result: Plan, robot_map: RobotMap | None
+) -> tuple[dict[str, Any], tuple[Passage, ...]]:
+    """A plan's ``narrowest`` and crossed ``passages`` as its preview gives them over HTTP (both
+    None on a plain grid: ``robot_map`` None or plain), and the passages it crosses, to draw."""
+    analysis = result.analysis
+    if robot_map is None or robot_map.plain or analysis.cspace is None:
+        return {"narrowest": None, "passages": None}, ()
+    found = find_passages(robot_map, result.params.robot_radius)
+    ids = crossed_passages(found, result.path, robot_map.shape)
+    x, y, width = path_narrowest(analysis.cspace, analysis.frame, result.path)
+    narrowest = {"x": round(x, 6), "y": round(y, 6), "width_m": round(width, 6)}
+    return {"narrowest": narrowest, "passages": list(ids)}, tuple(found[i] for i in set(ids))
 
 
 def _read(path: Path) -> RobotMap:

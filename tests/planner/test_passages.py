@@ -270,3 +270,30 @@ def test_the_command_line(ros: Path, capsys: pytest.CaptureFixture[str], tmp_pat
     assert violet(png.read_bytes()).any()
     assert main(["passages", "--map", yaml, "--robot-radius", "0.2", "--max-width", "0.3"]) == 2
     assert "max_width" in capsys.readouterr().err
+
+
+def test_the_command_line_plan_preview_names_its_passages(
+    ros: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from planner.cli import EXAMPLE_MAP, main
+
+    yaml = str(ros / "depot.yaml")
+    start, goal = {"x": 24.075, "y": 4.225}, {"x": 22.425, "y": 3.025}
+    ends = ["--start", "24.075,4.225", "--goal", "22.425,3.025", "--preset", "shortest"]
+    assert main(["plan", "--map", yaml, *ends, "--robot-radius", "0.2", "--json"]) == 0
+    preview = json.loads(capsys.readouterr().out)
+    robot_map = planner.read_ros_map(yaml)
+    result = planner.plan(robot_map, start, goal, preset="shortest", robot_radius=0.2)
+    found = find_passages(robot_map, 0.2)
+    crossed = list(crossed_passages(found, result.path, robot_map.shape))
+    assert preview["passages"] == crossed
+    assert len(crossed) >= 1  # it goes through the gap between the shelves
+    assert result.analysis.cspace is not None
+    x, y, width = planner.path_narrowest(result.analysis.cspace, robot_map.frame, result.path)
+    assert preview["narrowest"] == {"x": round(x, 6), "y": round(y, 6), "width_m": round(width, 6)}
+    assert width <= min(found[i].width_m for i in crossed)
+    grid = ["plan", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26", "--json"]
+    assert main(grid) == 0
+    preview = json.loads(capsys.readouterr().out)
+    assert preview["narrowest"] is None
+    assert preview["passages"] is None
