@@ -54,6 +54,10 @@ class NarrowestPublic(BaseModel):
     """The narrowest point a path crosses: the center of its path cell nearest to a blocked
     cell, and the width there (twice that distance, center to center), meters."""
 
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"x": 12.425, "y": 3.075, "width_m": 0.6}]}
+    )
+
     x: float
     y: float
     width_m: float = Field(ge=0)

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, Passage, crossed_passages, find_passages
@@ -297,3 +299,31 @@ def test_the_command_line_plan_preview_names_its_passages(
     preview = json.loads(capsys.readouterr().out)
     assert preview["narrowest"] is None
     assert preview["passages"] is None
+
+
+@given(
+    st.lists(st.integers(2, 14), min_size=1, max_size=3),
+    st.integers(1, 5),
+    st.integers(0, 4),
+    st.integers(1, 6),
+)
+def test_random_doors_against_the_reference(
+    gaps: list[int], wall: int, radius_cells: int, slack_cells: int
+) -> None:
+    """Rooms of 24 cells joined by doors of ``gaps`` cells through walls ``wall`` cells thick,
+    a robot of ``radius_cells``, ``max_width`` that many cells over its diameter: the passages
+    are the doors of width in (2 R, max_width), each found once at its door, as the reference
+    finds them."""
+    res = 0.1
+    cells = tuple(g * RESOLUTION for g in gaps)  # doors_grid's meters, as cells
+    grid, middles = doors_grid(cells, wall=wall * RESOLUTION, room=24 * RESOLUTION)
+    robot_map = planner.grid_map(grid, resolution=res)
+    radius = radius_cells * res
+    max_width = 2 * radius + slack_cells * res
+    found = find_passages(robot_map, radius, max_width)
+    # A door of g free cells is g + 1 cells wide, center to center, at its middle (g odd) or
+    # g cells at the two middle cells (g even).
+    widths = [(g + 1 if g % 2 else g) * res for g in gaps]
+    expect = [i for i, w in enumerate(widths) if 2 * radius + 1e-9 < w < max_width - 1e-9]
+    assert sorted(door_of(p, middles) for p in found) == expect
+    assert_matches(robot_map, radius, max_width, exact=True)
