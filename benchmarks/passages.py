@@ -1,5 +1,5 @@
 """Narrow passages on the shared ROS maps, side by side in one run: ``find_passages`` against
-the analysis a plan needs (``analyse_map``) and against scikit-image's medial axis alone, then
+the analysis a plan needs (``analyse_map``), its medial axis against scikit-image's, then
 ``GET /maps/{id}/passages`` in-process (the app, its pool and cache, over ASGI) cold and cached,
 and what the passages add to a robot map's first plan::
 
@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import planner  # noqa: E402
+from planner.analysis.medial import medial_axis as planner_medial_axis  # noqa: E402
 from service.config import Settings  # noqa: E402
 from service.main import create_app  # noqa: E402
 
@@ -51,11 +52,14 @@ def ms(fn: Callable[[], object]) -> float:
 
 def side_by_side(robot_map: planner.RobotMap, radius: float, repeats: int) -> None:
     params = planner.resolve_params(robot_radius=radius)
-    free = np.pad(planner.configuration_space(robot_map, robot_radius=radius).blocked == 0, 1)
+    cs = planner.configuration_space(robot_map, robot_radius=radius)
+    free = cs.blocked == 0
+    padded = np.pad(free, 1)
     cases: dict[str, Callable[[], object]] = {
         "find_passages": lambda: planner.find_passages(robot_map, radius),
         "analyse_map": lambda: planner.analyse_map(robot_map, params),
-        "medial_axis alone": lambda: medial_axis(free, rng=0),  # type: ignore[no-untyped-call]
+        "its medial axis (numba)": lambda: planner_medial_axis(free, cs.distance),
+        "scikit-image medial_axis, same cells": lambda: medial_axis(padded, rng=0),  # type: ignore[no-untyped-call]
     }
     times: dict[str, list[float]] = {name: [] for name in cases}
     for _ in range(repeats):  # alternated: the machine's load falls on all alike

@@ -3,10 +3,10 @@ round robot still fits, read on the medial axis (skeleton) of free space over th
 distance transform.
 
 A skeleton cell is a *neck* cell when its width (twice its distance to the nearest blocked
-cell's center) is below ``max_width`` and above the robot's diameter; connected neck cells form
-a neck, and a neck is a passage when it opens onto wider skeleton (width >= ``max_width``) at two
-separate mouths. Dead ends (one mouth), pinches too narrow for the robot and open rooms (no neck)
-are not passages.
+cell's center) is below ``max_width``; connected neck cells form a neck, and a neck is a passage
+when it opens onto wider skeleton (width >= ``max_width``) at two separate mouths and the widest
+way between two of them stays wider than the robot. Dead ends (one mouth), pinches too narrow for
+the robot and open rooms (no neck) are not passages.
 
 >>> from planner.maps.robot_maps import grid_map
 >>> rows = [[0] * 9 for _ in range(9)]
@@ -28,9 +28,9 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 from scipy import ndimage
-from skimage.morphology import medial_axis
 
 from planner.analysis.cspace import CSpace, configuration_space
+from planner.analysis.medial import medial_axis
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
 from planner.maps.robot_maps import RobotMap
@@ -145,8 +145,8 @@ def _passages(robot_map: RobotMap, cspace: CSpace, max_width: float) -> tuple[Pa
     H, W = robot_map.shape
     res = cspace.resolution
     free = cspace.blocked == 0
-    # Padded with a blocked ring: the outside of the map is blocked, as for the distances.
-    skeleton = medial_axis(np.pad(free, 1), rng=0)[1:-1, 1:-1]  # type: ignore[no-untyped-call]
+    # The outside of the map counts as blocked, for the distances and for the skeleton.
+    skeleton = medial_axis(free, cspace.distance)
     distance = cspace.distance.astype(np.float64)
     limit = max_width / res / 2  # in cells, as a distance
     below = distance < limit - 1e-9 * max(1.0, limit)

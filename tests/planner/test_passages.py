@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, Passage, crossed_passages, find_passages
-from tests import naive_passages
+from planner.analysis.medial import medial_axis
+from tests import naive, naive_passages
 from tests.doors import GAPS, RESOLUTION, doors_grid, doors_map
 
 RADIUS = 0.2
@@ -327,3 +328,22 @@ def test_random_doors_against_the_reference(
     expect = [i for i, w in enumerate(widths) if 2 * radius + 1e-9 < w < max_width - 1e-9]
     assert sorted(door_of(p, middles) for p in found) == expect
     assert_matches(robot_map, radius, max_width, exact=True)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.integers(1, 12), st.floats(0.0, 0.6))
+def test_the_medial_axis_against_brute_force(seed: int, H: int, W: int, density: float) -> None:
+    rng = np.random.default_rng(seed)
+    free = rng.random((H, W)) >= density
+    blocked = ~free
+    dist = naive.distances(blocked, outside_blocked=True)
+    got = medial_axis(free, dist.astype(np.float32))
+    np.testing.assert_array_equal(got, naive_passages.medial_axis(free, dist))
+
+
+@pytest.mark.parametrize("name", ["depot", "tb3_sandbox", "smoothers_world"])
+def test_the_medial_axis_is_scikit_images(ros: Path, name: str) -> None:
+    skimage = pytest.importorskip("skimage.morphology")
+    cs = planner.configuration_space(planner.read_ros_map(ros / f"{name}.yaml"))
+    free = cs.blocked == 0
+    theirs = skimage.medial_axis(np.pad(free, 1), rng=0)[1:-1, 1:-1]
+    np.testing.assert_array_equal(medial_axis(free, cs.distance), theirs)
