@@ -25,6 +25,7 @@ from planner.analysis.analyse import (
 )
 from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
 from planner.analysis.passages import Passage, crossed_passages, find_passages, path_narrowest
+from planner.analysis.rezone import rezone_analysis
 from planner.errors import (
     QUOTE_LIMIT,
     InvalidInput,
@@ -54,6 +55,8 @@ from planner.maps.ros_maps import (
     parse_ros_map,
     read_ros_map,
 )
+from planner.maps.zones import KeepoutMask, SpeedZone, Zones, speed_limits
+from planner.maps.zoning import keepout_mask, zone_map
 from planner.params import PRESETS, Params, resolve_params
 from planner.plans.planning import Plan, clearance_metrics, plan, reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
@@ -74,6 +77,7 @@ __all__ = [
     "CSpace",
     "Episode",
     "InvalidInput",
+    "KeepoutMask",
     "MapFrame",
     "MapYaml",
     "NoValidPath",
@@ -89,10 +93,12 @@ __all__ = [
     "SequenceConflict",
     "Session",
     "SessionState",
+    "SpeedZone",
     "Step",
     "Unsettled",
     "Wave",
     "WaveView",
+    "Zones",
     "analyse",
     "analyse_map",
     "analysis_key",
@@ -111,6 +117,7 @@ __all__ = [
     "goal_wave",
     "grid_map",
     "image_size",
+    "keepout_mask",
     "nav_msgs_path",
     "occupancy_grid_map",
     "params_key",
@@ -131,11 +138,14 @@ __all__ = [
     "resolve_params",
     "resolve_wall_cost",
     "resumable_wave",
+    "rezone_analysis",
     "route_of",
     "run_episode",
     "run_experiment",
     "simulate",
     "smooth_path",
+    "speed_limits",
     "warm_up",
     "wide_clean",
+    "zone_map",
 ]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -42,7 +43,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # The console script is named in its usage line; everything else prints the same.
     prog = "planner" if Path(sys.argv[0]).name == "planner" else "python -m planner"
     parser = _parser(prog)
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_negative_points(sys.argv[1:] if argv is None else argv))
     warm_up()  # so that the times reported are the planner's, not numba's compiler's
     try:
         result: int = args.run(args)
@@ -50,6 +51,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     return result
+
+
+def _negative_points(argv: Sequence[str]) -> list[str]:
+    """``--start -12.5,22.0`` as ``--start=-12.5,22.0``, which argparse takes for no option."""
+    out: list[str] = []
+    for word in argv:
+        if out and out[-1] in ("--start", "--goal") and re.match(r"-\.?\d", word):
+            out[-1] += f"={word}"
+        else:
+            out.append(word)
+    return out
 
 
 def _parser(prog: str) -> argparse.ArgumentParser:
@@ -160,19 +172,9 @@ def _params(pairs: list[str]) -> dict[str, Any]:
 
 
 PREVIEW_KEYS = (
-    "path",
-    "path_xy",
-    "length",
-    "length_m",
-    "arc_cost",
-    "min_clearance",
-    "min_clearance_m",
-    "mean_clearance",
-    "mean_clearance_m",
-    "contact_ratio",
-    "length_poses_m",
-    "goal_offset_m",
-)
+    "path", "path_xy", "length", "length_m", "arc_cost", "min_clearance", "min_clearance_m",
+    "mean_clearance", "mean_clearance_m", "contact_ratio", "length_poses_m", "goal_offset_m",
+)  # fmt: skip
 
 
 def _preview(summary: dict[str, Any]) -> dict[str, Any]:

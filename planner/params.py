@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, nominal_speed, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -85,6 +85,9 @@ class Params:
     walking about at a step of 0.2 s)."""
     horizon_m: float = 2.0
     """Meters of the path ahead that a step answers at least (its ``poses``), or to the goal."""
+    nominal_speed: float = 0.5
+    """The robot's speed in m/s outside speed zones: a plan's ``duration_s`` drives its poses at
+    it, capped by each speed zone's ``max_speed``."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -105,6 +108,7 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "dynamic_margin": (0, 16),
     "dynamic_margin_m": (0.0, 5.0),
     "horizon_m": (0.0, 100.0),
+    "nominal_speed": (0.0, 100.0),
 }
 
 _PAPER = Params(
@@ -178,6 +182,8 @@ def _check(name: str, value: Any) -> Any:
         kind = "an integer" if integral else "a number"
         raise InvalidInput(f"{name} must be {kind}; got {quote(value)}", field=field)
     low, high = PARAMETER_RANGES[name]
+    if name == "nominal_speed" and value == 0:
+        raise InvalidInput(f"{name} must be > 0 m/s; got {quote(value)}", field=field)
     if not (math.isfinite(value) and low <= value <= high):
         raise InvalidInput(f"{name} must be in [{low}, {high}]; got {quote(value)}", field=field)
     return int(value) if integral else float(value)

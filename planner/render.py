@@ -27,6 +27,7 @@ from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
 from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
+from planner.render_zones import draw_zone_outlines, paint_zones, zone_legend
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 
@@ -36,6 +37,7 @@ __all__ = [
     "auto_cell",
     "draw",
     "draw_poses",
+    "legend_entries",
     "render_episode",
     "render_map",
     "render_plan",
@@ -99,6 +101,7 @@ def draw(
     paths: Sequence[LabelledPath] = (),
     legend: bool | None = None,
     poses: Any = None,
+    path_label: str = "path",
     passages: Sequence[Passage] = (),
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
@@ -113,7 +116,11 @@ def draw(
     ``passages`` (:func:`planner.find_passages`) are tinted violet, labelled with their width.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
-    on for robot maps) adds a key and a scale bar in meters below the map.
+    on for robot maps) adds a key and a scale bar in meters below the map, the green cells
+    named ``path_label``. The robot's disc is smaller than the start's and the goal's, which
+    show round it when it stands on them. On a zoned map,
+    keepout polygons are hatched red and speed zones tinted amber, labelled with their
+    ``max_speed`` (:mod:`planner.render_zones`).
 
     >>> from planner import analyse
     >>> image = draw(analyse([[0, 1], [1, 0]]), cell=3)   # a gate: the red line across it
@@ -154,8 +161,10 @@ def draw(
         lines[cell::cell, :] = True
         lines[:, cell::cell] = True
         big[lines & open_] = COLOURS["grid"]
+    paint_zones(big, analysis, cell)
     _draw_gates(big, analysis.gate_cells().reshape(-1, 4), cell)
     image = Image.fromarray(big, "RGB")
+    draw_zone_outlines(image, analysis, cell)
     pen = ImageDraw.Draw(image)
     half = cell / 2
     for cells, rgb_, _ in [*lines_, *paths]:
@@ -169,13 +178,13 @@ def draw(
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
         if cells is not None:
             (r, c), *_ = _cells([cells], analysis.shape, colour).tolist()
+            small = colour == "robot"  # inside the start's or the goal's disc, which ring it
             if cell < 6:  # a disc bigger than the cell, or it would not show
-                x, y, k = c * cell + half, r * cell + half, 5
+                x, y, k = c * cell + half, r * cell + half, 3 if small else 5
                 pen.ellipse((x - k, y - k, x + k, y + k), fill=COLOURS[colour], outline=(0, 0, 0))
             else:
-                pen.ellipse(
-                    _box(r, c, cell, max(cell // 8, 0)), fill=COLOURS[colour], outline=(0, 0, 0)
-                )
+                inset = max(cell // 3, 1) if small else max(cell // 8, 0)
+                pen.ellipse(_box(r, c, cell, inset), fill=COLOURS[colour], outline=(0, 0, 0))
             if radius >= 1 and colour in ("start", "robot"):  # the robot's footprint
                 x, y = c * cell + half, r * cell + half
                 pen.ellipse(
@@ -184,10 +193,11 @@ def draw(
                     width=2,
                 )
     if legend if legend is not None else cs is not None:
-        named = [(rgb_, label) for _, rgb_, label in paths]
+        named = [(rgb_, label) for _, rgb_, label in paths if label]
+        keys = legend_entries(path_label=path_label, preview=preview is not None, named=named)
         if passages:
-            named.append((PASSAGE_COLOUR, "narrow passage (width)"))
-        image = _with_legend(image, analysis, cell, named)
+            keys.append((PASSAGE_COLOUR, "narrow passage (width)"))
+        image = _with_legend(image, analysis, cell, keys)
     return image
 
 
@@ -199,6 +209,7 @@ LEGEND_NAMES = {
     "tunnel": "tight tunnel (sealed)",
     "gate": "gate",
     "path": "path",
+    "preview": "planned path",
     "poses": "poses (smooth path)",
     "robot": "robot (footprint)",
     "dynamic": "dynamic obstacle",
@@ -207,18 +218,32 @@ LEGEND_NAMES = {
 }
 
 
+Key = tuple[tuple[int, int, int], str]
+
+
+def legend_entries(
+    *, path_label: str = "path", preview: bool = False, named: Sequence[Key] = ()
+) -> list[Key]:
+    """A picture's key: each colour and what it stands for. The green cells are
+    ``path_label`` (a robot's trajectory, drawn over its plan); the pale green ones the planned
+    path, when a ``preview`` is drawn; ``named`` paths stand in for the green one.
+
+    >>> [label for _, label in legend_entries(path_label="trajectory", preview=True)][6:8]
+    ['trajectory', 'planned path']
+    """
+    names = {**LEGEND_NAMES, "path": path_label}
+    skip = {"preview"} if not preview else set()
+    if named:
+        skip.add("path")
+    return [(COLOURS[k], label) for k, label in names.items() if k not in skip] + list(named)
+
+
 def _with_legend(
-    image: Image.Image,
-    analysis: Analysis,
-    cell: int,
-    extra: list[tuple[tuple[int, int, int], str]],
+    image: Image.Image, analysis: Analysis, cell: int, entries: list[Key]
 ) -> Image.Image:
-    """The image with a key of its colours and a scale bar in meters below it."""
+    """The image with a key of its colours (``entries``) and a scale bar in meters below it."""
     font = ImageFont.load_default(size=14)
-    named = [e for e in extra if e[1]]
-    paths = [e for e in named if e[0] != PASSAGE_COLOUR]
-    keys = [k for k in LEGEND_NAMES if not (paths and k == "path")]  # the named paths instead
-    entries = [(COLOURS[k], LEGEND_NAMES[k]) for k in keys] + named
+    entries = [*entries, *zone_legend(analysis)]
     width = max(image.width, 520)
     pad, box, row = 8, 14, 22
     x = y = pad
@@ -288,8 +313,9 @@ def render_plan(
     so far and the ``dynamic_obstacles``' cells (the plan endpoint).
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
-    green and the preview pale green beneath it. The plan's poses (unless ``poses`` is false) are
-    a blue line over them; ``passages`` (those it crosses, say) are labelled with their width.
+    green and the preview pale green beneath it, and the legend (on robot maps) says so. The
+    plan's poses (unless ``poses`` is false) are a blue line over them; ``passages`` (those it
+    crosses, say) are labelled with their width.
     """
     path, preview, robot = plan.path, None, None
     if trajectory is not None:
@@ -309,6 +335,7 @@ def render_plan(
         wave=plan.wave,
         cell=cell,
         poses=plan.poses if poses else None,
+        path_label="path" if trajectory is None else "trajectory (so far)",
         passages=passages,
     )
     return _png(image)

@@ -30,6 +30,15 @@ from schemas.plans import (
 from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
 from schemas.steps import StepCreate, StepPublic
+from schemas.zones import (
+    ZONES_MULTIPART,
+    KeepoutMaskPublic,
+    SpeedZoneCreate,
+    SpeedZonePublic,
+    ZonePoint,
+    ZonesCreate,
+    ZonesPublic,
+)
 
 __all__ = [
     "EXAMPLE_MAP",
@@ -39,6 +48,7 @@ __all__ = [
     "MULTIPART_FIELDS",
     "PRESET_NAMES",
     "UNION_TAGS",
+    "ZONES_MULTIPART",
     "AnalysisPublic",
     "CacheStats",
     "Cell",
@@ -46,6 +56,7 @@ __all__ = [
     "Circle",
     "ErrorPublic",
     "HealthPublic",
+    "KeepoutMaskPublic",
     "LivePublic",
     "MapCreate",
     "MapPublic",
@@ -66,8 +77,13 @@ __all__ = [
     "SimulationCreate",
     "SimulationMetrics",
     "SimulationPublic",
+    "SpeedZoneCreate",
+    "SpeedZonePublic",
     "StepCreate",
     "StepPublic",
     "StoreHealth",
     "TrajectoryMetrics",
+    "ZonePoint",
+    "ZonesCreate",
+    "ZonesPublic",
 ]

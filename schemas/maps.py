@@ -17,6 +17,7 @@ from schemas.plans import (
     PlanPublic,
     Waypoints,
 )
+from schemas.zones import ZonesPublic
 
 __all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]
 
@@ -78,7 +79,8 @@ class MapEncoding(BaseModel):
         examples=[EXAMPLE_OCCUPANCY_GRID],
     )
     resolution: float | None = Field(
-        default=None, description="With `grid`/`rows`: meters per cell (default 1)."
+        default=None,
+        description="With `grid`/`rows`: meters per cell, 0.0001 to 1000 (default 1).",
     )
     origin: list[float] | None = Field(
         default=None,
@@ -189,3 +191,6 @@ class MapPublic(BaseModel):
         min_length=3, max_length=3, description="`[x, y, yaw]` of the map's lower-left corner."
     )
     plan: PlanPublic | None = Field(default=None, description="When `start` and `goal` were given.")
+    zones: ZonesPublic | None = Field(
+        default=None, description="A zoned map's zones (`POST /maps/{map_id}/zones`), else null."
+    )

@@ -83,6 +83,13 @@ class Pose(BaseModel):
     x: float
     y: float
     yaw: float
+    max_speed: float | None = Field(
+        default=None,
+        gt=0,
+        exclude_if=lambda v: v is None,
+        description="Inside a speed zone (`POST /maps/{map_id}/zones`): the least `max_speed` "
+        "(m/s) of the zones holding the pose; absent elsewhere.",
+    )
 
 
 class XYPublic(BaseModel):
@@ -184,7 +191,8 @@ PARAMS_DESCRIPTION = (
     "value of the wrong type is a 422): `alpha`, `beta`, `clean_weight`, `clean_radius`, "
     "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
     "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
-    "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells)."
+    "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
+    "the preview's `duration_s`)."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -222,6 +230,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "dynamic_margin": 1,
         "dynamic_margin_m": None,
         "horizon_m": 2.0,
+        "nominal_speed": 0.5,
     },
     "status": "ready",
     "position": [0, 0],
@@ -257,6 +266,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
             {"x": 5.5, "y": 0.5, "yaw": -1.2490457723982544},
         ],
         "length_poses_m": 6.823201,
+        "duration_s": 13.646402,
         "goal_used": None,
         "goal_offset_m": 0.0,
         "waypoint_indices": [],
@@ -377,6 +387,12 @@ class PreviewPublic(BaseModel):
         "goal's `yaw` when given), turning at most 15 degrees from one pose to the next.",
     )
     length_poses_m: float = Field(default=0.0, ge=0, description="The poses' length, meters.")
+    duration_s: float = Field(
+        default=0.0,
+        ge=0,
+        description="Seconds to drive the poses at `params.nominal_speed` (m/s, default 0.5), "
+        "each segment at most the `max_speed` of either of its ends' poses.",
+    )
     goal_used: XYPublic | None = Field(
         default=None,
         description="The center of the cell planned to instead of the goal, within "
@@ -394,10 +410,9 @@ class PreviewPublic(BaseModel):
         default=None, description="The narrowest point the path crosses (null on a plain grid)."
     )
     passages: list[int] | None = Field(
-        default=None,
-        description="The ids of the narrow passages (`GET /maps/{map_id}/passages` for the "
-        "plan's `robot_radius`) the path crosses, in order (null on a plain grid).",
-    )
+        default=None, description="The ids of the passages (`GET /maps/{map_id}/passages`, its "
+        "`robot_radius`) the path crosses, in order (null on a plain grid).",
+    )  # fmt: skip
 
 
 class PlanPublic(BaseModel):

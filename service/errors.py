@@ -1,7 +1,8 @@
 """The one place where errors become HTTP answers.
 
 PlannerError (planner)                    HTTP
-├── InvalidInput                          422 (START_OCCUPIED / GOAL_OCCUPIED when so named)
+├── InvalidInput                          422 (START_OCCUPIED / GOAL_OCCUPIED when so named;
+│                                         413 when its code is TOO_LARGE)
 ├── NoValidPath                           422, detail contains NO_VALID_PATH
 └── SequenceConflict                      409
 ServiceError (here)
@@ -20,6 +21,7 @@ A message never names internals (addresses, paths, exception text): those are lo
 
 from __future__ import annotations
 
+import re
 import reprlib
 from typing import Any
 
@@ -167,6 +169,9 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     }
 
 
+_OBJECT_REPR = re.compile(r"<[^<>]*? at 0x[0-9a-fA-F]+>")
+"""An object's default repr (``<_io.BytesIO object at 0x7f...>``): a heap address."""
+
 MAX_DETAIL = 600
 """Characters of an error's ``detail`` at most: messages quote at most ~100 characters of any
 value received (:func:`planner.quote`); this bounds the whole, whatever raised it."""
@@ -178,6 +183,7 @@ def problem(status: int, message: str, *, field: str | None, code: str) -> JSONR
         field = field[: QUOTE_LIMIT - 3] + "..."
     if field and field.rsplit(".", 1)[-1] not in message.split(" ", 1)[0]:
         message = f"{field}: {message}"
+    message = _OBJECT_REPR.sub("<object>", message)  # never an address, whoever raised it
     if len(message) > MAX_DETAIL:
         message = message[: MAX_DETAIL - 3] + "..."
     body = ErrorPublic(detail=message, field=field, code=code)
@@ -203,6 +209,8 @@ async def send_problem(scope: Scope, send: Send, error: ServiceError) -> None:
 async def _planner_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, planner.PlannerError)
     status = next((s for kind, s in _PLANNER_STATUS.items() if isinstance(exc, kind)), 422)
+    if exc.code == TooLarge.code:  # an input over the planner's own limits (Pillow's pixels)
+        status = TooLarge.status
     return problem(status, exc.message, field=exc.field, code=exc.code)
 
 
@@ -219,13 +227,55 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
         {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
         for e in exc.errors()
     ]
+    if any(e["loc"] == ("body",) and isinstance(e.get("input"), bytes) for e in errors):
+        return problem(422, _not_json(request), field="content-type", code="INVALID_INPUT")
+    # Unknown and missing body fields, each kind in one part: the body is not echoed (once
+    # for each missing field, as pydantic gives it) and the fields the body takes are named.
+    top = [e for e in errors if len(e["loc"]) == 2 and e["loc"][0] == "body"]
+    unknown = [str(e["loc"][1]) for e in top if e["type"] == "extra_forbidden"]
+    missing = [str(e["loc"][1]) for e in top if e["type"] == "missing"]
+    rest = [e for e in errors if e["type"] not in ("extra_forbidden", "missing") or e not in top]
+    parts, fields = [], [*unknown, *missing]
+    if unknown:
+        names = ", ".join(_quote_input(_cut(name)) for name in unknown[:5])
+        takes = _body_fields(request, errors)
+        parts.append(
+            f"{names}: unknown field{'s' if len(unknown) > 1 else ''}"
+            + (f" (the body takes: {', '.join(takes)})" if takes else "")
+        )
+    if missing:
+        parts.append(f"{', '.join(_cut(name) for name in missing)}: Field required")
     # A map can be megabytes: echo only the start of what was received, and only a few errors.
-    parts = [_describe(e) for e in errors[:3]]
-    if len(errors) > 3:
-        parts.append(f"and {len(errors) - 3} more errors")
-    first = errors[0]["loc"] if errors else ()
+    parts += [_describe(e) for e in rest[:3]]
+    if len(rest) > 3:
+        parts.append(f"and {len(rest) - 3} more errors")
+    first = ("body", fields[0]) if fields else errors[0]["loc"] if errors else ()
     field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")
+
+
+def _not_json(request: Request) -> str:
+    """What to do when the body came without a JSON content type (``curl -d`` sends
+    ``application/x-www-form-urlencoded``)."""
+    given = request.headers.get("content-type")
+    got = f"Content-Type {_quote_input(given)}" if given else "no Content-Type"
+    return (
+        f"the request has {got}; send the body as JSON with the header "
+        "Content-Type: application/json (curl: --json @body.json, or -H 'Content-Type: "
+        "application/json' -d @body.json)"
+    )
+
+
+def _body_fields(request: Request, errors: list[Any]) -> list[str]:
+    """The fields the route's body model takes: from the errors' context when the route read
+    its body itself (:func:`service.api.deps.json_body`), else from the route's body field."""
+    for error in errors:
+        fields = (error.get("ctx") or {}).get("fields")
+        if fields:
+            return list(fields)
+    body = getattr(request.scope.get("route"), "body_field", None)
+    model = getattr(getattr(body, "field_info", None), "annotation", None)
+    return list(getattr(model, "model_fields", {}))
 
 
 def _describe(error: Any) -> str:

@@ -465,3 +465,73 @@ def neighbourhood(passable: np.ndarray, r: int, c: int) -> list[tuple[int, int]]
     """The cells a decision at (r, c) reads: (r, c) when passable, and its legal neighbours."""
     cells = [(r, c)] if passable[r, c] else []
     return cells + [(r + dr, c + dc) for dr, dc in MOVES if legal(passable, r, c, dr, dc)]
+
+
+def in_polygon(x: float, y: float, polygon: Any) -> bool:
+    """The even-odd rule by PNPOLY's crossing test, one point."""
+    inside = False
+    n = len(polygon)
+    for i in range(n):
+        xi, yi = polygon[i]
+        xj, yj = polygon[i - 1]
+        if (yi > y) != (yj > y) and x < (xj - xi) * (y - yi) / (yj - yi) + xi:
+            inside = not inside
+    return inside
+
+
+def polygon_cells(
+    shape: tuple[int, int], resolution: float, origin: Any, polygon: Any
+) -> np.ndarray:
+    """The cells whose centers (API.md's frame formula) a polygon holds, one cell at a time."""
+    out = np.zeros(shape, dtype=bool)
+    for r in range(shape[0]):
+        for c in range(shape[1]):
+            out[r, c] = in_polygon(*cell_center(shape, resolution, origin, r, c), polygon)
+    return out
+
+
+def simple(polygon: Any) -> bool:
+    """Whether a polygon is simple: no two edges share a point, but neighbours their vertex,
+    checked pair by pair with exact rational arithmetic."""
+    from fractions import Fraction
+
+    pts = [(Fraction(x), Fraction(y)) for x, y in polygon]
+    n = len(pts)
+
+    def cross(o: Any, a: Any, b: Any) -> Fraction:
+        out: Fraction = (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+        return out
+
+    def on(p: Any, q: Any, r: Any) -> bool:
+        return all(min(p[k], q[k]) <= r[k] <= max(p[k], q[k]) for k in (0, 1))
+
+    def meet(p: Any, q: Any, c: Any, d: Any) -> bool:
+        d1, d2, d3, d4 = cross(p, q, c), cross(p, q, d), cross(c, d, p), cross(c, d, q)
+        if ((d1 > 0) != (d2 > 0) and d1 != 0 and d2 != 0) and (
+            (d3 > 0) != (d4 > 0) and d3 != 0 and d4 != 0
+        ):
+            return True
+        return (
+            (d1 == 0 and on(p, q, c))
+            or (d2 == 0 and on(p, q, d))
+            or (d3 == 0 and on(c, d, p))
+            or (d4 == 0 and on(c, d, q))
+        )
+
+    for i in range(n):
+        for j in range(i + 1, n):
+            p, q, c, d = pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n]
+            if j == i + 1 or (i == 0 and j == n - 1):
+                # Neighbours: only their shared vertex in common (no folding back).
+                shared = q if j == i + 1 else p
+                other_a = p if j == i + 1 else q
+                other_b = d if j == i + 1 else c
+                if cross(shared, other_a, other_b) == 0:
+                    u = (other_a[0] - shared[0], other_a[1] - shared[1])
+                    v = (other_b[0] - shared[0], other_b[1] - shared[1])
+                    if u[0] * v[0] + u[1] * v[1] > 0:
+                        return False
+                continue
+            if meet(p, q, c, d):
+                return False
+    return True

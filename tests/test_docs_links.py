@@ -22,6 +22,7 @@ PAGES = [
     "performance.md",
     "architecture.md",
     "experiment.md",
+    "zones.md",
 ]
 MARKDOWN = [README, *sorted(DOCS.glob("*.md"))]
 

@@ -19,6 +19,7 @@ from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap
+from planner.maps.zones import Zones
 from planner.params import PARAMETER_RANGES, Params, WallCost, resolve_params
 
 __all__ = [
@@ -42,7 +43,8 @@ class Analysis:
     An analysis of a robot map (:func:`analyse_map`) runs on its configuration space: an
     obstacle there is any cell the robot's center cannot occupy; ``cspace`` keeps the map's own
     blocked cells and distances, ``frame`` its meters. ``params_key`` is what the analysis was
-    made with (see :func:`analysis_params`).
+    made with (see :func:`analysis_params`); ``zones`` the zoned map's zones (its speed zones
+    cap the poses' speed).
     """
 
     def __init__(
@@ -61,6 +63,7 @@ class Analysis:
         wall_cost: WallCost = "cells",
         params_key: tuple[Hashable, ...] | None = None,
         plain: bool = True,
+        zones: Zones | None = None,
     ) -> None:
         self.state = state
         self.clean = clean
@@ -74,6 +77,7 @@ class Analysis:
         self.cspace = cspace
         self.wall_cost = wall_cost
         self.plain = plain
+        self.zones = zones
         self.params_key = (
             params_key
             if params_key is not None
@@ -294,4 +298,5 @@ def analyse_map(robot_map: RobotMap, params: Params | None = None) -> Analysis:
     return _analysis(
         grid, t0, p.seal_tunnels, float(p.clean_weight), p.clean_radius, pad=pad, clean=clean,
         frame=robot_map.frame, cspace=cs, wall_cost=wall, params_key=key, plain=robot_map.plain,
+        zones=robot_map.zones,
     )  # fmt: skip

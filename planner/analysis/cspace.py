@@ -23,7 +23,7 @@ from planner.maps.frames import MapFrame, point_xy
 from planner.maps.robot_maps import RobotMap
 from planner.params import Unknown
 
-__all__ = ["CSpace", "circle_cells", "configuration_space", "wide_clean"]
+__all__ = ["CSpace", "circle_cells", "configuration_space", "wall_term", "wide_clean"]
 
 #: Shape of the metric wall term: ``(1 - s / wide_distance) ** WIDE_EXPONENT``.
 WIDE_EXPONENT = 4.0
@@ -121,10 +121,31 @@ def wide_clean(cspace: CSpace, *, weight: float, wide_distance: float) -> npt.ND
     the robot's radius is ``s = distance_m - robot_radius``,
     ``weight * (1 - s / wide_distance) ** 4`` while ``s < wide_distance``, else 0 (0 on cells
     that are not traversable). Entering a cell pays it on top of the move's length in cells."""
-    s = cspace.distance_m - cspace.robot_radius
+    return wall_term(
+        cspace.distance,
+        cspace.traversable,
+        resolution=cspace.resolution,
+        robot_radius=cspace.robot_radius,
+        weight=weight,
+        wide_distance=wide_distance,
+    )
+
+
+def wall_term(
+    distance: npt.NDArray[np.float32],
+    traversable: npt.NDArray[np.uint8],
+    *,
+    resolution: float,
+    robot_radius: float,
+    weight: float,
+    wide_distance: float,
+) -> npt.NDArray[np.float32]:
+    """:func:`wide_clean` of any window of a configuration space: its ``distance`` (cells) and
+    ``traversable`` there."""
+    s = distance.astype(np.float64) * resolution - robot_radius
     share = np.clip(1.0 - s / wide_distance, 0.0, 1.0) if wide_distance > 0 else np.zeros_like(s)
     out = (weight * share**WIDE_EXPONENT).astype(np.float32)
-    out[cspace.traversable == 0] = 0.0
+    out[traversable == 0] = 0.0
     return out
 
 

@@ -13,7 +13,17 @@ import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
 
-__all__ = ["MapFrame", "point_xy"]
+__all__ = ["MAX_EXTENT", "MAX_RESOLUTION", "MIN_RESOLUTION", "MapFrame", "point_xy"]
+
+MIN_RESOLUTION = 1e-4
+"""Meters per cell at least (0.1 mm): below it, no robot's map."""
+MAX_RESOLUTION = 1e3
+"""Meters per cell at most (1 km)."""
+MAX_EXTENT = 1e7
+"""Meters from ``0`` that every corner of a map stays within, on ``x`` and on ``y``: room for
+UTM coordinates (northings up to 10,000 km), and where a float64 still tells 2 nm apart, so
+that every cell center and every length derived from them (paths, clearances, circles) is
+finite and exact to far below a cell."""
 
 Cells = npt.NDArray[np.int64]
 Points = npt.NDArray[np.float64]
@@ -123,8 +133,12 @@ def _resolution(value: Any, field: str) -> float:
             f"{field} must be a number of meters per cell; got {quote(value)}", field=field
         )
     res = float(value)
-    if not (math.isfinite(res) and res > 0):
-        raise InvalidInput(f"{field} must be positive and finite; got {quote(value)}", field=field)
+    if not (math.isfinite(res) and MIN_RESOLUTION <= res <= MAX_RESOLUTION):
+        msg = (
+            f"{field} must be {MIN_RESOLUTION:g} to {MAX_RESOLUTION:g} meters per cell; "
+            f"got {quote(value)}"
+        )
+        raise InvalidInput(msg, field=field)
     return res
 
 
@@ -136,3 +150,32 @@ def _origin(value: Any, field: str) -> tuple[float, float, float]:
         raise InvalidInput(f"{field} must be [x, y, yaw]; got {quote(value)}", field=field)
     x, y, yaw = (_number(v, field) for v in items)
     return (x + 0.0, y + 0.0, yaw + 0.0)  # + 0.0: no negative zero
+
+
+def _framed(
+    shape: tuple[int, int],
+    resolution: float,
+    origin: tuple[float, float, float],
+    *,
+    fields: tuple[str, str] = ("resolution", "origin"),
+) -> MapFrame:
+    """The frame of a map of ``shape`` cells, refused (naming ``fields``: the resolution's,
+    the origin's) unless every corner of the map lies within :data:`MAX_EXTENT` meters of 0 on
+    both axes, whatever its yaw. ``resolution`` and ``origin`` are checked already."""
+    H, W = shape
+    span = math.hypot(W, H) * resolution  # the farthest corner from the origin, at any yaw
+    if span > MAX_EXTENT:
+        msg = (
+            f"{fields[0]} {resolution:g} m a cell makes the {H} x {W} map {span:.3g} m across; "
+            f"every corner must be within {MAX_EXTENT:,.0f} m of 0"
+        )
+        raise InvalidInput(msg, field=fields[0])
+    ox, oy, _ = origin
+    if max(abs(ox), abs(oy)) + span > MAX_EXTENT:
+        msg = (
+            f"{fields[1]} {quote(list(origin))} puts the map's corners up to "
+            f"{max(abs(ox), abs(oy)) + span:.3g} m from 0; every corner must be within "
+            f"{MAX_EXTENT:,.0f} m of 0 (x and y)"
+        )
+        raise InvalidInput(msg, field=fields[1])
+    return MapFrame(shape, resolution, origin)

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -23,8 +24,9 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
-from planner.maps.frames import MapFrame, _number, _origin, _resolution
+from planner.maps.frames import MapFrame, _framed, _number, _origin, _resolution
 from planner.maps.grids import grid_array
+from planner.maps.zones import Zones
 
 __all__ = ["MapFrame", "RobotMap", "grid_map", "occupancy_grid_map"]
 
@@ -34,11 +36,13 @@ Occupancy = npt.NDArray[np.int8]
 @dataclass(frozen=True, eq=False)
 class RobotMap:
     """An occupancy map with a frame: ``occupancy`` (``int8`` H x W, ``-1`` unknown, ``0..100``;
-    row 0 at the top) and ``frame`` (resolution, origin). Read-only.
+    row 0 at the top) and ``frame`` (resolution, origin); a zoned map (docs/zones.md) also its
+    ``zones``, its keepout already blocked in ``occupancy``. Read-only.
     """
 
     occupancy: Occupancy
     frame: MapFrame
+    zones: Zones | None = None
 
     def __post_init__(self) -> None:
         self.occupancy.flags.writeable = False
@@ -82,15 +86,19 @@ class RobotMap:
     def map_id(self) -> str:
         """Hex SHA-256 of shape, occupancy, resolution and origin: the same map gets the same id
         whether it came as YAML + image, OccupancyGrid or grid. A plain 0/1 grid keeps its
-        historical id, the hash of ``"{H}x{W}:"`` and its 0/1 bytes."""
+        historical id, the hash of ``"{H}x{W}:"`` and its 0/1 bytes. A zoned map's also hashes
+        its zones (and so its base map's id)."""
         H, W = self.shape
-        if self.plain:
+        if self.plain and self.zones is None:
             cells = (self.occupancy == 100).astype(np.uint8)
             return hashlib.sha256(f"{H}x{W}:".encode() + cells.tobytes()).hexdigest()
         res, (ox, oy, yaw) = self.resolution, self.origin
         # Rounded, so that a yaw gone through a quaternion (OccupancyGrid) hashes as the YAML's.
         frame = f"|res {res:.9g}|origin {_canon(ox, 6)} {_canon(oy, 6)} {_canon(yaw, 9)}"
         data = f"occupancy {H}x{W}:".encode() + self.occupancy.tobytes() + frame.encode()
+        if self.zones is not None:
+            zones = json.dumps(self.zones.as_dict(), sort_keys=True, separators=(",", ":"))
+            data += b"|zones " + zones.encode()
         return hashlib.sha256(data).hexdigest()
 
     def to_occupancy_grid(self) -> dict[str, Any]:
@@ -136,7 +144,7 @@ def grid_map(
         )
         raise InvalidInput(msg, field=name)
     occupancy = np.where(arr == 1, 100, arr).astype(np.int8)
-    frame = MapFrame(
+    frame = _framed(
         (int(arr.shape[0]), int(arr.shape[1])),
         _resolution(resolution, "resolution"),
         _origin(origin, "origin"),
@@ -160,6 +168,8 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
     resolution = _resolution(_key(info, "resolution", f"{name}.info"), f"{name}.info.resolution")
     pose = _key(info, "origin", f"{name}.info")
     origin = _pose(pose, f"{name}.info.origin")
+    fields = (f"{name}.info.resolution", f"{name}.info.origin")
+    frame = _framed((height, width), resolution, origin, fields=fields)
     data = _key(message, "data", name)
     field = f"{name}.data"
     try:
@@ -185,7 +195,6 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
         msg = f"{field} must hold -1 (unknown) or 0..100; found {values[i].item()} at index {i}"
         raise InvalidInput(msg, field=field)
     occupancy = values.astype(np.int8).reshape(height, width)[::-1]
-    frame = MapFrame((height, width), resolution, origin)
     return RobotMap(np.ascontiguousarray(occupancy), frame)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,8 +16,8 @@ import numpy.typing as npt
 import yaml
 from PIL import Image, UnidentifiedImageError
 
-from planner.errors import InvalidInput, quote
-from planner.maps.frames import MapFrame, _number, _origin, _resolution
+from planner.errors import QUOTE_LIMIT, InvalidInput, quote
+from planner.maps.frames import _framed, _number, _origin, _resolution
 from planner.maps.robot_maps import RobotMap
 
 __all__ = [
@@ -116,7 +117,8 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
 
 def image_size(data: bytes, *, name: str = "image") -> tuple[int, int]:
     """``(width, height)`` of an image from its header, without decoding its pixels (a size
-    check before the work)."""
+    check before the work). An image over Pillow's own pixel limit is refused here, with the
+    code ``TOO_LARGE``, as any other image too large."""
     with _open_image(data, name) as image:
         return int(image.width), int(image.height)
 
@@ -126,10 +128,29 @@ def _open_image(data: bytes, name: str) -> Image.Image:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
             return Image.open(io.BytesIO(data))
-    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
+    except Image.DecompressionBombError:
+        # Pillow's refusal from the header, before any pixel is decoded (its message states
+        # the pixels and the limit): the image is too large, not malformed.
+        limit = 2 * (Image.MAX_IMAGE_PIXELS or 0)
+        msg = f"{name}: its header gives over {limit} pixels, more than any map may have"
+        raise InvalidInput(msg, field=name, code="TOO_LARGE") from None
+    except (UnidentifiedImageError, OSError, ValueError) as exc:
+        # Pillow's message names the file object (an address): say what it could not do.
+        why = "not a format Pillow reads" if isinstance(exc, UnidentifiedImageError) else exc
         head = quote(bytes(data[:16]))
-        msg = f"{name} is not an image Pillow can read (first bytes {head}): {quote(str(exc))}"
+        msg = (
+            f"{name} is not an image Pillow can read (first bytes {head}): {_reason(why)}; "
+            "send the map's PGM, PNG or BMP"
+        )
         raise InvalidInput(msg, field=name) from None
+
+
+def _reason(exc: object) -> str:
+    """An exception's text without object reprs (``<_io.BytesIO object at 0x...>``)."""
+    return _OBJECT_REPR.sub("the data", str(exc))[:QUOTE_LIMIT]
+
+
+_OBJECT_REPR = re.compile(r"<[^<>]*? at 0x[0-9a-fA-F]+>")
 
 
 def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> RobotMap:
@@ -139,13 +160,23 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
     ``p > occupied_thresh``, 0 if ``p < free_thresh``, else -1; ``scale``: the same, with the
     values between scaled to 1..99 and any pixel not fully opaque unknown; ``raw``: the value
     ``round(shade * 255)`` if it is in 0..100, else -1."""
+    fields = ("yaml.resolution", "yaml.origin")
     try:
         with _open_image(data, name) as image, warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            image.load()
-            channels, alpha, top = _channels(image)
+            frame = _framed(
+                (image.height, image.width), meta.resolution, meta.origin, fields=fields
+            )
+            scaled = _netpbm_scaled(data, image, name)
+            if scaled is None:
+                image.load()
+                channels, alpha, top = _channels(image)
+            else:
+                (channels, top), alpha = scaled, None
+    except InvalidInput:
+        raise  # a ValueError too: already says what is wrong
     except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
-        msg = f"{name} does not decode: {quote(str(exc))}"
+        msg = f"{name} does not decode: {_reason(exc)}"
         raise InvalidInput(msg, field=name) from None
     if alpha is not None and meta.mode == "trinary":
         channels = np.concatenate([channels, alpha[..., None]], axis=2)
@@ -169,8 +200,7 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
             out[between] = scaled[between].astype(np.int8)
             if alpha is not None:
                 out[alpha != top] = -1
-    H, W = out.shape
-    return RobotMap(out, MapFrame((H, W), meta.resolution, meta.origin))
+    return RobotMap(out, frame)
 
 
 def _channels(
@@ -192,6 +222,47 @@ def _channels(
     if has_alpha:
         return rgb[..., :3], rgb[..., 3], 255.0
     return rgb, None, 255.0
+
+
+_NETPBM_TOKEN = re.compile(rb"(?:\s|#[^\r\n]*[\r\n])*(\S+)")
+
+
+def _netpbm_scaled(
+    data: bytes, image: Image.Image, name: str
+) -> tuple[npt.NDArray[Any], float] | None:
+    """A binary PGM or PPM whose ``maxval`` is neither 255 nor 65535, read as its values and
+    that ``maxval`` (the full scale): Pillow rescales such values one by one in Python, and
+    clips silently those above ``maxval``, which the format forbids. A value above it is
+    refused, naming both. ``None`` for any other image (Pillow decodes it)."""
+    if image.format != "PPM" or data[:2] not in (b"P5", b"P6"):
+        return None
+    tokens, at = [], 2
+    for _ in range(3):  # width, height, maxval; comments between them
+        match = _NETPBM_TOKEN.match(data, at)
+        if match is None:
+            return None  # Pillow opened it: it says why it cannot decode it
+        tokens.append(match.group(1))
+        at = match.end()
+    maxval = int(tokens[2])
+    if maxval in (255, 65535):
+        return None
+    bands = 1 if data[:2] == b"P5" else 3
+    H, W = image.height, image.width
+    count = H * W * bands
+    dtype = np.dtype(np.uint8 if maxval < 256 else ">u2")
+    raster = data[at + 1 : at + 1 + count * dtype.itemsize]  # one whitespace after maxval
+    if len(raster) < count * dtype.itemsize:
+        raise InvalidInput(f"{name} does not decode: its pixels end early", field=name)
+    values: npt.NDArray[Any] = np.frombuffer(raster, dtype=dtype).reshape(H, W, bands)
+    over = np.argwhere(values > maxval)
+    if over.size:
+        r, c, b = (int(v) for v in over[0])
+        msg = (
+            f"{name} has value {int(values[r, c, b])} at row {r}, column {c}, above its "
+            f"maxval {maxval}: a PGM's values go from 0 to maxval"
+        )
+        raise InvalidInput(msg, field=name)
+    return values, float(maxval)
 
 
 def parse_ros_map(yaml_text: str | bytes, image: bytes) -> RobotMap:

@@ -17,7 +17,7 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.params import PARAMETER_RANGES, Params, resolve_params
+from planner.params import PARAMETER_RANGES, SQRT2, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
 from planner.plans.ends import (
     cell_of,
@@ -33,6 +33,7 @@ from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
+from planner.poses.speed import drive_time, pose_speeds
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
@@ -97,7 +98,9 @@ class Plan:
 
     @property
     def length(self) -> float:
-        """The path's length: 1 a straight move, ``diagonal_cost`` a diagonal one."""
+        """The path's length in cells: 1 a straight move, sqrt 2 a diagonal one, whatever the
+        ``diagonal_cost`` the search weighed diagonals with (the paper's 1.4 in its presets):
+        :attr:`length_m` divided by the resolution."""
         return self._cost[0]
 
     @property
@@ -188,6 +191,16 @@ class Plan:
         """The index in :attr:`poses` of each waypoint's pose."""
         return [] if self.route is None else list(self.route.waypoint_indices)
 
+    @cached_property
+    def max_speeds(self) -> npt.NDArray[np.float64]:
+        """The speed cap at each of :attr:`poses` (m/s; ``inf`` outside every speed zone)."""
+        return pose_speeds(self.analysis.zones, self.poses)
+
+    @property
+    def duration_s(self) -> float:
+        """Seconds to drive :attr:`poses` at ``nominal_speed``, capped by the speed zones."""
+        return drive_time(self.poses, self.max_speeds, nominal_speed=self.params.nominal_speed)
+
     @property
     def length_poses_m(self) -> float:
         """The length of the poses' polyline, meters."""
@@ -235,6 +248,8 @@ class Plan:
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
             "length_poses_m": round(self.length_poses_m, 6),
+            "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
+            "duration_s": round(self.duration_s, 6),
             "goal_used": None if self.goal_used is None else list(self.goal_used),
             "goal_offset_m": round(self.goal_offset_m, 6),
             "waypoints": [list(cell) for cell in self.waypoints],
@@ -443,10 +458,11 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
 
 
 def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
-    """(length, arc cost) of a path of cells. The arc cost is the paper's ``PathCost``: the sum
-    of ``k`` over the cells entered after the start."""
+    """(length, arc cost) of a path of cells. The length counts a diagonal sqrt 2 cells (one
+    rule for every length the planner reports); the arc cost is the paper's ``PathCost``: the
+    sum of ``k`` over the cells entered after the start."""
     steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * wave.diagonal_cost)
+    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * SQRT2)
     return length, float(wave.k_along(path[1:]).sum())
 
 

@@ -17,12 +17,9 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-from planner.poses.blocked import _free, _reach
-from planner.poses.clearance import _D_REL, _segment_clear
-from planner.poses.clearance import _arc_clear as _static_arc_clear
-from planner.poses.clearance import _shortcut as _static_shortcut
-from planner.poses.polyline import _arc, _corner, _fan_steps, _segments, _wrap, _write
-from planner.poses.smooth import _SHORT, _SQUARE, _TIE, _vertices
+from planner.poses.blocked import _reach
+from planner.poses.polyline import _fan_steps, _wrap
+from planner.poses.smooth import _SQUARE, _TIE, _poses, _vertices
 
 __all__ = ["poses_ahead"]
 
@@ -34,147 +31,27 @@ _Fixed = tuple[float, float, npt.NDArray[np.uint8], int, int, float, float, floa
 
 
 @njit(cache=True, nogil=True)
-def _clear(
-    D: Any, outside: bool, T: float, root: float, mask: Any, top: int, left: int,
-    ax: float, ay: float, bx: float, by: float,
-) -> bool:  # fmt: skip
-    if not _free(mask, top, left, ax, ay, bx, by):
-        return False
-    return _segment_clear(D, outside, ax, ay, bx, by, T, root)
-
-
-@njit(cache=True, nogil=True)
-def _arc_clear(
-    D: Any, outside: bool, pts: Any, T: float, root: float, mask: Any, top: int, left: int
-) -> bool:
-    for q in range(pts.shape[0] - 1):
-        if not _free(mask, top, left, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1]):
-            return False
-    return _static_arc_clear(D, outside, pts, T, root)
-
-
-@njit(cache=True, nogil=True)
-def _shortcut(
-    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int
-) -> tuple[Any, int]:
-    """The greedy line-of-sight shortcut of V (as :mod:`planner.poses.smooth`'s), each line
-    entering no blocked cell either; -1, or the index of a vertex whose step is not clear."""
-    n = V.shape[0]
-    keep = np.empty(n, dtype=np.int64)
-    keep[0] = 0
-    k = 1
-    a = 0
-    while a < n - 1:
-        ax, ay = V[a, 0], V[a, 1]
-        j = a + 1
-        if not _clear(D, outside, T, root, mask, top, left, ax, ay, V[j, 0], V[j, 1]):
-            return keep[:k], a
-        while j + 1 < n:
-            ux, uy = V[j, 0] - ax, V[j, 1] - ay
-            vx, vy = V[j + 1, 0] - V[j, 0], V[j + 1, 1] - V[j, 1]
-            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
-                # Straight on: the segment seen so far and one more step.
-                ok = _clear(
-                    D, outside, T, root, mask, top, left, V[j, 0], V[j, 1], V[j + 1, 0],
-                    V[j + 1, 1],
-                )  # fmt: skip
-            else:
-                ok = _clear(D, outside, T, root, mask, top, left, ax, ay, V[j + 1, 0], V[j + 1, 1])
-            if not ok:
-                break
-            j += 1
-        keep[k] = j
-        k += 1
-        a = j
-    return keep[:k], -1
-
-
-@njit(cache=True, nogil=True)
 def _ahead(
-    D: Any,
-    outside: bool,
-    V: Any,
-    T: float,
-    root: float,
-    mask: Any,
-    top: int,
-    left: int,
-    res: float,
-    ox: float,
-    oy: float,
-    oyaw: float,
-    start_yaw: float,
-    has_start_yaw: bool,
-    sx: float,
-    sy: float,
-    exact: bool,
-) -> tuple[Any, int, float]:
+    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int,
+    res: float, ox: float, oy: float, oyaw: float, start_yaw: float, has_start_yaw: bool,
+    sx: float, sy: float, exact: bool,
+) -> tuple[Any, int, float]:  # fmt: skip
     """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), as
-    ``smooth._smooth`` makes them with no goal yaw, clear of ``mask`` too; -1, or the index of a
+    ``smooth._poses`` makes them with no goal yaw, clear of ``mask`` too; -1, or the index of a
     step of V that is not clear (then no poses); and their length in meters. With ``exact``,
     the poses at V's first vertex stand at (sx, sy) to the bit, and the first yaw is
     ``start_yaw`` to the bit when it is in (-pi, pi]."""
-    H = D.shape[0]
-    if mask.any():
-        keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
-    else:  # no blocked cell near: the plan's own shortcut (faster along corridors)
-        keep, bad = _static_shortcut(D, outside, V, T, root)
-    if bad >= 0:
-        return np.empty((0, 3)), bad, 0.0
-    P = V[keep]
-    k = P.shape[0]
-    nseg, L, U = _segments(P)
-    tang = np.zeros(k)
-    turn = np.zeros(k)
-    for i in range(1, k - 1):
-        theta, t_max = _corner(U, L, i, k)
-        if theta == 0.0:
-            continue
-        turn[i] = theta
-        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        # An arc near the corner keeps the static clearance (the corner is a cell center), not
-        # necessarily out of the blocked cells: it is checked whatever its size.
-        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
-        safe = min(max(corner - root - 1e-9, 0.0), t_max)
-        lo = 0.0
-        if _arc_clear(
-            D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root, mask, top,
-            left,
-        ):  # fmt: skip
-            lo = t_max
-        else:
-            hi = t_max
-            for _ in range(_HALVINGS):
-                mid = 0.5 * (lo + hi)
-                pts = _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, mid)
-                if _arc_clear(D, outside, pts, T, root, mask, top, left):
-                    lo = mid
-                else:
-                    hi = mid
-            short = t_max - _SHORT
-            if lo > short and _arc_clear(
-                D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, short), T, root, mask,
-                top, left,
-            ):  # fmt: skip
-                lo = short
-        if lo == 0.0:
-            # Within its cell (a route cell, not blocked) and the static bound: always clear.
-            small = min(safe, 0.45, t_max - _SHORT)
-            if small > 0.0 and _arc_clear(
-                D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, small), T, root, mask,
-                top, left,
-            ):  # fmt: skip
-                lo = small
-        tang[i] = lo
-    first_yaw = math.atan2(U[0, 1], U[0, 0]) + oyaw if nseg > 0 else start_yaw
-    if nseg == 0 and not has_start_yaw:
-        first_yaw = oyaw
-    last_yaw = math.atan2(U[nseg - 1, 1], U[nseg - 1, 0]) + oyaw if nseg > 0 else first_yaw
-    n_start = _fan_steps(start_yaw, first_yaw) if has_start_yaw else 0
-    out = _write(
-        P, U, L, tang, turn, k, nseg, res, H, ox, oy, oyaw,
-        start_yaw, has_start_yaw, first_yaw, last_yaw, 0.0, False,
+    # No blocked cell near: an empty mask (the plan's own shortcut, faster along corridors).
+    # An arc near a corner keeps the static clearance, not necessarily out of the blocked
+    # cells: each is checked whatever its size (``masked``).
+    shown = mask if mask.any() else np.zeros((0, 0), dtype=np.uint8)
+    out, bad, first_yaw = _poses(
+        D, outside, V, T, root, shown, top, left, True, _HALVINGS, res, ox, oy, oyaw,
+        start_yaw, has_start_yaw, 0.0, False,
     )  # fmt: skip
+    if bad >= 0:
+        return out, bad, 0.0
+    n_start = _fan_steps(start_yaw, first_yaw) if has_start_yaw else 0
     count = out.shape[0]
     if exact:
         for q in range(n_start + 1):

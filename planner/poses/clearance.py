@@ -16,6 +16,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from planner.poses.blocked import _free
+from planner.poses.polyline import _arc, _corner
+
 __all__: list[str] = []  # kernels of planner.poses.smooth_path
 
 _PIECE = 0.5  # cells of a segment checked exactly at once where the lower bound is too loose
@@ -23,6 +26,7 @@ _CERTIFY = 0.05  # cells of slack below which a piece is checked exactly
 _MARGIN = 0.1  # of the threshold (at least a cell's tenth): what a long segment is checked against
 _LONG = 8.0  # cells: shorter segments are checked against the threshold alone
 _D_REL = 2e-7  # float32 distances: a relative margin for their rounding
+_SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
 
 
 @njit(cache=True, nogil=True)
@@ -141,9 +145,12 @@ def _step_bound(D: Any, x0: float, y0: float, x1: float, y1: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any, int]:
+def _shortcut(
+    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int
+) -> tuple[Any, int]:
     """The greedy line-of-sight shortcut of the polyline V: from each kept vertex, the next
-    kept one is the last before the first vertex it cannot see clear. Returns the kept indices,
+    kept one is the last before the first vertex it cannot see clear (nor enter a cell of
+    ``mask``, whose corner is (top, left); an empty mask blocks none). Returns the kept indices,
     and -1, or the index of a vertex whose step to the next is not clear itself.
 
     A certified lower bound ``cert`` of the clearance along the segment seen so far saves most
@@ -159,10 +166,13 @@ def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any
     a = 0
     margin = _MARGIN * max(root, 1.0)
     wide2 = (root + margin) * (root + margin)
+    masked = mask.shape[0] > 0
     while a < n - 1:
         ax, ay = V[a, 0], V[a, 1]
         j = a + 1
-        if not _segment_clear(D, outside, ax, ay, V[j, 0], V[j, 1], T, root):
+        if not _segment_clear(D, outside, ax, ay, V[j, 0], V[j, 1], T, root) or (
+            masked and not _free(mask, top, left, ax, ay, V[j, 0], V[j, 1])
+        ):
             return keep[:k], a
         cert = max(root, _step_bound(D, ax, ay, V[j, 0], V[j, 1]))
         retry = 0.0  # segments shorter than this are not tried against the margin
@@ -170,7 +180,8 @@ def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any
             bx, by, cx, cy = V[j, 0], V[j, 1], V[j + 1, 0], V[j + 1, 1]
             ux, uy = bx - ax, by - ay
             vx, vy = cx - bx, cy - by
-            if ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0:
+            straight = ux * vy - uy * vx == 0.0 and ux * vx + uy * vy > 0.0
+            if straight:
                 # Straight on: the segment seen so far and one more step.
                 ok = _segment_clear(D, outside, bx, by, cx, cy, T, root)
                 cert = min(cert, max(root, _step_bound(D, bx, by, cx, cy)))
@@ -192,6 +203,12 @@ def _shortcut(D: Any, outside: bool, V: Any, T: float, root: float) -> tuple[Any
                 else:
                     ok = _segment_clear(D, outside, ax, ay, cx, cy, T, root)
                     cert = root
+            if ok and masked:  # straight on, b-c is a-c's last piece
+                ok = (
+                    _free(mask, top, left, bx, by, cx, cy)
+                    if straight
+                    else _free(mask, top, left, ax, ay, cx, cy)
+                )
             if not ok:
                 break
             j += 1
@@ -212,15 +229,75 @@ def _upper_bound(D: Any, X: float, Y: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _arc_clear(D: Any, outside: bool, pts: Any, T: float, root: float) -> bool:
-    """Whether every chord of an arc's points keeps ``root``; an arc with a point surely too
-    near (the bisection of a corner tries many) is refused before any exact check."""
+def _arc_clear(
+    D: Any, outside: bool, pts: Any, T: float, root: float, mask: Any, top: int, left: int
+) -> bool:
+    """Whether every chord of an arc's points keeps ``root`` and enters no cell of ``mask``;
+    an arc with a point surely too near (the bisection of a corner tries many) is refused
+    before any exact check."""
     for q in range(pts.shape[0]):
         if _upper_bound(D, pts[q, 0], pts[q, 1]) < root - 1e-9:
             return False
+    if mask.shape[0] > 0:
+        for q in range(pts.shape[0] - 1):
+            if not _free(mask, top, left, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1]):
+                return False
     for q in range(pts.shape[0] - 1):
         if not _segment_clear(
             D, outside, pts[q, 0], pts[q, 1], pts[q + 1, 0], pts[q + 1, 1], T, root
         ):
             return False
     return True
+
+
+@njit(cache=True, nogil=True)
+def _tangents(
+    D: Any, outside: bool, P: Any, U: Any, L: Any, T: float, root: float, mask: Any, top: int,
+    left: int, masked: bool, halvings: int,
+) -> tuple[Any, Any]:  # fmt: skip
+    """Each corner of the polyline P (segments U, L as ``polyline._segments`` gives them): its
+    turn, and the longest tangent its segments allow whose arc is clear (``halvings`` bisections
+    while it is not). Within the corner's static bound an arc is clear unless ``masked``: then
+    the mask's cells may block it too, and it is checked whatever its size."""
+    k = P.shape[0]
+    tang = np.zeros(k)
+    turn = np.zeros(k)
+    fixed = (T, root, mask, top, left)
+    for i in range(1, k - 1):
+        theta, t_max = _corner(U, L, i, k)
+        if theta == 0.0:
+            continue
+        turn[i] = theta
+        cx, cy, ix, iy, ux, uy = P[i, 0], P[i, 1], U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
+        # The corner is a cell center: every point within this of it is clear.
+        corner = D[round(-cy), round(cx)] * (1.0 - _D_REL)
+        safe = min(max(corner - root - 1e-9, 0.0), t_max)
+        lo = 0.0 if masked else safe
+        if lo < t_max:
+            if _arc_clear(D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, t_max), *fixed):
+                lo = t_max
+            else:
+                hi = t_max
+                for _ in range(halvings):
+                    mid = 0.5 * (lo + hi)
+                    pts = _arc(cx, cy, ix, iy, ux, uy, theta, mid)
+                    if _arc_clear(D, outside, pts, *fixed):
+                        lo = mid
+                    else:
+                        hi = mid
+                # A line left between arcs is either none or long enough to have a direction.
+                short = t_max - _SHORT
+                if lo > short and (
+                    (not masked and short <= safe)
+                    or _arc_clear(D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, short), *fixed)
+                ):
+                    lo = short
+        if masked and lo == 0.0:
+            # Within its cell (a route cell, not blocked) and the static bound: always clear.
+            small = min(safe, 0.45, t_max - _SHORT)
+            if small > 0.0 and _arc_clear(
+                D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, small), *fixed
+            ):
+                lo = small
+        tang[i] = lo
+    return tang, turn

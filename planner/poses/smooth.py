@@ -20,8 +20,8 @@ import numpy.typing as npt
 from numba import njit
 
 from planner.errors import InvalidInput, quote
-from planner.poses.clearance import _D_REL, _arc_clear, _shortcut
-from planner.poses.polyline import _arc, _corner, _segments, _write
+from planner.poses.clearance import _shortcut, _tangents
+from planner.poses.polyline import _segments, _write
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
@@ -30,7 +30,6 @@ MAX_TURN = math.radians(15.0)
 
 _TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
 _SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
-_SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
 
 _OUTSIDE, _JUMP, _BLOCKED = 1, 2, 3  # what is wrong with a path, as _vertices says
@@ -72,67 +71,24 @@ def _vertices(
 
 
 @njit(cache=True, nogil=True)
-def _smooth(
-    D: Any,
-    outside: bool,
-    V: Any,
-    T: float,
-    root: float,
-    res: float,
-    ox: float,
-    oy: float,
-    oyaw: float,
-    start_yaw: float,
-    has_start_yaw: bool,
-    goal_yaw: float,
-    has_goal_yaw: bool,
-) -> tuple[Any, int]:
-    """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), and
-    -1, or the index of a step of V that is not clear (then no poses)."""
+def _poses(
+    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int,
+    masked: bool, halvings: int, res: float, ox: float, oy: float, oyaw: float,
+    start_yaw: float, has_start_yaw: bool, goal_yaw: float, has_goal_yaw: bool,
+) -> tuple[Any, int, float]:  # fmt: skip
+    """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), clear
+    of ``mask`` too (see :func:`planner.poses.clearance._tangents` for ``masked``); -1, or the
+    index of a step of V that is not clear (then no poses); and the first heading after the
+    start's turn in place."""
     H = D.shape[0]
-    keep, bad = _shortcut(D, outside, V, T, root)
+    keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
     if bad >= 0:
-        return np.empty((0, 3)), bad
+        return np.empty((0, 3)), bad, 0.0
     P = V[keep]
     k = P.shape[0]
     nseg, L, U = _segments(P)
     # Round each corner: the longest tangent its segments allow whose arc is clear.
-    tang = np.zeros(k)
-    turn = np.zeros(k)
-    for i in range(1, k - 1):
-        theta, t_max = _corner(U, L, i, k)
-        if theta == 0.0:
-            continue
-        turn[i] = theta
-        ix, iy, ux, uy = U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        # The corner is a cell center: every point within this of it is clear.
-        corner = D[round(-P[i, 1]), round(P[i, 0])] * (1.0 - _D_REL)
-        safe = min(max(corner - root - 1e-9, 0.0), t_max)
-        lo = safe
-        if lo < t_max:
-            if _arc_clear(
-                D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, t_max), T, root
-            ):
-                lo = t_max
-            else:
-                hi = t_max
-                for _ in range(_BISECT):
-                    mid = 0.5 * (lo + hi)
-                    pts = _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, mid)
-                    if _arc_clear(D, outside, pts, T, root):
-                        lo = mid
-                    else:
-                        hi = mid
-                # A line left between arcs is either none or long enough to have a direction.
-                short = t_max - _SHORT
-                if lo > short and (
-                    short <= safe
-                    or _arc_clear(
-                        D, outside, _arc(P[i, 0], P[i, 1], ix, iy, ux, uy, theta, short), T, root
-                    )
-                ):
-                    lo = short
-        tang[i] = lo
+    tang, turn = _tangents(D, outside, P, U, L, T, root, mask, top, left, masked, halvings)
     # Count, then write the poses: the start's turn in place, lines and arcs, the goal's.
     first_yaw = math.atan2(U[0, 1], U[0, 0]) + oyaw if nseg > 0 else start_yaw
     if nseg == 0 and not has_start_yaw:
@@ -142,7 +98,7 @@ def _smooth(
         P, U, L, tang, turn, k, nseg, res, H, ox, oy, oyaw,
         start_yaw, has_start_yaw, first_yaw, last_yaw, goal_yaw, has_goal_yaw,
     )  # fmt: skip
-    return out, -1
+    return out, -1, first_yaw
 
 
 # --------------------------------------------------------------------------------------------
@@ -317,9 +273,10 @@ step 0 goes from [0, 0] to [0, 2]
     bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
     R = radius / res
     T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
-    poses, bad = _smooth(
-        D, bool(outside_blocked), V, T, math.sqrt(T), res, ox, oy, oyaw,
-        yaws[0] or 0.0, yaws[0] is not None, yaws[1] or 0.0, yaws[1] is not None,
+    none = np.zeros((0, 0), dtype=np.uint8)  # no mask: the blocked cells' distances alone
+    poses, bad, _ = _poses(
+        D, bool(outside_blocked), V, T, math.sqrt(T), none, 0, 0, False, _BISECT, res, ox, oy,
+        oyaw, yaws[0] or 0.0, yaws[0] is not None, yaws[1] or 0.0, yaws[1] is not None,
     )  # fmt: skip
     if bad >= 0:
         a, b = int(index[bad]), int(index[bad + 1])

@@ -16,7 +16,7 @@ from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, SequenceConflict, quote
 from planner.maps.frames import point_xy
 from planner.maps.grids import as_cell
-from planner.params import PARAMETER_RANGES
+from planner.params import PARAMETER_RANGES, SQRT2
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
 from planner.plans.detour import detour_cells
 from planner.plans.ends import cell_of, end_yaw, free_cell
@@ -323,7 +323,7 @@ class Session:
         st.trajectory.append((nr, nc))
         if self._visited is not None:
             self._visited.add(nr * self._width + nc)
-        st.path_length += self.plan.params.diagonal_cost if i & 1 else 1.0
+        st.path_length += SQRT2 if i & 1 else 1.0  # a length: the diagonal_cost weighs searches
         # A cell the plan's grid seals (or cuts off from the goal) has no k: it counts its
         # cost-to-go along the narrow way the robot follows (what k is: the cost to go from there).
         k = self.plan.wave.k_at(nr, nc)

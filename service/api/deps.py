@@ -20,16 +20,17 @@ import planner
 from planner import quote
 from service.config import Settings
 from service.edge.guards import check_depth
-from service.errors import TooLarge
+from service.errors import TooLarge, responses
 from service.work.engine import Engine
 
 __all__ = [
     "MULTIPART_PARTS",
-    "PNG_RESPONSE",
+    "PNG_ROUTE",
     "CellQuery",
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
+    "ZonesRoute",
     "check_query",
     "get_engine",
     "json_body",
@@ -55,9 +56,14 @@ CellQuery = Annotated[
     ),
 ]
 
-PNG_RESPONSE: dict[int | str, dict[str, Any]] = {
-    200: {"content": {"image/png": {}}, "description": "A PNG picture."}
+PNG_ROUTE: dict[str, Any] = {
+    "response_class": Response,
+    "responses": {
+        200: {"content": {"image/png": {}}, "description": "A PNG picture."},
+        **responses(404, 413, 422),
+    },
 }
+"""The arguments of a route that answers a PNG picture."""
 
 
 class _OrjsonRequest(Request):
@@ -101,7 +107,7 @@ class OrjsonRoute(APIRoute):
                 check_query(request, allowed)
             request = _OrjsonRequest(request.scope, request.receive)
             # JSON is checked for depth before anything parses it; a multipart upload's parts
-            # are bytes (an image) and JSON fields the route parses with orjson's own limit.
+            # are bytes (an image) and JSON fields, each checked as it is read.
             multipart = request.headers.get("content-type", "").startswith("multipart/")
             if request.method in ("POST", "PUT", "PATCH") and not multipart:
                 check_depth(await request.body())
@@ -137,10 +143,12 @@ async def json_body(request: Request, model: type[Model]) -> Model:
             return model.model_validate_json(raw)
         return model.model_validate(raw, from_attributes=True)  # refused, in FastAPI's words
     except ValidationError as exc:
-        raise _body_errors(exc, raw) from None
+        raise _body_errors(exc, raw, model) from None
 
 
-def _body_errors(exc: ValidationError, raw: bytes) -> RequestValidationError:
+def _body_errors(
+    exc: ValidationError, raw: bytes, model: type[BaseModel]
+) -> RequestValidationError:
     """pydantic's errors located under ``body``; malformed JSON as FastAPI words it (where the
     parser stopped, and why)."""
     errors = exc.errors(include_url=False)
@@ -152,7 +160,15 @@ def _body_errors(exc: ValidationError, raw: bytes) -> RequestValidationError:
             return RequestValidationError(
                 [{"type": "json_invalid", **where, "ctx": {"error": bad.msg}}]
             )
-    return RequestValidationError([{**e, "loc": ("body", *e["loc"])} for e in errors])
+    # An unknown field's error carries the fields the body takes, for its message.
+    fields = {"fields": tuple(model.model_fields)}
+    return RequestValidationError(
+        [
+            {**e, "loc": ("body", *e["loc"])}
+            | ({"ctx": fields} if e["type"] == "extra_forbidden" else {})
+            for e in errors
+        ]
+    )
 
 
 # Every cell of a map is one byte of the body: a Moving AI letter in `rows`, a 0 or a 1 in
@@ -200,6 +216,18 @@ class MapRoute(OrjsonRoute):
         return request
 
 
+class ZonesRoute(OrjsonRoute):
+    """Reads a ``multipart/form-data`` keepout mask (parts ``yaml`` and ``image``, polygons as
+    JSON fields) into the fields of the JSON body, as :class:`MapRoute` does a map."""
+
+    async def check_body(self, request: Request) -> Request:
+        if request.method == "POST" and request.headers.get("content-type", "").startswith(
+            "multipart/form-data"
+        ):
+            return await _form_as_json(request)
+        return request
+
+
 async def _form_as_json(request: Request) -> Request:
     """The form's fields as the JSON body's: the parts ``yaml`` and ``image`` as bytes, any
     other field's value parsed as JSON (``[0, 3]``, ``{"x": 1.5, "y": 2}``, ``0.22``, ``true``)
@@ -215,10 +243,18 @@ async def _form_as_json(request: Request) -> Request:
         raise planner.InvalidInput(msg, field="body") from None
     try:
         for name, value in form.multi_items():
+            if isinstance(value, UploadFile) and name not in MULTIPART_PARTS:
+                msg = (
+                    f"{quote(name)}: a file part the upload does not take; a ROS map comes as "
+                    "the parts 'yaml' (its map_server YAML) and 'image' (the PGM/PNG/BMP it "
+                    "names): curl -F yaml=@map.yaml -F image=@map.pgm"
+                )
+                raise planner.InvalidInput(msg, field=name[:100])
             data = await value.read() if isinstance(value, UploadFile) else value.encode()
             if name in MULTIPART_PARTS:
                 fields[name] = data
             else:
+                check_depth(data, field=name)  # a form field's JSON, as deep as a body's
                 text = data.decode("utf-8", "replace")
                 try:
                     fields[name] = orjson.loads(text)

@@ -17,6 +17,7 @@ from schemas import (
     PlanPublic,
     SimulationPublic,
     StepPublic,
+    ZonesPublic,
 )
 from service.resources.maps import MapView
 from service.resources.passages import PassageSet
@@ -65,6 +66,7 @@ def map_public(view: MapView) -> MapPublic:
         resolution=m.resolution,
         origin=list(m.origin),
         plan=plan,
+        zones=None if m.zones is None else ZonesPublic.model_validate(m.zones.as_dict()),
     )
 
 
@@ -137,9 +139,18 @@ def step_answer(view: StepView) -> dict[str, Any]:
         "arc_cost": float(step.arc_cost),
         "remaining": None if step.remaining is None else float(step.remaining),
         "narrow_fallback": bool(step.narrow_fallback),
-        "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in step.poses],
+        "poses": _step_poses(step.poses, view.zones),
         "remaining_m": step.remaining_m,
     }
+
+
+def _step_poses(poses: Any, zones: planner.Zones | None) -> list[dict[str, float]]:
+    """A step's poses, with ``"max_speed"`` inside a speed zone (looked up only on a map with
+    speed zones: a step is the hot path)."""
+    if zones is None or not zones.speed or not poses:
+        return [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in poses]
+    caps = planner.speed_limits(zones, [(x, y) for x, y, _ in poses]).tolist()
+    return _poses(poses, [None if math.isinf(v) else v for v in caps])
 
 
 def center(frame: planner.MapFrame, row: int, col: int) -> list[float]:
@@ -188,7 +199,8 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         },
         "preview": {
             **{key: s[key] for key in PREVIEW_KEYS},
-            "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in s["poses"]],
+            "poses": _poses(s["poses"], s["max_speeds"]),
+            "duration_s": s["duration_s"],
             "goal_used": _xy(s["goal_used"]),
             "waypoint_indices": s["waypoint_indices"],
             "narrowest": _narrowest(view.record.get("narrowest")),
@@ -196,6 +208,15 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         },
         "waypoints": s["waypoints"],
     }
+
+
+def _poses(poses: list[list[float]], speeds: list[float | None]) -> list[dict[str, float]]:
+    """Poses as ``{"x", "y", "yaw"}``, and ``"max_speed"`` inside a speed zone."""
+    out: list[dict[str, float]] = []
+    for (x, y, yaw), speed in zip(poses, speeds, strict=True):
+        out.append({"x": x, "y": y, "yaw": yaw} if speed is None else
+                   {"x": x, "y": y, "yaw": yaw, "max_speed": speed})  # fmt: skip
+    return out
 
 
 def _xy(point: list[float] | None) -> dict[str, float] | None:

@@ -23,19 +23,21 @@ APIError                 .status_code, .code, .detail, .field, .response
 ├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
 └── ServerError          other 5xx
 
+``upload_map(yaml=...)`` raises :class:`MapFileError` (a ``ValueError``; ``.path``) before
+sending anything when the YAML, or the image it names, cannot be read.
+
 Network failures stay httpx's own (``httpx.TransportError``); a success answer that is not its
 model's shape (a server of another version) raises ``pydantic.ValidationError``. This module
 imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
 """
 
+from schemas import NavPath, PlanDetail
 from service.client.clients import (
     Analysis,
     AsyncPlannerClient,
     MapInfo,
-    NavPath,
     Passages,
     Plan,
-    PlanDetail,
     PlanFields,
     PlannerClient,
     Preview,
@@ -45,11 +47,13 @@ from service.client.clients import (
     Step,
     StepFields,
     UploadMapFields,
+    ZonesFields,
 )
 from service.client.errors import (
     APIError,
     BadRequestError,
     ConflictError,
+    MapFileError,
     NotFoundError,
     NoValidPathError,
     PayloadTooLargeError,
@@ -64,6 +68,7 @@ __all__ = [
     "AsyncPlannerClient",
     "BadRequestError",
     "ConflictError",
+    "MapFileError",
     "MapInfo",
     "NavPath",
     "NoValidPathError",
@@ -84,4 +89,5 @@ __all__ = [
     "UnavailableError",
     "UploadMapFields",
     "ValidationError",
+    "ZonesFields",
 ]

@@ -25,30 +25,13 @@ from schemas import (
     SimulationPublic,
     StepPublic,
 )
-from service.client.errors import raise_for
-
-__all__ = [
-    "Analysis",
-    "AsyncPlannerClient",
-    "MapInfo",
-    "NavPath",
-    "Passages",
-    "Plan",
-    "PlanDetail",
-    "PlanFields",
-    "PlannerClient",
-    "Preview",
-    "RouteFields",
-    "SimulateFields",
-    "Simulation",
-    "Step",
-    "StepFields",
-    "UploadMapFields",
-]
+from service.client.errors import MapFileError, raise_for
 
 CellIn = Sequence[int] | Mapping[str, float]
 """A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
 ``"yaw"`` in radians) where the API takes one."""
+PointIn = Sequence[float] | Mapping[str, float]
+"""A polygon's point: ``{"x": ..., "y": ...}`` or ``(x, y)``, meters."""
 
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
@@ -100,6 +83,17 @@ class UploadMapFields(RouteFields, total=False):
     origin: Sequence[float] | None
     start: CellIn | None
     goal: CellIn | None
+
+
+class ZonesFields(TypedDict, total=False):
+    """``add_zones``'s fields, as ``schemas.ZonesCreate``: ``keepout`` polygons and ``speed``
+    zones (``{"polygon", "max_speed"}``), points ``{"x", "y"}`` or pairs ``(x, y)`` in meters;
+    or a keepout filter mask's ``yaml`` file (its image, which the YAML names, read beside
+    it)."""
+
+    keepout: Sequence[Sequence[PointIn]] | None
+    speed: Sequence[Mapping[str, Any]] | None
+    yaml: str | Path | None
 
 
 class SimulateFields(PlanFields, total=False):
@@ -187,21 +181,60 @@ def _upload_map(fields: UploadMapFields) -> _Call[MapInfo]:
     yaml = fields.get("yaml")
     if yaml is None:
         return _Call("POST", "/maps", _created, {"json": _body(fields)})
+    extra = _body({k: v for k, v in fields.items() if k != "yaml"})
+    return _Call("POST", "/maps", _created, _multipart(yaml, extra))
+
+
+def _multipart(yaml: str | Path, extra: Mapping[str, Any]) -> dict[str, Any]:
+    """A map_server YAML file and the image it names (read beside it) as the parts ``yaml``
+    and ``image``; the other fields ride along as form fields, each value as JSON."""
     path = Path(yaml)
-    text = path.read_bytes()
-    match = _IMAGE_LINE.search(text.decode("utf-8"))
+    text = _read(path, f"the map YAML {str(path)!r}")
+    match = _IMAGE_LINE.search(text.decode("utf-8", "replace"))
     if match is None:
-        raise ValueError(f"{path}: no 'image:' key names the map's image")
+        raise MapFileError(f"{path}: no 'image:' key names the map's image", path)
     image = path.parent / match.group("name")
     media = _MEDIA.get(image.suffix.lower(), "image/x-portable-graymap")
+    pixels = _read(image, f"the image {str(image)!r} that {path.name} names")
     files = {
         "yaml": (path.name, text, "application/yaml"),
-        "image": (image.name, image.read_bytes(), media),
+        "image": (image.name, pixels, media),
     }
-    # Other fields ride along as form fields, each value as JSON.
-    extra = _body({k: v for k, v in fields.items() if k != "yaml"})
     data = {k: v if isinstance(v, str) else json.dumps(v) for k, v in extra.items()}
-    return _Call("POST", "/maps", _created, {"data": data or None, "files": files})
+    return {"data": data or None, "files": files}
+
+
+def _point(point: PointIn) -> dict[str, float]:
+    if isinstance(point, Mapping):
+        return {"x": point["x"], "y": point["y"]}
+    x, y = point
+    return {"x": x, "y": y}
+
+
+def _add_zones(map_id: str, fields: ZonesFields) -> _Call[MapInfo]:
+    extra: dict[str, Any] = {}
+    keepout, speed = fields.get("keepout"), fields.get("speed")
+    if keepout is not None:
+        extra["keepout"] = [[_point(p) for p in polygon] for polygon in keepout]
+    if speed is not None:
+        extra["speed"] = [
+            {"polygon": [_point(p) for p in zone["polygon"]], "max_speed": zone["max_speed"]}
+            for zone in speed
+        ]
+    url = f"/maps/{map_id}/zones"
+    yaml = fields.get("yaml")
+    if yaml is None:
+        return _Call("POST", url, _created, {"json": extra})
+    return _Call("POST", url, _created, _multipart(yaml, extra))
+
+
+def _read(path: Path, what: str) -> bytes:
+    try:
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise MapFileError(f"{what} does not exist", path) from None
+    except OSError as exc:
+        raise MapFileError(f"{what} cannot be read: {exc.strerror}", path) from None
 
 
 def _get_map(map_id: str) -> _Call[MapInfo]:
@@ -319,6 +352,12 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
         ``max_width``, by default the server's ``2 * robot_radius + 0.3``)."""
         return self._call(_passages(map_id, robot_radius, max_width))
 
+    def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
+        """Zone an uploaded map: ``keepout`` polygons, ``speed`` zones, or a keepout filter
+        mask's ``yaml`` file; the answer is the zoned map (a new ``map_id``, its ``zones``).
+        ``None`` is not sent."""
+        return self._call(_add_zones(map_id, fields))
+
     def plan(
         self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[RouteFields]
     ) -> Plan:
@@ -395,6 +434,9 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
         self, map_id: str, robot_radius: float, max_width: float | None = None
     ) -> Passages:
         return await self._call(_passages(map_id, robot_radius, max_width))
+
+    async def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
+        return await self._call(_add_zones(map_id, fields))
 
     async def plan(
         self, map_id: str, start: CellIn, goal: CellIn, **options: Unpack[RouteFields]

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -12,6 +13,7 @@ __all__ = [
     "APIError",
     "BadRequestError",
     "ConflictError",
+    "MapFileError",
     "NoValidPathError",
     "NotFoundError",
     "PayloadTooLargeError",
@@ -80,6 +82,15 @@ class UnavailableError(APIError):
 
 class ServerError(APIError):
     """Any other 5xx."""
+
+
+class MapFileError(ValueError):
+    """``upload_map(yaml=...)`` cannot read a map file: the YAML, or the image it names
+    (``path``); raised before anything is sent."""
+
+    def __init__(self, message: str, path: str | Path) -> None:
+        super().__init__(message)
+        self.path = Path(path)
 
 
 _ERRORS: dict[int, type[APIError]] = {

@@ -11,12 +11,15 @@ from starlette.types import Scope
 from service.errors import Unauthorized
 from service.tenants import tenant_of
 
-__all__ = ["OPEN_PATHS", "ApiKeys"]
+__all__ = ["OPEN_PATHS", "OPEN_PREFIX", "ApiKeys"]
 
 OPEN_PATHS = frozenset(
     {"/healthz", "/readyz", "/metrics", "/docs", "/docs/oauth2-redirect", "/redoc", "/openapi.json"}
 )
 """Paths served without a key: probes, metrics and the API's documentation."""
+OPEN_PREFIX = "/docs/static/"
+"""The documentation's scripts, styles and icon (:mod:`service.ops.docs`), open as its pages
+are: without them ``/docs`` is a blank page."""
 
 
 class ApiKeys:
@@ -28,7 +31,8 @@ class ApiKeys:
     def admit(self, scope: Scope) -> str:
         """The tenant the request acts for (``""`` without keys, and on an open path);
         :class:`Unauthorized` when it carries no configured key."""
-        if not self._keys or scope["path"] in OPEN_PATHS:
+        path = scope["path"]
+        if not self._keys or path in OPEN_PATHS or path.startswith(OPEN_PREFIX):
             return ""
         presented = _presented(scope)
         found = None

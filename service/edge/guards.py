@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import planner
+from planner import quote
 
 __all__ = ["MAX_JSON_DEPTH", "check_depth", "json_depth"]
 
@@ -39,11 +40,13 @@ def json_depth(body: bytes) -> int:
     return int(np.cumsum(steps, dtype=np.int64).max(initial=0))
 
 
-def check_depth(body: bytes, limit: int = MAX_JSON_DEPTH) -> None:
-    """``InvalidInput`` (422) naming the depth when ``body`` nests deeper than ``limit``."""
+def check_depth(body: bytes, limit: int = MAX_JSON_DEPTH, *, field: str = "body") -> None:
+    """``InvalidInput`` (422) naming the depth when ``body`` (the JSON body, or the form field
+    ``field``) nests deeper than ``limit``."""
     if body.count(b"[") + body.count(b"{") <= limit:
         return  # cannot nest deeper than it has brackets: most bodies stop here (~1 us)
     depth = json_depth(body)
     if depth > limit:
-        msg = f"the JSON body nests {depth} levels deep; the limit is {limit} (refused unparsed)"
-        raise planner.InvalidInput(msg, field="body")
+        what = "the JSON body" if field == "body" else f"{quote(field)} (a form field)"
+        msg = f"{what} nests {depth} levels deep; the limit is {limit} (refused unparsed)"
+        raise planner.InvalidInput(msg, field=field[:100])

@@ -64,6 +64,8 @@ class StepView:
     obstacles: list[list[int]]
     replayed: bool = False
     """The answer of a retried ``seq``: nothing moved, nothing was written or published."""
+    zones: planner.Zones | None = None
+    """The map's zones: a pose inside a speed zone carries its ``max_speed``."""
 
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
@@ -146,10 +148,10 @@ async def step(
         # Here when it cannot search, else on the steps' own workers (see Engine.step).
         result = await engine.step(session, obstacles, position=position, seq=body.seq)
         if replayed:  # the robot did not move again: nothing to write, no event to send
-            return Update(StepView(result, frame, obstacles, replayed=True))
+            return Update(StepView(result, frame, obstacles, True, plan.analysis.zones))
         stored = session.state.as_dict()
         moved = stored.pop("trajectory")[known:]
-        view = StepView(result, frame, obstacles)
+        view = StepView(result, frame, obstacles, zones=plan.analysis.zones)
         message = None if event is None else event(view)
         return Update(view, {**record, "state": stored}, moved, message)
 

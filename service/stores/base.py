@@ -13,8 +13,9 @@ from typing import Any, Generic, TypeVar
 
 import numpy as np
 import numpy.typing as npt
+import orjson
 
-from planner import MapFrame, RobotMap
+from planner import MapFrame, RobotMap, Zones
 
 __all__ = [
     "Cells",
@@ -121,10 +122,14 @@ MAP_MAGIC = b"occ1 "
 
 def encode_map(robot_map: RobotMap) -> bytes:
     """A map as bytes: ``b"occ1 {H}x{W} {resolution} {ox} {oy} {yaw}:"`` (floats as ``repr``,
-    exact) then the occupancy, one int8 a cell, row 0 (the top) first."""
+    exact) then the occupancy, one int8 a cell, row 0 (the top) first; a zoned map's zones
+    after the cells, as JSON (:meth:`planner.Zones.as_dict`)."""
     (h, w), res, (ox, oy, yaw) = robot_map.shape, robot_map.resolution, robot_map.origin
     head = f"{h}x{w} {res!r} {ox!r} {oy!r} {yaw!r}:".encode()
-    return MAP_MAGIC + head + robot_map.occupancy.tobytes()
+    data = MAP_MAGIC + head + robot_map.occupancy.tobytes()
+    if robot_map.zones is not None:
+        data += orjson.dumps(robot_map.zones.as_dict())
+    return data
 
 
 def decode_map(data: bytes) -> RobotMap:
@@ -139,8 +144,10 @@ def decode_map(data: bytes) -> RobotMap:
     head, _, cells = data[len(MAP_MAGIC) :].partition(b":")
     size, res, ox, oy, yaw = head.decode().split(" ")
     h, w = (int(n) for n in size.split("x"))
-    occupancy = np.frombuffer(cells, dtype=np.int8).reshape(h, w)
-    return RobotMap(occupancy, MapFrame((h, w), float(res), (float(ox), float(oy), float(yaw))))
+    occupancy = np.frombuffer(cells, dtype=np.int8, count=h * w).reshape(h, w)
+    zones = Zones.from_dict(orjson.loads(cells[h * w :])) if len(cells) > h * w else None
+    frame = MapFrame((h, w), float(res), (float(ox), float(oy), float(yaw)))
+    return RobotMap(occupancy, frame, zones)
 
 
 class Store(ABC):

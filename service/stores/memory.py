@@ -198,5 +198,6 @@ def _owner(key: str) -> str:
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell."""
-    return int(robot_map.occupancy.nbytes)
+    """The bytes a stored map holds: one per cell (and a zoned map's zones)."""
+    zones = 0 if robot_map.zones is None else len(repr(robot_map.zones))
+    return int(robot_map.occupancy.nbytes) + zones

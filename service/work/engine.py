@@ -270,10 +270,24 @@ class Engine:
         miss), and whether it was cached."""
 
         async def compute() -> planner.Analysis:
-            return await self.pool.run(_analyse, await self.robot_map(map_id), params)
+            robot_map = await self.robot_map(map_id)
+            return await self.pool.run(_analyse, robot_map, params, self._base(robot_map, params))
 
         key = analysis_key(map_id, params, plain=await self.plain(map_id))
         return await self.cache.get_or_compute(key, compute)
+
+    def _base(self, robot_map: planner.RobotMap, params: planner.Params) -> planner.Analysis | None:
+        """The cached analysis of the map a zoned map was zoned from, for ``params`` (None: not
+        a zoned map, or its base's analysis not in the cache): a zoned map's analysis is
+        derived from it (:func:`planner.rezone_analysis`), else computed afresh."""
+        if robot_map.zones is None:
+            return None
+        base_id = robot_map.zones.base_map_id
+        plain = self._plain.get(base_id)
+        if plain is None:
+            return None
+        base = self.cache.peek(analysis_key(base_id, params, plain=plain))
+        return base if isinstance(base, planner.Analysis) else None
 
     async def build_plan(
         self,
@@ -468,7 +482,10 @@ class Engine:
         return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
 
 
-def _analyse(robot_map: planner.RobotMap, p: planner.Params) -> planner.Analysis:
-    analysis = planner.analyse_map(robot_map, p)
+def _analyse(
+    robot_map: planner.RobotMap, p: planner.Params, base: planner.Analysis | None = None
+) -> planner.Analysis:
+    derived = None if base is None else planner.rezone_analysis(base, robot_map, p)
+    analysis = planner.analyse_map(robot_map, p) if derived is None else derived[0]
     analysis.clearance  # noqa: B018 - computed now, in the pool, so that nbytes is final
     return analysis

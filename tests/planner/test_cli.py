@@ -220,3 +220,19 @@ def test_plan_on_a_map_file_with_a_goal_tolerance(capsys: pytest.CaptureFixture[
     assert preview["goal_used"] is not None
     assert 0 < preview["goal_offset_m"] <= 3
     assert preview["poses"][-1]["x"] == preview["goal_used"]["x"]
+
+
+def test_negative_points_are_points_not_options(
+    ros: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--start -12.5,22.0``: argparse would read the word as an unknown option."""
+    shifted = tmp_path / "depot.yaml"  # the depot, moved so that its points are negative
+    shifted.write_text(f"image: {ros / 'depot.pgm'}\nresolution: 0.05\norigin: [-27.0, -13.0, 0]\n")
+    for start, goal in (("-25.0,-10.0", "-2,-3"), ("-25.0,-10.0,-1.5", "-2.0,-3.0")):
+        code, out, err = run_cli(
+            ["plan", "--map", str(shifted), "--start", start, "--goal", goal, "--json"], capsys
+        )
+        assert code == 0, err
+        path_xy = json.loads(out)["path_xy"]
+        assert path_xy[0] == pytest.approx([-25.0, -10.0], abs=0.025 + 1e-9)
+        assert path_xy[-1] == pytest.approx([-2.0, -3.0], abs=0.025 + 1e-9)

@@ -71,7 +71,7 @@ def test_parameters_override_one_by_one() -> None:
     p = planner.plan(grid, (0, 0), (5, 5), preset="mmas", alpha=5, beta=0)
     assert (p.params.alpha, p.params.beta, p.params.decision) == (5.0, 0.0, "paper")
     assert p.params.diagonal_cost == 1.4
-    assert p.length == pytest.approx(5 * 1.4)
+    assert p.length == pytest.approx(5 * math.sqrt(2))  # a length: 1.4 weighs the search only
 
 
 @pytest.mark.parametrize(
@@ -155,7 +155,7 @@ def test_paper_decision_follows_eq3_with_the_least_p() -> None:
     grid = np.zeros((8, 8), dtype=np.uint8)
     p = planner.plan(grid, (0, 0), (7, 7), preset="mmas")
     assert p.path.tolist() == [[i, i] for i in range(8)]
-    assert p.length == pytest.approx(7 * 1.4)
+    assert p.length == pytest.approx(7 * math.sqrt(2))
 
 
 def test_paper_decision_uses_the_tabu_list_then_the_wide_step() -> None:

@@ -13,7 +13,14 @@ from PIL import Image
 import planner
 from planner.cli import main
 from planner.experiment.environments import environment
-from planner.render import COLOURS, draw, render_episode, render_map, render_plan
+from planner.render import (
+    COLOURS,
+    draw,
+    legend_entries,
+    render_episode,
+    render_map,
+    render_plan,
+)
 from tests.conftest import grid_from
 
 CELL = 8
@@ -188,3 +195,30 @@ def test_robot_maps_get_a_legible_picture_with_a_key(ros: Path) -> None:
     shown = decode(render_map(planner.analyse_map(unknown), cell=CELL))
     assert at(shown, (0, 1)) == COLOURS["unknown"]
     assert len({COLOURS[k] for k in ("margin", "unknown", "obstacle", "free", "tunnel")}) == 5
+
+
+def test_the_start_shows_round_the_robot_standing_on_it() -> None:
+    p = planner.plan(ROOM, (0, 0), (6, 9), preset="wide")
+    cell = 24
+    image = decode(render_plan(p, trajectory=[[0, 0]], cell=cell, poses=False)).convert("RGB")
+    center = cell // 2
+    assert image.getpixel((center, center)) == COLOURS["robot"]
+    ring = [image.getpixel((x, center)) for x in range(center, cell)]  # out to the cell's edge
+    assert ring.count(COLOURS["start"]) >= 3  # a ring round the robot, not hidden under it
+    small = decode(render_plan(p, trajectory=[[0, 0]], cell=4, poses=False)).convert("RGB")
+    assert small.getpixel((2 + 4, 2)) == COLOURS["start"]
+
+
+def test_the_legend_names_the_trajectory_and_the_planned_path() -> None:
+    keys = dict((label, colour) for colour, label in legend_entries())
+    assert keys["path"] == COLOURS["path"]
+    assert "planned path" not in keys  # no preview drawn: no key for it
+    keys = dict(
+        (label, colour) for colour, label in legend_entries(path_label="trajectory", preview=True)
+    )
+    assert keys["trajectory"] == COLOURS["path"]
+    assert keys["planned path"] == COLOURS["preview"]
+    assert "path" not in keys
+    named = legend_entries(preview=True, named=[((1, 2, 3), "nav2")])
+    assert [label for _, label in named][-1] == "nav2"
+    assert "path" not in {label for _, label in named}

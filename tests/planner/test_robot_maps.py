@@ -248,7 +248,7 @@ def test_bad_occupancy_grids(message: object, field: str, quoted: str) -> None:
 def test_bad_grids() -> None:
     with pytest.raises(InvalidInput, match="found 2 at"):
         planner.grid_map([[0, 2]])
-    with pytest.raises(InvalidInput, match="resolution must be positive") as info:
+    with pytest.raises(InvalidInput, match=r"resolution must be 0\.0001 to 1000") as info:
         planner.grid_map([[0]], resolution=-1)
     assert info.value.field == "resolution"
 

@@ -29,7 +29,7 @@ async def test_same_map_same_id_whichever_encoding(client: httpx.AsyncClient) ->
     assert again.json() == body
     expected = hashlib.sha256(b"5x6:" + np.array(GRID, dtype=np.uint8).tobytes()).hexdigest()
     assert body == {
-        "map_id": expected, "height": 5, "width": 6, "free_cells": 27, "plan": None,
+        "map_id": expected, "height": 5, "width": 6, "free_cells": 27, "plan": None, "zones": None,
         "occupied_cells": 3, "unknown_cells": 0, "resolution": 1.0, "origin": [0.0, 0.0, 0.0],
     }  # fmt: skip
     shown = await client.get(f"/maps/{expected}")

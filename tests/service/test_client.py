@@ -24,6 +24,7 @@ from service.client import (
     APIError,
     AsyncPlannerClient,
     ConflictError,
+    MapFileError,
     MapInfo,
     NotFoundError,
     NoValidPathError,
@@ -35,6 +36,7 @@ from service.client import (
     UnavailableError,
     UploadMapFields,
     ValidationError,
+    ZonesFields,
 )
 from tests.service.conftest import ROOT, random_map
 
@@ -238,10 +240,17 @@ def test_a_yaml_without_its_image_is_refused_before_sending(tmp_path: Path) -> N
         raise AssertionError("sent")
 
     with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as planner:
-        with pytest.raises(ValueError, match="image"):
+        with pytest.raises(MapFileError, match="image"):
             planner.upload_map(yaml=tmp_path / "m.yaml")
-        with pytest.raises(FileNotFoundError):
+        # Not a bare FileNotFoundError: the client's error, naming the image the YAML names.
+        with pytest.raises(
+            MapFileError, match=r"n\.pgm' that n\.yaml names does not exist"
+        ) as info:
             planner.upload_map(yaml=tmp_path / "n.yaml")
+        assert info.value.path == tmp_path / "n.pgm"
+        assert isinstance(info.value, ValueError)
+        with pytest.raises(MapFileError, match=r"gone\.yaml"):
+            planner.upload_map(yaml=tmp_path / "gone.yaml")
         with pytest.raises(TypeError, match="exactly one"):
             planner.upload_map(grid=[[0]], rows=["."])
         with pytest.raises(TypeError, match="exactly one"):
@@ -375,6 +384,7 @@ ROUTES = {
     "upload_map": ("post", "/maps"),
     "get_map": ("get", "/maps/{map_id}"),
     "passages": ("get", "/maps/{map_id}/passages"),
+    "add_zones": ("post", "/maps/{map_id}/zones"),
     "plan": ("post", "/plan"),
     "get_plan": ("get", "/plan/{plan_id}"),
     "path": ("get", "/plan/{plan_id}/path"),
@@ -450,6 +460,8 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     assert simulate == set(schemas.SimulationCreate.model_fields)
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
     assert step == set(schemas.StepCreate.model_fields)
+    zones = set(get_type_hints(ZonesFields))
+    assert zones == set(schemas.ZonesCreate.model_fields) - {"image"}  # the YAML's image is read
     route = set(get_type_hints(RouteFields))
     assert route - plan_fields == {"waypoints"}
     plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}

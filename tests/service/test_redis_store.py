@@ -111,6 +111,22 @@ async def test_maps_are_kept_once_and_come_back_read_only(store: RedisStore) -> 
 
 
 @pytest.mark.anyio
+async def test_zoned_maps_come_back_with_their_zones(store: RedisStore) -> None:
+    base = planner.grid_map([[0, 1, -1, 0], [0, 0, 1, 0]], resolution=0.5)
+    zoned = planner.zone_map(
+        base,
+        keepout=[[(0.0, 0.0), (1.0, 0.0), (1.0, 0.5)]],
+        speed=[{"polygon": [(1.0, 0.0), (2.0, 0.0), (2.0, 1.0)], "max_speed": 0.25}],
+    )
+    assert await store.put_map(zoned.map_id, zoned) is True
+    got = await store.get_map(zoned.map_id)
+    assert got is not None
+    np.testing.assert_array_equal(got.occupancy, zoned.occupancy)
+    assert got.zones == zoned.zones
+    assert got.map_id == zoned.map_id
+
+
+@pytest.mark.anyio
 async def test_maps_stored_before_frames_read_back_as_plain_maps(store: RedisStore) -> None:
     grid = np.array([[0, 1, 0], [0, 0, 1]], dtype=np.uint8)
     await store._redis.set("planner:map:old", b"2x3:" + grid.tobytes())

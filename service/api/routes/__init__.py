@@ -2,12 +2,12 @@
 
 from fastapi import APIRouter
 
-from service.api.routes import health, maps, metrics, plans, simulate, viewer
+from service.api.routes import health, maps, metrics, plans, simulate, viewer, zones
 
 __all__ = ["routers"]
 
 routers: tuple[APIRouter, ...] = tuple(
-    module.router for module in (plans, maps, simulate, viewer, health, metrics)
+    module.router for module in (plans, maps, zones, simulate, viewer, health, metrics)
 )
 """Every router, in the order their routes are matched: plans first (a step is the hot
 request). The app includes each directly: a router nested in another costs a level of

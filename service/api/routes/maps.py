@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, Response, status
 from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, PassagesPublic, Preset
 from schemas.plans import Unknown
 from service.api import present
-from service.api.deps import PNG_RESPONSE, CellQuery, EngineDep, MapRoute
+from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
 from service.resources import maps
 from service.resources import passages as passage_sets
@@ -48,15 +48,15 @@ async def create_map(body: MapCreate, engine: EngineDep, response: Response) -> 
 @router.get("/maps/{map_id}", summary="A map's metadata", responses=responses(404, 422))
 async def get_map(map_id: str, engine: EngineDep) -> MapPublic:
     """The `map_id`, `height`, `width`, `free_cells`, `occupied_cells`, `unknown_cells`,
-    `resolution` and `origin` of an uploaded map."""
+    `resolution` and `origin` of an uploaded map, and a zoned map's `zones` (what
+    `POST /maps/{map_id}/zones` applied; else null)."""
     return present.map_public(await maps.get_map(engine, map_id))
 
 
 @router.get(
     "/maps/{map_id}/render.png",
     summary="A picture of the map and its analysis",
-    response_class=Response,
-    responses={**PNG_RESPONSE, **responses(404, 413, 422)},
+    **PNG_ROUTE,
 )
 async def render_map(
     map_id: str,

@@ -21,7 +21,7 @@ from schemas import (
 )
 from service.api import present
 from service.api.deps import (
-    PNG_RESPONSE,
+    PNG_ROUTE,
     CellQuery,
     EngineDep,
     OrjsonRoute,
@@ -170,8 +170,7 @@ async def delete_plan(plan_id: str, engine: EngineDep) -> None:
 @router.get(
     "/plan/{plan_id}/render.png",
     summary="A picture of the plan and the robot's progress",
-    response_class=Response,
-    responses={**PNG_RESPONSE, **responses(404, 413, 422)},
+    **PNG_ROUTE,
 )
 async def render_plan(
     plan_id: str,

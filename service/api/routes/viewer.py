@@ -6,12 +6,14 @@ from __future__ import annotations
 import html
 from collections.abc import AsyncIterator
 from importlib import resources
+from typing import Any
 
 import orjson
 from fastapi import APIRouter
 from fastapi.responses import HTMLResponse, StreamingResponse
 from starlette.background import BackgroundTask
 
+import planner
 from service.api.deps import EngineDep
 from service.errors import responses
 from service.resources import plans
@@ -34,12 +36,14 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the plan's map, its planned path, the robot (`#robot`, its cell in
     `data-cell`), the dynamic obstacles of the latest step (`.dynamic-obstacle`), its path
     ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
-    yaw in `data-yaw`), updated
+    yaw in `data-yaw`), and on a zoned map its zones (`.keepout` polygons hatched red,
+    `.speed-zone` polygons labelled by `.speed-label` with their max speed), updated
     live from `/plan/{plan_id}/events` as steps arrive; on a robot map, the map's narrow
     passages for the plan's robot (`.passage`, from `/maps/{map_id}/passages`: a dot and its
     width in meters). Everything it loads comes from the service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
+    zones = view_.plan.analysis.zones
     passages = None
     if not view_.plan.analysis.plain:  # relative to the page: /maps/{map_id}/passages
         radius = view_.plan.params.robot_radius
@@ -53,12 +57,22 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "trajectory": [list(cell) for cell in view_.state.trajectory],
         "resolution": view_.plan.analysis.frame.resolution,
         "origin": list(view_.plan.analysis.frame.origin),
+        "last_step": _last_step(view_.state.last_step),
+        "zones": None if zones is None else zones.as_dict(),
         "passages_url": passages,
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
     page = PAGE.replace("__PLAN_ID__", html.escape(plan_id))
     return HTMLResponse(page.replace("__PLAN_DATA__", embedded))
+
+
+def _last_step(step: planner.Step | None) -> dict[str, Any] | None:
+    """What the page's status line says of the latest step (``None``: no step yet)."""
+    if step is None:
+        return None
+    keys = ("seq", "move", "position", "status", "remaining_m")
+    return {key: value for key, value in step.as_dict().items() if key in keys}
 
 
 @router.get(
