@@ -6,6 +6,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 from schemas.errors import ErrorPublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
+from schemas.passages import NarrowestPublic, PassagePublic, PassagesPublic
 from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
 from schemas.plans import (
     EXAMPLE_MAP,
@@ -59,8 +60,11 @@ __all__ = [
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "NarrowestPublic",
     "NavPath",
     "Obstacle",
+    "PassagePublic",
+    "PassagesPublic",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",

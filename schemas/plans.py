@@ -6,6 +6,8 @@ from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
+from schemas.passages import NarrowestPublic
+
 __all__ = [
     "COORDINATE_MAX",
     "EXAMPLE_MAP",
@@ -404,6 +406,13 @@ class PreviewPublic(BaseModel):
         description="The index in `poses` of each waypoint's pose, in order (empty without "
         "waypoints).",
     )
+    narrowest: NarrowestPublic | None = Field(
+        default=None, description="The narrowest point the path crosses (null on a plain grid)."
+    )
+    passages: list[int] | None = Field(
+        default=None, description="The ids of the passages (`GET /maps/{map_id}/passages`, its "
+        "`robot_radius`) the path crosses, in order (null on a plain grid).",
+    )  # fmt: skip
 
 
 class PlanPublic(BaseModel):

@@ -18,6 +18,7 @@ from schemas import (
     AnalysisPublic,
     MapPublic,
     NavPath,
+    PassagesPublic,
     PlanDetail,
     PlanPublic,
     PreviewPublic,
@@ -31,6 +32,7 @@ __all__ = [
     "AsyncPlannerClient",
     "MapInfo",
     "NavPath",
+    "Passages",
     "Plan",
     "PlanDetail",
     "PlanFields",
@@ -57,6 +59,7 @@ Preview = PreviewPublic
 Plan = PlanPublic
 Step = StepPublic
 Simulation = SimulationPublic
+Passages = PassagesPublic
 
 
 class MapInfo(MapPublic):
@@ -258,6 +261,11 @@ def _get_map(map_id: str) -> _Call[MapInfo]:
     return _Call("GET", f"/maps/{map_id}", _decode(MapInfo))
 
 
+def _passages(map_id: str, robot_radius: float, max_width: float | None) -> _Call[Passages]:
+    query = _body({"robot_radius": robot_radius, "max_width": max_width})
+    return _Call("GET", f"/maps/{map_id}/passages", _decode(Passages), {"params": query})
+
+
 def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> _Call[Plan]:
     body = _body({"map_id": map_id, "start": start, "goal": goal, **options})
     return _Call("POST", "/plan", _decode(Plan), {"json": body})
@@ -357,6 +365,13 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def get_map(self, map_id: str) -> MapInfo:
         return self._call(_get_map(map_id))
 
+    def passages(
+        self, map_id: str, robot_radius: float, max_width: float | None = None
+    ) -> Passages:
+        """The map's narrow passages for a robot of ``robot_radius`` meters (narrower than
+        ``max_width``, by default the server's ``2 * robot_radius + 0.3``)."""
+        return self._call(_passages(map_id, robot_radius, max_width))
+
     def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
         """Zone an uploaded map: ``keepout`` polygons, ``speed`` zones, or a keepout filter
         mask's ``yaml`` file; the answer is the zoned map (a new ``map_id``, its ``zones``).
@@ -434,6 +449,11 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def get_map(self, map_id: str) -> MapInfo:
         return await self._call(_get_map(map_id))
+
+    async def passages(
+        self, map_id: str, robot_radius: float, max_width: float | None = None
+    ) -> Passages:
+        return await self._call(_passages(map_id, robot_radius, max_width))
 
     async def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
         return await self._call(_add_zones(map_id, fields))

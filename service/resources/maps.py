@@ -10,7 +10,7 @@ from typing import Any, Literal
 import planner
 from schemas import MapCreate, PlanCreate
 from service.errors import TooLarge
-from service.resources import plans
+from service.resources import passages, plans
 from service.work.engine import Engine, cell_size
 
 __all__ = ["MapView", "add_map", "get_map", "json_cells_message", "render_map"]
@@ -63,10 +63,17 @@ async def render_map(
     field: Literal["clean"] | None,
     cell: int | None,
     overrides: dict[str, Any],
+    with_passages: bool = False,
 ) -> bytes:
-    analysis, _ = await engine.analysis(map_id, planner.resolve_params(preset, **overrides))
+    params = planner.resolve_params(preset, **overrides)
+    analysis, _ = await engine.analysis(map_id, params)
     size = cell_size(analysis.shape, cell)
-    return await engine.pool.run(planner.render_map, analysis, field=field, cell=size)
+    found: tuple[planner.Passage, ...] = ()
+    if with_passages:
+        found = (await passages.map_passages(engine, map_id, params.robot_radius)).passages
+    return await engine.pool.run(
+        planner.render_map, analysis, field=field, cell=size, passages=found
+    )
 
 
 def _too_large(name: str, height: int, width: int, limit: int) -> None:

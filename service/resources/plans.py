@@ -19,6 +19,7 @@ import planner
 from planner import quote
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
+from service.resources import passages
 from service.stores import PlanRecord
 from service.stores.base import Event, Update, unknown_map
 from service.work.engine import (
@@ -93,6 +94,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
+        **await passages.crossings(engine, body.map_id, plan),
     }
     await engine.store.put_plan(plan_id, record, append=stored.pop("trajectory"))
     return PlanView(plan_id, record, plan, state)
@@ -213,8 +215,9 @@ async def render_plan(
     plan = await engine.plan_of(record)
     trajectory = await engine.store.get_trajectory(plan_id)
     size = cell_size(plan.analysis.shape, cell)
+    crossed = await passages.crossed(engine, record, plan)
     return await engine.pool.run(
-        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
+        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size, passages=crossed
     )
 
 

@@ -186,6 +186,7 @@ async def render_plan(
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
     trajectory so far (green) and its cell, the start (magenta) and the goal (gold), and the
-    `preview.poses` the robot drives (a blue line, the goal's heading an arrow)."""
+    `preview.poses` the robot drives (a blue line, the goal's heading an arrow), and the narrow
+    passages it crosses (`preview.passages`: violet, labelled with their id and width)."""
     png = await plans.render_plan(engine, plan_id, field, cell)
     return Response(png, media_type="image/png")
