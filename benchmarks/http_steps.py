@@ -30,6 +30,8 @@ from typing import Any
 import httpx
 import numpy as np
 
+from service.config import Settings
+
 ROOT = Path(__file__).resolve().parent.parent
 LUA = ROOT / "benchmarks" / "http_steps.lua"
 SIZE = 1024
@@ -91,9 +93,12 @@ def service(env: dict[str, str]) -> Process:
 
 
 def echo() -> Process:
+    """The bare echo on uvicorn with the service's own HTTP parser (``PLANNER_HTTP_PARSER``,
+    default h11): both sides of a ratio ride the same server road."""
     port = free_port()
+    parser = os.environ.get("PLANNER_HTTP_PARSER", Settings.model_fields["http_parser"].default)
     argv = [sys.executable, "-m", "uvicorn", "benchmarks.bare_app:app", "--host", "127.0.0.1"]
-    argv += ["--port", str(port), "--log-level", "warning", "--no-access-log"]
+    argv += ["--port", str(port), "--log-level", "warning", "--no-access-log", "--http", parser]
     return Process(argv, port)
 
 

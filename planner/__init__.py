@@ -24,7 +24,7 @@ from planner.analysis.analyse import (
     resolve_wall_cost,
 )
 from planner.analysis.cspace import CSpace, circle_cells, configuration_space, wide_clean
-from planner.analysis.passages import Passage, crossed_passages, find_passages
+from planner.analysis.passages import Passage, crossed_passages, find_passages, path_narrowest
 from planner.analysis.rezone import rezone_analysis
 from planner.errors import (
     QUOTE_LIMIT,
@@ -125,6 +125,7 @@ __all__ = [
     "parse_map_yaml",
     "parse_ros_map",
     "parse_rows",
+    "path_narrowest",
     "plan",
     "quote",
     "reaches",

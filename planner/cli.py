@@ -1,5 +1,5 @@
 """``python -m planner``: plan, run Moving AI scenarios, simulate, run the paper's experiment,
-render pictures, or show the bundled demo."""
+render pictures, list a map's narrow passages, or show the bundled demo."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from planner.analysis.analyse import analyse
+from planner.cli_passages import add_command, crossings
 from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
 from planner.experiment.runs import DYNAMIC, PAPER_WEIGHTS, SEEDS, Spread, run_experiment, summarise
@@ -145,6 +146,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     )
     r.add_argument("--seed", type=int, default=0, help="the episode's seed (--animate)")
     r.set_defaults(run=_render)
+    add_command(sub)
     return parser
 
 
@@ -170,19 +172,9 @@ def _params(pairs: list[str]) -> dict[str, Any]:
 
 
 PREVIEW_KEYS = (
-    "path",
-    "path_xy",
-    "length",
-    "length_m",
-    "arc_cost",
-    "min_clearance",
-    "min_clearance_m",
-    "mean_clearance",
-    "mean_clearance_m",
-    "contact_ratio",
-    "length_poses_m",
-    "goal_offset_m",
-)
+    "path", "path_xy", "length", "length_m", "arc_cost", "min_clearance", "min_clearance_m",
+    "mean_clearance", "mean_clearance_m", "contact_ratio", "length_poses_m", "goal_offset_m",
+)  # fmt: skip
 
 
 def _preview(summary: dict[str, Any]) -> dict[str, Any]:
@@ -206,6 +198,7 @@ def _plan(args: argparse.Namespace) -> int:
         params["unknown"] = args.unknown
     form = args.format or ("json" if args.json else "text")
     tolerance = args.goal_tolerance
+    robot_map = None
     if Path(path).suffix.lower() not in (".yaml", ".yml"):
         cells = _cell_arg(args.start, "start"), _cell_arg(args.goal, "goal")
         result = plan(
@@ -227,11 +220,11 @@ def _plan(args: argparse.Namespace) -> int:
                 + (f", goal moved {result.goal_offset_m:.3f} m" if result.goal_used else "")
             )
     if form == "json":  # the API's preview object
-        print(json.dumps(_preview(result.summary())))
+        print(json.dumps({**_preview(result.summary()), **crossings(result, robot_map)[0]}))
     elif form == "nav_msgs":
         print(json.dumps(nav_msgs_path(result.poses, args.frame_id, time.time())))
     if args.png is not None:
-        args.png.write_bytes(render_plan(result))
+        args.png.write_bytes(render_plan(result, passages=crossings(result, robot_map)[1]))
         print(f"wrote {args.png}", file=sys.stderr)
     return 0
 

@@ -8,6 +8,8 @@ PlannerError
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 __all__ = ["InvalidInput", "NoValidPath", "PlannerError", "SequenceConflict", "quote"]
 
 QUOTE_LIMIT = 100
@@ -16,17 +18,69 @@ QUOTE_LIMIT = 100
 
 def quote(value: object, limit: int = QUOTE_LIMIT) -> str:
     """``repr(value)`` cut to ``limit`` characters: error messages name what they received
-    without echoing megabytes of it.
+    without echoing megabytes of it. The repr is built piece by piece and stops at the limit,
+    so a huge or deeply nested value (a YAML alias bomb, a million-element list) costs about
+    ``limit`` characters of work, never its whole repr.
 
-    >>> quote("x" * 500)[-12:]
-    '... (502 ch)'
-    >>> quote([1, 2])
-    '[1, 2]'
+    >>> quote("x" * 500)[-16:]
+    'xxxx... (500 ch)'
+    >>> quote([1, 2]), quote({"a": (1, None)})
+    ('[1, 2]', "{'a': (1, None)}")
+    >>> quote([list(range(10**6))] * 10**6)[-12:]
+    '24, 25, 2...'
     """
-    text = repr(value)
-    if len(text) <= limit:
+    pieces: list[str] = []
+    size = 0
+    for piece in _repr_pieces(value, limit, 0):
+        pieces.append(piece)
+        size += len(piece)
+        if size > limit:
+            break
+    text = "".join(pieces)
+    if size <= limit:
         return text
-    return f"{text[: limit - 14]}... ({len(text)} ch)"
+    if isinstance(value, str | bytes):  # its length is known: say it
+        return f"{text[: limit - 14]}... ({len(value)} ch)"
+    return f"{text[: limit - 3]}..."
+
+
+_QUOTE_DEPTH = 20
+"""Containers quoted this deep at most (deeper: ``...``), so that no recursion runs away."""
+
+
+def _repr_pieces(value: object, budget: int, depth: int) -> Iterator[str]:
+    """``repr(value)`` in pieces, lazily: the caller stops reading once it has enough. Strings,
+    bytes and integers are cut before their repr is built; containers are walked."""
+    if isinstance(value, str | bytes):
+        yield repr(value[: budget + 1])
+    elif type(value) is int and value.bit_length() > 4 * budget:
+        yield f"<an integer of {value.bit_length()} bits>"
+    elif isinstance(value, list | tuple | set | frozenset | dict):
+        if depth >= _QUOTE_DEPTH:
+            yield "..."
+            return
+        if isinstance(value, dict):
+            opening, closing = "{", "}"
+        elif isinstance(value, list):
+            opening, closing = "[", "]"
+        elif isinstance(value, tuple):
+            opening, closing = "(", ",)" if len(value) == 1 else ")"
+        elif isinstance(value, set):
+            opening, closing = "{", "}"
+        else:
+            opening, closing = "frozenset({", "})"
+        yield opening
+        for i, item in enumerate(value):
+            if i:
+                yield ", "
+            if isinstance(value, dict):
+                yield from _repr_pieces(item, budget, depth + 1)
+                yield ": "
+                item = value[item]
+            yield from _repr_pieces(item, budget, depth + 1)
+        yield closing
+    else:
+        yield repr(value)
 
 
 class PlannerError(Exception):

@@ -22,9 +22,11 @@ import numpy.typing as npt
 from PIL import Image, ImageDraw, ImageFont
 
 from planner.analysis.analyse import Analysis
+from planner.analysis.passages import Passage
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
 from planner.render_zones import draw_zone_outlines, paint_zones, zone_legend
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
@@ -100,6 +102,7 @@ def draw(
     legend: bool | None = None,
     poses: Any = None,
     path_label: str = "path",
+    passages: Sequence[Passage] = (),
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
     (``None``: :func:`auto_cell`).
@@ -110,6 +113,7 @@ def draw(
     ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
     ``poses`` (``(m, 3)`` ``[x, y, yaw]`` in meters, a plan's :attr:`~planner.Plan.poses`) are
     drawn as a thin blue line over the cells, with the last pose's heading as an arrow.
+    ``passages`` (:func:`planner.find_passages`) are tinted violet, labelled with their width.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
     on for robot maps) adds a key and a scale bar in meters below the map, the green cells
@@ -142,6 +146,7 @@ def draw(
         rgb[analysis.state == 1] = COLOURS["obstacle"]
     if analysis.seal_tunnels:  # unsealed tunnel cells are ordinary free cells to the planner
         rgb[analysis.state == 2] = COLOURS["tunnel"]
+    tint_passages(rgb, passages)
     lines_: list[LabelledPath] = []
     for cells, colour in ((preview, "preview"), (path, "path"), (dynamic_obstacles, "dynamic")):
         if cells is not None and cell < 6 and colour != "dynamic":
@@ -168,6 +173,7 @@ def draw(
         pen.line(points, fill=rgb_, width=max(3, cell // 2), joint="curve")
     if poses is not None:
         draw_poses(image, analysis, poses, cell=cell)
+    label_passages(image, passages, cell=cell)
     radius = cs.robot_radius / cs.resolution * cell if cs is not None else 0.0
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
         if cells is not None:
@@ -189,6 +195,8 @@ def draw(
     if legend if legend is not None else cs is not None:
         named = [(rgb_, label) for _, rgb_, label in paths if label]
         keys = legend_entries(path_label=path_label, preview=preview is not None, named=named)
+        if passages:
+            keys.append((PASSAGE_COLOUR, "narrow passage (width)"))
         image = _with_legend(image, analysis, cell, keys)
     return image
 
@@ -279,14 +287,16 @@ def render_map(
     field: Field | None = None,
     wave: Wave | None = None,
     cell: int | None = None,
+    passages: Sequence[Passage] = (),
 ) -> bytes:
-    """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint).
+    """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint),
+    and ``passages`` labelled with their width.
 
     >>> from planner import analyse
     >>> render_map(analyse([[0]]), cell=2)[1:4]
     b'PNG'
     """
-    return _png(draw(analysis, field=field, wave=wave, cell=cell))
+    return _png(draw(analysis, field=field, wave=wave, cell=cell, passages=passages))
 
 
 def render_plan(
@@ -297,13 +307,15 @@ def render_plan(
     field: Field | None = None,
     cell: int | None = None,
     poses: bool = True,
+    passages: Sequence[Passage] = (),
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
     so far and the ``dynamic_obstacles``' cells (the plan endpoint).
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
     green and the preview pale green beneath it, and the legend (on robot maps) says so. The
-    plan's poses (unless ``poses`` is false) are a blue line over them.
+    plan's poses (unless ``poses`` is false) are a blue line over them; ``passages`` (those it
+    crosses, say) are labelled with their width.
     """
     path, preview, robot = plan.path, None, None
     if trajectory is not None:
@@ -324,6 +336,7 @@ def render_plan(
         cell=cell,
         poses=plan.poses if poses else None,
         path_label="path" if trajectory is None else "trajectory (so far)",
+        passages=passages,
     )
     return _png(image)
 

@@ -4,9 +4,11 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 """
 
 from schemas.errors import ErrorPublic
-from schemas.fleets import FleetPublic, FleetRobotPublic, PassagePublic
+from schemas.fleet_names import PlanCreate
+from schemas.fleets import FleetPublic, FleetRobotPublic, HeldPassagePublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
+from schemas.passages import NarrowestPublic, PassagePublic, PassagesPublic
 from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
 from schemas.plans import (
     EXAMPLE_MAP,
@@ -18,7 +20,6 @@ from schemas.plans import (
     CellOrPoint,
     Circle,
     Obstacle,
-    PlanCreate,
     PlanDetail,
     PlanPublic,
     Point,
@@ -58,13 +59,16 @@ __all__ = [
     "FleetPublic",
     "FleetRobotPublic",
     "HealthPublic",
+    "HeldPassagePublic",
     "KeepoutMaskPublic",
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "NarrowestPublic",
     "NavPath",
     "Obstacle",
     "PassagePublic",
+    "PassagesPublic",
     "PlanCreate",
     "PlanDetail",
     "PlanPublic",

@@ -1,4 +1,6 @@
-"""A fleet's name, as requests give it (``schemas.plans``, ``schemas.maps``) and routes take it."""
+"""A fleet's name, as requests give it (``POST /plan``, ``POST /maps``) and routes take it; and
+``PlanCreate`` with its ``fleet`` (``schemas.PlanCreate``: the plan's request as the API takes
+it, ``schemas.plans.PlanCreate`` with the fleet a robot belongs to)."""
 
 from __future__ import annotations
 
@@ -6,7 +8,9 @@ from typing import Annotated
 
 from pydantic import Field
 
-__all__ = ["FLEET_PATTERN", "FleetName"]
+from schemas.plans import PlanCreate as PlanCreateBase
+
+__all__ = ["FLEET_PATTERN", "FleetName", "PlanCreate"]
 
 FLEET_PATTERN = r"^[A-Za-z0-9_.-]{1,64}$"
 """A fleet's name: 1 to 64 letters, digits, ``_``, ``.``, ``-``."""
@@ -26,3 +30,9 @@ FleetName = Annotated[
     ),
 ]
 """A plan's fleet."""
+
+
+class PlanCreate(PlanCreateBase):
+    """Ask for a plan from ``start`` to ``goal`` on a map already uploaded."""
+
+    fleet: FleetName = None

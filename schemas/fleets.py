@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from schemas.passages import PassagePublic
 from schemas.plans import XY, Cell, Pose, Status
 
-__all__ = ["FleetPublic", "FleetRobotPublic", "PassagePublic"]
+__all__ = ["FleetPublic", "FleetRobotPublic", "HeldPassagePublic"]
 
 
 class FleetRobotPublic(BaseModel):
@@ -33,14 +34,9 @@ class FleetRobotPublic(BaseModel):
     )
 
 
-class PassagePublic(BaseModel):
-    """A narrow passage of the fleet's map, for the fleet's radius, and who holds it."""
+class HeldPassagePublic(PassagePublic):
+    """A narrow passage of the fleet's map (for the fleet's radius), and who holds it."""
 
-    id: int = Field(ge=0)
-    x: float
-    y: float
-    width_m: float = Field(ge=0)
-    length_m: float = Field(ge=0)
     held_by: list[str] = Field(
         default_factory=list,
         description="The `plan_id`s of the robots holding it (of its group: passages whose "
@@ -83,4 +79,4 @@ class FleetPublic(BaseModel):
         ge=0, description="The radius its passages are found for (its first robot's), meters."
     )
     robots: list[FleetRobotPublic]
-    passages: list[PassagePublic] = Field(default_factory=list)
+    passages: list[HeldPassagePublic] = Field(default_factory=list)

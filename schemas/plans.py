@@ -6,7 +6,7 @@ from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
-from schemas.fleet_names import FleetName
+from schemas.passages import NarrowestPublic
 
 __all__ = [
     "COORDINATE_MAX",
@@ -347,7 +347,6 @@ class PlanCreate(PlanOptions, PlanEnds):
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
     waypoints: Waypoints = Field(default_factory=list)
-    fleet: FleetName = None
 
 
 class AnalysisPublic(BaseModel):
@@ -407,6 +406,13 @@ class PreviewPublic(BaseModel):
         description="The index in `poses` of each waypoint's pose, in order (empty without "
         "waypoints).",
     )
+    narrowest: NarrowestPublic | None = Field(
+        default=None, description="The narrowest point the path crosses (null on a plain grid)."
+    )
+    passages: list[int] | None = Field(
+        default=None, description="The ids of the passages (`GET /maps/{map_id}/passages`, its "
+        "`robot_radius`) the path crosses, in order (null on a plain grid).",
+    )  # fmt: skip
 
 
 class PlanPublic(BaseModel):
@@ -434,7 +440,6 @@ class PlanPublic(BaseModel):
     waypoints: list[Cell] = Field(
         default_factory=list, description="The cells of the route's waypoints, in order."
     )
-    fleet: str | None = Field(default=None, description="The robot's fleet, if any.")
 
 
 class TrajectoryMetrics(BaseModel):

@@ -1,8 +1,11 @@
 """``python -m service``: the service under uvicorn on ``PLANNER_HOST``:``PLANNER_PORT``, as
-``make run`` and the container start it, logging JSON lines on stdout."""
+``make run`` and the container start it, logging JSON lines on stdout, with its connection
+limits from the settings (``PLANNER_HTTP_PARSER``, ``PLANNER_MAX_HEADER_BYTES``,
+``PLANNER_KEEP_ALIVE_SECONDS``, ``PLANNER_MAX_CONNECTIONS``)."""
 
 from __future__ import annotations
 
+import resource
 import socket
 
 import uvicorn
@@ -10,12 +13,11 @@ import uvicorn
 from service.config import Settings
 from service.ops.logs import LOG, configure
 
-__all__ = ["KEEP_ALIVE_SECONDS", "MAX_CONCURRENCY", "main"]
+__all__ = ["FILES_BESIDE_CONNECTIONS", "main", "open_file_limit", "uvicorn_config"]
 
-KEEP_ALIVE_SECONDS = 5
-"""Seconds an idle keep-alive connection stays open."""
-MAX_CONCURRENCY = 4096
-"""Connections and requests at once; beyond, uvicorn answers 503 at once."""
+FILES_BESIDE_CONNECTIONS = 256
+"""Open files the process needs besides its connections (the listening socket, Redis, logs,
+the numba cache)."""
 
 
 class _Server(uvicorn.Server):
@@ -31,27 +33,55 @@ class _Server(uvicorn.Server):
         LOG.info("listening", extra={"fields": fields})
 
 
+def open_file_limit(connections: int) -> tuple[int, int]:
+    """The process's open-file limit raised (its soft limit, up to the hard one) to hold
+    ``connections`` and :data:`FILES_BESIDE_CONNECTIONS`: ``(limit now, limit needed)``.
+    Short of it, connections beyond wait in the listen backlog rather than being answered."""
+    needed = connections + FILES_BESIDE_CONNECTIONS
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if soft != resource.RLIM_INFINITY and soft < needed:
+        target = needed if hard == resource.RLIM_INFINITY else min(needed, hard)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (target, hard))
+        soft = target
+    return soft, needed
+
+
+def uvicorn_config(
+    settings: Settings, log_config: dict[str, object] | None = None
+) -> uvicorn.Config:
+    """uvicorn's configuration for ``settings``."""
+    return uvicorn.Config(
+        "service.main:app",
+        host=settings.host,
+        port=settings.port,
+        log_config=log_config,
+        access_log=False,  # service.ops.observe writes one JSON line per request instead
+        http=settings.http_parser,
+        h11_max_incomplete_event_size=settings.max_header_bytes,
+        # Idle keep-alive connections are closed; beyond max_connections connections (or
+        # requests) at once, uvicorn answers 503 at once. The service's own limit on requests
+        # (PLANNER_MAX_REQUESTS, below it) spares /healthz; slow bodies are cut by
+        # PLANNER_BODY_TIMEOUT_SECONDS. A request's head has no time limit in uvicorn: the proxy
+        # in front bounds it (docker/nginx.conf, client_header_timeout).
+        timeout_keep_alive=settings.keep_alive_seconds,
+        limit_concurrency=settings.max_connections,
+        backlog=min(settings.max_connections, 4096),
+        timeout_graceful_shutdown=10,
+        server_header=False,
+    )
+
+
 def main() -> int:
     """Serve until stopped (Ctrl-C, SIGTERM); 1 when the service could not start."""
     settings = Settings()
     config = configure(settings.log_level)
-    server = _Server(
-        uvicorn.Config(
-            "service.main:app",
-            host=settings.host,
-            port=settings.port,
-            log_config=config,
-            access_log=False,  # service.ops.observe writes one JSON line per request instead
-            # Idle keep-alive connections closed after 5 s; beyond 4096 connections and requests
-            # at once, new ones get 503 at once rather than queueing (slow bodies are cut by
-            # PLANNER_BODY_TIMEOUT_SECONDS).
-            timeout_keep_alive=KEEP_ALIVE_SECONDS,
-            limit_concurrency=MAX_CONCURRENCY,
-            backlog=MAX_CONCURRENCY,
-            timeout_graceful_shutdown=10,
-            server_header=False,
+    files, needed = open_file_limit(settings.max_connections)
+    if files < needed:
+        LOG.warning(
+            "the open-file limit is below PLANNER_MAX_CONNECTIONS",
+            extra={"fields": {"open_files": files, "needed": needed}},
         )
-    )
+    server = _Server(uvicorn_config(settings, config))
     server.run()
     return 0 if server.started else 1
 

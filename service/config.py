@@ -26,8 +26,17 @@ class Settings(BaseSettings):
         "`redis://host:port/db` (shared by replicas; `rediss://` for TLS).",
     )
     max_map_cells: int = Field(default=4096 * 4096, ge=1, description="Largest map, in cells.")
+    max_json_map_cells: int = Field(
+        default=2048 * 1024,
+        ge=1,
+        description="Largest map sent as JSON numbers (`grid`, `occupancy_grid`), in cells: "
+        "parsing them holds the event loop (about 0.1 s a million cells); larger maps come as "
+        "`rows` or as an image with its YAML.",
+    )
     max_body_bytes: int = Field(
-        default=64 * MIB, ge=1024, description="Largest request body, refused before parsing."
+        default=32 * MIB,
+        ge=1024,
+        description="Largest map upload (`POST /maps`), refused before parsing.",
     )
     max_dynamic_obstacles: int = Field(
         default=10_000, ge=0, description="Most dynamic obstacles in one step or simulation."
@@ -68,10 +77,56 @@ class Settings(BaseSettings):
         default=30.0, gt=0, description="A body not arrived in this time gets 408."
     )
     max_step_body_bytes: int = Field(
-        default=MIB, ge=1024, description="Largest body of a step (413 beyond)."
+        default=MIB,
+        ge=1024,
+        description="Largest body of any request but a map upload: a step, a plan, a simulation "
+        "(413 beyond).",
     )
     max_simulation_steps: int = Field(
         default=200_000, ge=1, description="Largest `max_steps` of a simulation (422 beyond)."
+    )
+    http_parser: Literal["h11", "httptools"] = Field(
+        default="h11",
+        description="uvicorn's HTTP/1.1 parser: `h11` holds a request's head to "
+        "`PLANNER_MAX_HEADER_BYTES` (431 beyond); `httptools` is faster on small requests but "
+        "holds heads of any size: only behind a proxy that bounds them (docker/nginx.conf).",
+    )
+    max_header_bytes: int = Field(
+        default=16384, ge=1024, description="Largest request head (line and headers), with h11."
+    )
+    keep_alive_seconds: int = Field(
+        default=5, ge=1, description="An idle keep-alive connection is closed after this long."
+    )
+    max_connections: int = Field(
+        default=16384,
+        ge=16,
+        description="Open connections at most; beyond, uvicorn answers every request 503 at once "
+        "(`/healthz` too: keep it above what the clients and the proxy open). The process's "
+        "open-file limit is raised to fit it when the hard limit allows.",
+    )
+    max_requests: int = Field(
+        default=1024,
+        ge=1,
+        description="Requests in progress at most (bodies, work, event streams); beyond, 503 "
+        "`BUSY` with `Retry-After: 1`. `/healthz` and `/readyz` are never refused.",
+    )
+    max_plans_per_tenant: int = Field(
+        default=10_000,
+        ge=1,
+        description="Live plans one API key (or the open service) may hold in the store at "
+        "once (429 `TOO_MANY_PLANS` beyond).",
+    )
+    max_streams_per_tenant: int = Field(
+        default=20,
+        ge=1,
+        description="Event streams (`/plan/{plan_id}/events`) one API key may hold open on one "
+        "replica (429 `TOO_MANY_STREAMS` beyond).",
+    )
+    stream_queue_bytes: int = Field(
+        default=4 * MIB,
+        ge=1024,
+        description="Bytes of step events waiting for one event stream's reader at most; a "
+        "reader further behind is dropped (its stream ends with `event: dropped`).",
     )
     api_keys: SecretStr = Field(
         default=SecretStr(""),

@@ -10,6 +10,8 @@ ServiceError (here)
 ├── NotFound          unknown map or plan            404
 ├── BodyTimeout       body not arrived in time       408, and the connection closes
 ├── TooLarge          body, map or picture too big   413
+├── TooManyPlans      the key's plans at its cap     429
+├── TooManyStreams    the key's streams at its cap   429
 ├── InsufficientStorage  the map store is full       507
 ├── Busy              too many heavy jobs queued     503, with Retry-After
 ├── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
@@ -44,6 +46,8 @@ __all__ = [
     "StoreUnavailable",
     "TimedOut",
     "TooLarge",
+    "TooManyPlans",
+    "TooManyStreams",
     "Unauthorized",
     "install",
     "problem",
@@ -87,6 +91,15 @@ class InsufficientStorage(ServiceError, status=507, code="STORE_FULL"):
     """The map store is full of maps that live plans still use."""
 
 
+class TooManyPlans(ServiceError, status=429, code="TOO_MANY_PLANS"):
+    """The key already has ``PLANNER_MAX_PLANS_PER_TENANT`` live plans."""
+
+
+class TooManyStreams(ServiceError, status=429, code="TOO_MANY_STREAMS"):
+    """The key already has ``PLANNER_MAX_STREAMS_PER_TENANT`` event streams open on this
+    replica."""
+
+
 class Busy(ServiceError, status=503, code="BUSY"):
     """Too many heavy jobs (analyses, plans, renders, simulations) are queued; retry later."""
 
@@ -125,13 +138,19 @@ _EXAMPLES: dict[int, dict[str, str | None]] = {
         "field": "seq",
         "code": "SEQUENCE_CONFLICT",
     },
+    429: {
+        "detail": "this key has 10000 live plans (PLANNER_MAX_PLANS_PER_TENANT); delete plans "
+        "or wait for them to expire",
+        "field": None,
+        "code": "TOO_MANY_PLANS",
+    },
     503: {
         "detail": "store unavailable; retry later",
         "field": None,
         "code": "STORE_UNAVAILABLE",
     },
     413: {
-        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 67108864",
+        "detail": "the request body has 70000000 bytes; PLANNER_MAX_BODY_BYTES is 33554432",
         "field": "body",
         "code": "TOO_LARGE",
     },
@@ -219,13 +238,18 @@ async def _service_error(request: Request, exc: Exception) -> JSONResponse:
     return problem(exc.status, exc.message, field=exc.field, code=exc.code)
 
 
+_LOOKED_AT = 32  # validation errors read to describe a 422
+
+
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     assert isinstance(exc, RequestValidationError)
     # The tags of the cell-or-point unions are no part of where the value was (a tag is never
     # loc[1], which names a body field or a query parameter, such as "cell").
+    # Only the first errors are looked at: a body may hold tens of thousands.
+    every = exc.errors()
     errors = [
         {**e, "loc": tuple(p for i, p in enumerate(e["loc"]) if i < 2 or p not in UNION_TAGS)}
-        for e in exc.errors()
+        for e in every[:_LOOKED_AT]
     ]
     if any(e["loc"] == ("body",) and isinstance(e.get("input"), bytes) for e in errors):
         return problem(422, _not_json(request), field="content-type", code="INVALID_INPUT")
@@ -247,8 +271,9 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
         parts.append(f"{', '.join(_cut(name) for name in missing)}: Field required")
     # A map can be megabytes: echo only the start of what was received, and only a few errors.
     parts += [_describe(e) for e in rest[:3]]
-    if len(rest) > 3:
-        parts.append(f"and {len(rest) - 3} more errors")
+    more = len(rest) - 3 + len(every) - len(errors)
+    if more > 0:
+        parts.append(f"and {more} more errors")
     first = ("body", fields[0]) if fields else errors[0]["loc"] if errors else ()
     field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")

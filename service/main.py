@@ -48,13 +48,19 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         map_bytes=settings.map_store_bytes,
         map_ttl_seconds=settings.map_ttl_seconds,
         shares=max(1, len(settings.keys)),
+        max_plans=settings.max_plans_per_tenant,
     )
     pool = Pool(
         settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs
     )
     cache = ByteLRU(settings.cache_bytes, shares=max(1, len(settings.keys)))
     engine = Engine(settings, store, cache, pool)
-    app.state.bus = bus = open_bus(settings.store_url)  # steps for the live viewer
+    # Steps for the live viewer.
+    app.state.bus = bus = open_bus(
+        settings.store_url,
+        max_bytes=settings.stream_queue_bytes,
+        max_streams=settings.max_streams_per_tenant,
+    )
     # What start-up lines and /readyz say: never the store URL, which may hold a password.
     facts = {"store": store_name(store), "pool_size": pool.size}
     try:
@@ -111,6 +117,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         max_step_bytes=settings.max_step_body_bytes,
         body_timeout=settings.body_timeout_seconds,
         request_timeout=settings.request_timeout_seconds,
+        max_requests=settings.max_requests,
     )
     for router in routers:  # each directly, steps first: one level of route matching
         app.include_router(router)

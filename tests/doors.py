@@ -14,12 +14,16 @@ ORIGIN = (-2.0, 1.0, 0.0)
 
 
 def doors_grid(
-    gaps: tuple[float, ...] = GAPS, *, wall: float = WALL, unknown_walls: bool = False
+    gaps: tuple[float, ...] = GAPS,
+    *,
+    wall: float = WALL,
+    room: float = ROOM,
+    unknown_walls: bool = False,
 ) -> tuple[np.ndarray, list[tuple[float, float]]]:
     """The grid (0 free, 1 blocked, or -1 for the walls between rooms with ``unknown_walls``)
-    and each door's middle as (row, col), fractional: rooms of ``ROOM`` meters side by side,
+    and each door's middle as (row, col), fractional: rooms of ``room`` meters side by side,
     the wall between room i and i + 1 holding a door of free gap ``gaps[i]``."""
-    n, t = round(ROOM / RESOLUTION), round(wall / RESOLUTION)
+    n, t = round(room / RESOLUTION), round(wall / RESOLUTION)
     grid = np.zeros((n + 2, (n + t) * (len(gaps) + 1) - t + 2), dtype=np.int8)
     grid[0, :] = grid[-1, :] = grid[:, 0] = grid[:, -1] = 1
     middles = []

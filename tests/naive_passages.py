@@ -160,3 +160,35 @@ def split(cells: set[tuple[int, int]], apart: int) -> list[set[tuple[int, int]]]
 def groups(cells: set[tuple[int, int]], apart: int) -> int:
     """How many groups ``cells`` make, two cells within Chebyshev distance ``apart`` in one."""
     return len(split(cells, apart))
+
+
+def medial_axis(free: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    """scikit-image's medial axis written out: free cells visited by increasing distance, then
+    by how few free cells their 3 x 3 neighbourhood holds (more "cornery" first), then in the
+    order of ``default_rng(0).permutation``; each is removed unless its neighbourhood (the
+    outside empty) has fewer than three free cells or loses or gains a connected group without
+    it."""
+    H, W = free.shape
+    out = free.copy()
+    cells = [(r, c) for r in range(H) for c in range(W) if free[r, c]]
+    tiebreak = np.random.default_rng(0).permutation(len(cells))
+
+    def around(r: int, c: int) -> list[tuple[int, int]]:
+        return [
+            (r + dr, c + dc)
+            for dr in (-1, 0, 1)
+            for dc in (-1, 0, 1)
+            if 0 <= r + dr < H and 0 <= c + dc < W and free[r + dr, c + dc]
+        ]
+
+    def key(i: int) -> tuple[int, int, int]:
+        r, c = cells[i]
+        return round(float(dist[r, c]) ** 2), 9 - len(around(r, c)), int(tiebreak[i])
+
+    for i in sorted(range(len(cells)), key=key):
+        r, c = cells[i]
+        with_it = {(a, b) for a, b in around(r, c) if out[a, b]} | {(r, c)}
+        without = with_it - {(r, c)}
+        keep = len(with_it) < 3 or groups(with_it, 1) != groups(without, 1)
+        out[r, c] = keep
+    return out

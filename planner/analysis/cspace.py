@@ -17,6 +17,7 @@ from typing import Any
 import edt
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, point_xy
@@ -155,10 +156,16 @@ def circle_cells(
     """The cells whose centers lie within ``radius + robot_radius`` of a circle's center, for
     circles ``{"x", "y", "radius"}`` in meters (``(n, 2)`` ``[row, col]``, each cell once).
 
+    A circle costs the map rows it spans, whatever its radius: each row's run of covered cells
+    is solved for, not searched (a circle of 10**6 m over a 1000 x 1000 map costs 1000 rows,
+    not 10**12 cells), and every run is clipped to the map.
+
     >>> from planner.maps.robot_maps import grid_map
     >>> m = grid_map([[0] * 5] * 5, resolution=0.1)
     >>> circle_cells(m, [{"x": 0.25, "y": 0.25, "radius": 0.12}]).tolist()
     [[1, 2], [2, 1], [2, 2], [2, 3], [3, 2]]
+    >>> len(circle_cells(m, [{"x": 0.0, "y": 0.0, "radius": 1e6}]))
+    25
     """
     if isinstance(circles, dict) or not isinstance(circles, list | tuple):
         raise InvalidInput(
@@ -166,9 +173,7 @@ def circle_cells(
             field="dynamic_obstacles",
         )
     frame = robot_map.frame
-    H, W = frame.shape
-    res = frame.resolution
-    out = np.zeros(frame.shape, dtype=bool)
+    disc = np.empty((len(circles), 3), dtype=np.float64)
     for i, circle in enumerate(circles):
         name = f"dynamic_obstacles[{i}]"
         x, y = point_xy(circle, name=name)
@@ -189,19 +194,132 @@ def circle_cells(
                 f"robot_radius {robot_radius:g} m: {frame.describe()}",
                 field=name,
             )
-        # The bounding box in cells (a rotated frame's box of the circle is the same square).
-        (r0, c0), *_ = frame.cells([[x, y]]).tolist()
-        span = math.ceil(reach / res) + 1
-        rows = np.arange(max(r0 - span, 0), min(r0 + span + 1, H))
-        cols = np.arange(max(c0 - span, 0), min(c0 + span + 1, W))
-        if rows.size == 0 or cols.size == 0:
-            continue
-        rr, cc = np.meshgrid(rows, cols, indexing="ij")
-        centers = frame.centers(np.stack([rr.ravel(), cc.ravel()], axis=1))
-        inside = (centers[:, 0] - x) ** 2 + (centers[:, 1] - y) ** 2 <= reach * reach
-        out[rr.ravel()[inside], cc.ravel()[inside]] = True
-    cells: npt.NDArray[np.int64] = np.argwhere(out).astype(np.int64)
+        disc[i] = x, y, reach
+    H, W = frame.shape
+    ox, oy, yaw = frame.origin
+    cells: npt.NDArray[np.int64] = _circles_cells(
+        disc, H, W, frame.resolution, ox, oy, math.cos(yaw), math.sin(yaw)
+    )
     return cells
+
+
+@njit(cache=True, nogil=True)
+def _inside(
+    r: int, c: int, H: int, res: float, ox: float, oy: float, cos: float, sin: float,
+    x: float, y: float, reach: float,
+) -> bool:  # fmt: skip
+    """Whether cell ``(r, c)``'s center is within ``reach`` of ``(x, y)``: the arithmetic of
+    :meth:`MapFrame.centers`, so that a cell on the boundary is decided the same way."""
+    u = (c + 0.5) * res
+    v = (H - 1 - r + 0.5) * res
+    dx = ox + cos * u - sin * v - x
+    dy = oy + sin * u + cos * v - y
+    return dx**2 + dy**2 <= reach * reach
+
+
+@njit(cache=True, nogil=True)
+def _circle_box(
+    x: float, y: float, reach: float, H: int, W: int, res: float, ox: float, oy: float,
+    cos: float, sin: float,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """A circle's center ``(uc, vc)`` in cells along the map's axes (``c + 0.5`` and
+    ``H - r - 0.5`` at a cell's center) and its box of rows and columns, clipped to the map
+    (empty when ``lo > hi``); in floats, as the center may lie far outside. The box is a
+    square in the map's axes whatever the frame's yaw."""
+    du, dv = x - ox, y - oy
+    uc = (cos * du + sin * dv) / res
+    vc = (-sin * du + cos * dv) / res
+    span = reach / res + 2.0
+    row = H - 0.5 - vc  # (r + 0.5) = H - v at the center: the center's row, as a float
+    return (
+        uc,
+        vc,
+        max(0.0, math.floor(row - span)),
+        min(H - 1.0, math.ceil(row + span)),
+        max(0.0, math.floor(uc - span)),
+        min(W - 1.0, math.ceil(uc + span)),
+    )
+
+
+@njit(cache=True, nogil=True)
+def _circles_cells(
+    disc: npt.NDArray[np.float64], H: int, W: int, res: float, ox: float, oy: float,
+    cos: float, sin: float,
+) -> npt.NDArray[np.int64]:  # fmt: skip
+    """The cells covered by the circles ``disc`` (``(n, 3)`` ``x, y, reach``), ``(k, 2)`` in
+    row-major order: along each row of a circle's box, the run of columns inside (a chord:
+    solved for, then its two ends checked exactly) is marked in a difference array over the
+    circles' common box; one pass over that box adds the runs up.
+    ``O(rows spanned + cells of the box)``, never more than the map's cells."""
+    n = disc.shape[0]
+    for i in range(n):
+        # A circle holding the four corner cells' centers holds every center (both convex):
+        # every cell is covered, at the cost of listing them.
+        x, y, reach = disc[i, 0], disc[i, 1], disc[i, 2]
+        if (
+            _inside(0, 0, H, res, ox, oy, cos, sin, x, y, reach)
+            and _inside(0, W - 1, H, res, ox, oy, cos, sin, x, y, reach)
+            and _inside(H - 1, 0, H, res, ox, oy, cos, sin, x, y, reach)
+            and _inside(H - 1, W - 1, H, res, ox, oy, cos, sin, x, y, reach)
+        ):
+            every = np.empty((H * W, 2), dtype=np.int64)
+            for k in range(H * W):
+                every[k, 0] = k // W
+                every[k, 1] = k % W
+            return every
+    r0, r1, c0, c1 = H, -1, W, -1
+    for i in range(n):
+        _, _, lo_r, hi_r, lo_c, hi_c = _circle_box(
+            disc[i, 0], disc[i, 1], disc[i, 2], H, W, res, ox, oy, cos, sin
+        )
+        if lo_r <= hi_r and lo_c <= hi_c:
+            r0, r1 = min(r0, int(lo_r)), max(r1, int(hi_r))
+            c0, c1 = min(c0, int(lo_c)), max(c1, int(hi_c))
+    if r1 < r0 or c1 < c0:
+        return np.empty((0, 2), dtype=np.int64)
+    runs = np.zeros((r1 - r0 + 1, c1 - c0 + 2), dtype=np.int32)
+    for i in range(n):
+        x, y, reach = disc[i, 0], disc[i, 1], disc[i, 2]
+        uc, vc, lo_r, hi_r, lo_c, hi_c = _circle_box(x, y, reach, H, W, res, ox, oy, cos, sin)
+        if lo_r > hi_r or lo_c > hi_c:
+            continue
+        for r in range(int(lo_r), int(hi_r) + 1):
+            # The chord of the circle along row r: columns c with (c + 0.5 - uc)**2 + dv**2
+            # <= (reach / res)**2, dv the row's offset from the center in cells.
+            dv = (H - r - 0.5) - vc
+            half = (reach / res) ** 2 - dv * dv
+            root = math.sqrt(half) if half > 0.0 else 0.0
+            lo = int(min(max(math.ceil(uc - root - 0.5), lo_c), hi_c + 1.0))
+            hi = int(max(min(math.floor(uc + root - 0.5), hi_c), lo_c - 1.0))
+            # The ends, exactly: grow while the next cell is in, shrink while an end is out.
+            while lo > lo_c and _inside(r, lo - 1, H, res, ox, oy, cos, sin, x, y, reach):
+                lo -= 1
+            while lo <= hi and not _inside(r, lo, H, res, ox, oy, cos, sin, x, y, reach):
+                lo += 1
+            while hi < hi_c and _inside(r, hi + 1, H, res, ox, oy, cos, sin, x, y, reach):
+                hi += 1
+            while hi >= lo and not _inside(r, hi, H, res, ox, oy, cos, sin, x, y, reach):
+                hi -= 1
+            if lo <= hi:
+                runs[r - r0, lo - c0] += 1
+                runs[r - r0, hi + 1 - c0] -= 1
+    count = 0
+    for rr in range(r1 - r0 + 1):
+        depth = 0
+        for cc in range(c1 - c0 + 1):
+            depth += runs[rr, cc]
+            count += depth > 0
+    out = np.empty((count, 2), dtype=np.int64)
+    k = 0
+    for rr in range(r1 - r0 + 1):
+        depth = 0
+        for cc in range(c1 - c0 + 1):
+            depth += runs[rr, cc]
+            if depth > 0:
+                out[k, 0] = r0 + rr
+                out[k, 1] = c0 + cc
+                k += 1
+    return out
 
 
 def _distance_to_map(frame: MapFrame, x: float, y: float) -> float:

@@ -3,10 +3,10 @@ round robot still fits, read on the medial axis (skeleton) of free space over th
 distance transform.
 
 A skeleton cell is a *neck* cell when its width (twice its distance to the nearest blocked
-cell's center) is below ``max_width`` and above the robot's diameter; connected neck cells form
-a neck, and a neck is a passage when it opens onto wider skeleton (width >= ``max_width``) at two
-separate mouths. Dead ends (one mouth), pinches too narrow for the robot and open rooms (no neck)
-are not passages.
+cell's center) is below ``max_width``; connected neck cells form a neck, and a neck is a passage
+when it opens onto wider skeleton (width >= ``max_width``) at two separate mouths and the widest
+way between two of them stays wider than the robot. Dead ends (one mouth), pinches too narrow for
+the robot and open rooms (no neck) are not passages.
 
 >>> from planner.maps.robot_maps import grid_map
 >>> rows = [[0] * 9 for _ in range(9)]
@@ -26,20 +26,21 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 from scipy import ndimage
-from skimage.morphology import medial_axis
 
 from planner.analysis.cspace import CSpace, configuration_space
+from planner.analysis.medial import medial_axis
 from planner.errors import InvalidInput, quote
+from planner.maps.frames import MapFrame
 from planner.maps.robot_maps import RobotMap
 
-__all__ = ["Passage", "crossed_passages", "find_passages"]
+__all__ = ["Passage", "crossed_passages", "find_passages", "path_narrowest"]
 
 #: Slack added to ``2 * robot_radius`` for the default ``max_width``, in meters.
 MAX_WIDTH_SLACK = 0.3
 
 _EIGHT = np.ones((3, 3), dtype=bool)
-_STEPS = ((-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1))
 
 
 @dataclass(frozen=True)
@@ -91,19 +92,45 @@ def find_passages(
 def crossed_passages(
     passages: tuple[Passage, ...], path: Any, shape: tuple[int, int]
 ) -> tuple[int, ...]:
-    """The ids of the passages a path of ``[row, col]`` cells enters, in the order it first
-    enters each (a passage left and entered again counts again)."""
+    """The ids of the passages a path of ``[row, col]`` cells enters, in the order it enters
+    them (a passage left and entered again counts again)."""
     cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
-    owner = np.full(shape[0] * shape[1], -1, dtype=np.int64)
-    for p in passages:
-        owner[p.cells] = p.id
+    if not passages or not len(cells):
+        return ()
+    flat = np.concatenate([p.cells for p in passages])
+    ids = np.concatenate([np.full(p.cells.size, p.id, dtype=np.int64) for p in passages])
+    order = np.argsort(flat, kind="stable")
+    flat, ids = flat[order], ids[order]
+    wanted = cells[:, 0] * shape[1] + cells[:, 1]
+    at = np.minimum(np.searchsorted(flat, wanted), flat.size - 1)
+    owner = np.where(flat[at] == wanted, ids[at], -1)
     out: list[int] = []
     last = -1
-    for here in owner[cells[:, 0] * shape[1] + cells[:, 1]].tolist():
+    for here in owner.tolist():
         if here >= 0 and here != last:
             out.append(here)
         last = here
     return tuple(out)
+
+
+def path_narrowest(cspace: CSpace, frame: MapFrame, path: Any) -> tuple[float, float, float]:
+    """The narrowest point a path of ``[row, col]`` cells crosses: ``(x, y, width_m)``, the
+    center of its cell nearest to a blocked cell (the first such along the path) and twice that
+    distance, center to center.
+
+    >>> from planner.maps.robot_maps import grid_map
+    >>> m = grid_map([[0, 0, 0], [1, 0, 1], [0, 0, 0]], resolution=0.5)
+    >>> cs = configuration_space(m, unknown="free")  # the outside of the map free
+    >>> path_narrowest(cs, m.frame, [[0, 1], [1, 1], [2, 1]])
+    (0.75, 0.75, 1.0)
+    """
+    cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    if not len(cells):
+        raise InvalidInput("path must hold at least one cell; got none", field="path")
+    here = int(np.argmin(cspace.distance[cells[:, 0], cells[:, 1]]))
+    (x, y), *_ = frame.centers(cells[here : here + 1]).tolist()
+    width = 2.0 * float(cspace.distance[cells[here, 0], cells[here, 1]]) * cspace.resolution
+    return float(x), float(y), width
 
 
 def _meters(value: Any, field: str) -> float:
@@ -118,17 +145,24 @@ def _passages(robot_map: RobotMap, cspace: CSpace, max_width: float) -> tuple[Pa
     H, W = robot_map.shape
     res = cspace.resolution
     free = cspace.blocked == 0
-    # Padded with a blocked ring: the outside of the map is blocked, as for the distances.
-    skeleton = medial_axis(np.pad(free, 1), rng=0)[1:-1, 1:-1]  # type: ignore[no-untyped-call]
+    # The outside of the map counts as blocked, for the distances and for the skeleton.
+    skeleton = medial_axis(free, cspace.distance)
     distance = cspace.distance.astype(np.float64)
     limit = max_width / res / 2  # in cells, as a distance
     below = distance < limit - 1e-9 * max(1.0, limit)
     fits = cspace.robot_radius / res * (1 + 1e-9)
     wide = skeleton & ~below
-    labels, _ = ndimage.label(skeleton & below, structure=_EIGHT)
+    labels, count = ndimage.label(skeleton & below, structure=_EIGHT)
+    # A neck whose cells next to wider skeleton fit in one cell opens onto one mouth at most.
+    ends = ndimage.find_objects(labels * ndimage.binary_dilation(wide, _EIGHT), count)
     found: list[tuple[int, int, float, float, npt.NDArray[np.int64]]] = []
     for index, box in enumerate(ndimage.find_objects(labels), start=1):
-        if box is None:
+        end = ends[index - 1]
+        if (
+            box is None
+            or end is None
+            or (end[0].stop - end[0].start) * (end[1].stop - end[1].start) == 1
+        ):
             continue
         # Two cells around the neck: its mouths, and the cells beside its skeleton.
         r0, r1 = max(box[0].start - 2, 0), min(box[0].stop + 2, H)
@@ -179,44 +213,76 @@ def _saddle(
     fits: float,
 ) -> tuple[int, int] | None:
     """The narrowest point on the widest ways between the mouths, through the ``band`` of cells
-    along the neck: cells joined in order of decreasing distance (union-find) until the mouths
-    connect; each time two groups of mouths first meet, the cell that joins them is a
-    bottleneck. The narrowest bottleneck the robot passes (distance > ``fits``) is the saddle,
-    centered among the equally narrow cells around it; None when the robot passes none."""
+    along the neck (see :func:`_saddle_kernel`), centered among the equally narrow cells around
+    it; None when the robot passes no way between two mouths."""
     rows, cols = np.nonzero(band)
     order = np.lexsort((cols, rows, -distance[rows, cols]))
-    shape = band.shape
-    parent: dict[int, int] = {}
-    reach: dict[int, int] = {}  # root -> bit set of the mouths it holds
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    best: tuple[int, int] | None = None
-    for k in order.tolist():
-        r, c = int(rows[k]), int(cols[k])
-        here = r * shape[1] + c
-        parent[here] = here
-        mouth = int(mouths[r, c])
-        reach[here] = 1 << mouth if mouth else 0
-        for dr, dc in _STEPS:
-            there = (r + dr) * shape[1] + (c + dc)
-            if not (0 <= r + dr < shape[0] and 0 <= c + dc < shape[1]) or there not in parent:
-                continue
-            a, b = root(here), root(there)
-            if a == b:
-                continue
-            ma, mb = reach[a], reach[b]
-            if ma & ~mb and mb & ~ma and distance[r, c] > fits:
-                best = (r, c)  # two groups of mouths meet here, the robot passing
-            parent[b] = a
-            reach[a] = ma | mb
-    if best is None:
+    flat = (rows[order] * band.shape[1] + cols[order]).astype(np.int64)
+    best = _saddle_kernel(
+        np.ascontiguousarray(mouths, dtype=np.int32),
+        np.ascontiguousarray(distance),
+        flat,
+        float(fits),
+        int(mouths.max()),
+    )
+    if best < 0:
         return None
-    return _middle(best, band, distance)
+    return _middle(divmod(int(best), band.shape[1]), band, distance)
+
+
+@njit(cache=True, nogil=True)
+def _root(parent: npt.NDArray[np.int64], i: int) -> int:
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit(cache=True, nogil=True)
+def _saddle_kernel(
+    mouths: npt.NDArray[np.int32],
+    distance: npt.NDArray[np.float64],
+    order: npt.NDArray[np.int64],
+    fits: float,
+    groups: int,
+) -> int:
+    """Union-find over the cells of ``order`` (flat indices, by decreasing distance): each cell
+    joins its already-joined neighbours; the cells of one mouth are one set from the start (the
+    wide space joins them). When a cell joins two sets that each hold a mouth, two groups of
+    mouths first meet there: it is the bottleneck of the widest way between them. The last such
+    cell with distance > ``fits`` (the narrowest bottleneck the robot passes), or -1."""
+    H, W = mouths.shape
+    parent = np.full(H * W, -1, dtype=np.int64)
+    holds = np.zeros(H * W, dtype=np.bool_)
+    first = np.full(groups + 1, -1, dtype=np.int64)
+    best = -1
+    for k in range(order.size):
+        here = order[k]
+        r, c = here // W, here % W
+        parent[here] = here
+        g = mouths[r, c]
+        if g > 0:
+            holds[here] = True
+            if first[g] < 0:
+                first[g] = here
+            else:
+                parent[here] = _root(parent, first[g])
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                r2, c2 = r + dr, c + dc
+                if (dr == 0 and dc == 0) or not (0 <= r2 < H and 0 <= c2 < W):
+                    continue
+                there = r2 * W + c2
+                if parent[there] < 0:
+                    continue
+                a, b = _root(parent, here), _root(parent, there)
+                if a == b:
+                    continue
+                if holds[a] and holds[b] and distance[r, c] > fits:
+                    best = here
+                parent[b] = a
+                holds[a] = holds[a] or holds[b]
+    return best
 
 
 def _middle(
@@ -232,36 +298,60 @@ def _middle(
 
 
 def _length(neck: npt.NDArray[np.bool_], mouths: npt.NDArray[np.int32]) -> float:
-    """How long the neck is, in cells: the longest of the shortest ways through its cells from
-    one mouth to another (diagonal steps sqrt(2)), mouth cell to mouth cell. Through the band
-    along the skeleton rather than on it: a skeleton zigzags between two equally central rows."""
+    """How long the neck is, in cells (see :func:`_length_kernel`)."""
+    return float(
+        _length_kernel(
+            np.ascontiguousarray(neck, dtype=np.uint8),
+            np.ascontiguousarray(mouths, dtype=np.int32),
+            int(mouths.max()),
+        )
+    )
+
+
+@njit(cache=True, nogil=True)
+def _length_kernel(
+    neck: npt.NDArray[np.uint8], mouths: npt.NDArray[np.int32], groups: int
+) -> float:
+    """The longest of the shortest ways through the ``neck`` cells from one mouth to another
+    (Dijkstra from each mouth's cells, diagonal steps sqrt(2)), mouth cell to mouth cell.
+    Through the band along the skeleton rather than on it: a skeleton zigzags between two
+    equally central rows."""
     H, W = neck.shape
-    groups = int(mouths.max())
     longest = 0.0
+    best = np.empty((H, W))
     for g in range(1, groups):
-        best = np.full(neck.shape, math.inf)
-        heap = [(0.0, int(r), int(c)) for r, c in zip(*np.nonzero(mouths == g), strict=True)]
-        for _, r, c in heap:
-            best[r, c] = 0.0
-        heapq.heapify(heap)
-        while heap:
-            d, r, c = heapq.heappop(heap)
+        best[:] = np.inf
+        heap = [(0.0, np.int64(0))]
+        heap.pop()
+        for r in range(H):
+            for c in range(W):
+                if mouths[r, c] == g:
+                    best[r, c] = 0.0
+                    heapq.heappush(heap, (0.0, np.int64(r * W + c)))
+        while len(heap) > 0:
+            d, here = heapq.heappop(heap)
+            r, c = here // W, here % W
             if d > best[r, c] or not (neck[r, c] or mouths[r, c] == g):
                 continue  # stale, or another mouth reached: the way ends there
-            for dr, dc in _STEPS:
-                r2, c2 = r + dr, c + dc
-                if not (0 <= r2 < H and 0 <= c2 < W):
-                    continue
-                if not (neck[r2, c2] or mouths[r2, c2]):
-                    continue
-                nd = d + (math.sqrt(2.0) if dr and dc else 1.0)
-                if nd < best[r2, c2]:
-                    best[r2, c2] = nd
-                    heapq.heappush(heap, (nd, r2, c2))
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    r2, c2 = r + dr, c + dc
+                    if (dr == 0 and dc == 0) or not (0 <= r2 < H and 0 <= c2 < W):
+                        continue
+                    if not (neck[r2, c2] or mouths[r2, c2] > 0):
+                        continue
+                    nd = d + (math.sqrt(2.0) if dr != 0 and dc != 0 else 1.0)
+                    if nd < best[r2, c2]:
+                        best[r2, c2] = nd
+                        heapq.heappush(heap, (nd, np.int64(r2 * W + c2)))
         for h in range(g + 1, groups + 1):
-            reached = best[mouths == h]
-            if reached.size and math.isfinite(reached.min()):
-                longest = max(longest, float(reached.min()))
+            least = np.inf
+            for r in range(H):
+                for c in range(W):
+                    if mouths[r, c] == h and best[r, c] < least:
+                        least = best[r, c]
+            if least < np.inf and least > longest:
+                longest = least
     return longest
 
 

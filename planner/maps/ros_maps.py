@@ -23,6 +23,8 @@ from planner.maps.robot_maps import RobotMap
 __all__ = [
     "DEFAULT_FREE_THRESH",
     "DEFAULT_OCCUPIED_THRESH",
+    "MAX_YAML_BYTES",
+    "MAX_YAML_DEPTH",
     "MapMode",
     "MapYaml",
     "decode_map_image",
@@ -52,8 +54,49 @@ class MapYaml:
     mode: MapMode = "trinary"
 
 
+MAX_YAML_BYTES = 65536
+"""Bytes of a map YAML at most (a map_server YAML is seven keys, a few hundred bytes)."""
+MAX_YAML_DEPTH = 8
+"""Collections nested at most this deep in a map YAML (its deepest value, ``origin``, is 2)."""
+
+
+class _MapYamlLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that refuses aliases (``*name``) and nesting beyond
+    :data:`MAX_YAML_DEPTH` as it composes: a map YAML needs neither, and aliases are how a few
+    hundred bytes expand into billions of values (the "billion laughs"). Refusing them is
+    simpler and stricter than counting the nodes they would expand to."""
+
+    field = "yaml"
+    _depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            event = self._next()
+            msg = (
+                f"{self.field} uses an alias (*{quote(event.anchor, 40)[1:-1]}, line "
+                f"{event.start_mark.line + 1}); a map YAML is plain keys and values: aliases "
+                "are refused"
+            )
+            raise InvalidInput(msg, field=self.field)
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                msg = (
+                    f"{self.field} nests deeper than {MAX_YAML_DEPTH} levels (line "
+                    f"{self._next().start_mark.line + 1}); a map YAML is plain keys and values"
+                )
+                raise InvalidInput(msg, field=self.field)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def _next(self) -> Any:
+        return self.peek_event()  # type: ignore[no-untyped-call]
+
+
 def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
-    """Read a map YAML (``yaml.safe_load``): ``image``, ``resolution``, ``origin`` required;
+    """Read a map YAML (safe YAML, without aliases, at most :data:`MAX_YAML_BYTES` and
+    :data:`MAX_YAML_DEPTH` deep): ``image``, ``resolution``, ``origin`` required;
     ``negate`` (0), ``occupied_thresh`` (0.65), ``free_thresh`` (0.196), ``mode`` (trinary).
 
     >>> meta = parse_map_yaml("image: m.pgm\\nresolution: 0.05\\norigin: [-1, 2, 0]\\nmode: scale")
@@ -64,8 +107,16 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
     ...
     planner.errors.InvalidInput: yaml.mode must be trinary, scale or raw; got 'colour'
     """
+    if len(text) > MAX_YAML_BYTES:
+        msg = f"{name} has {len(text)} bytes; a map YAML may have {MAX_YAML_BYTES} at most"
+        raise InvalidInput(msg, field=name)
     try:
-        doc = yaml.safe_load(text)
+        loader = _MapYamlLoader(text)  # bytes are decoded here: not UTF-8 is a YAMLError too
+        loader.field = name
+        try:
+            doc = loader.get_single_data()
+        finally:
+            loader.dispose()
     except yaml.YAMLError as exc:
         raise InvalidInput(f"{name} is not valid YAML: {quote(str(exc))}", field=name) from None
     if not isinstance(doc, dict):

@@ -13,7 +13,9 @@ import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from planner.analysis.passages import find_passages
 from planner.errors import InvalidInput, quote
+from planner.maps.robot_maps import grid_map
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan, clearance_metrics, plan
 from planner.stepping.session import Session
@@ -265,3 +267,8 @@ def warm_up() -> None:
             run_episode(p, dynamic_count=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
             session = Session(p)  # the path ahead's kernels too
             session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
+    # The passages' kernels: two rooms and a door between them.
+    rooms = np.zeros((9, 9), dtype=np.int8)
+    rooms[:, 4] = 1
+    rooms[4, 4] = 0
+    find_passages(grid_map(rooms, resolution=0.1), robot_radius=0.05, max_width=0.3)

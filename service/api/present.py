@@ -13,6 +13,8 @@ from planner import clearance_metrics
 from schemas import (
     FleetPublic,
     MapPublic,
+    PassagePublic,
+    PassagesPublic,
     PlanDetail,
     PlanPublic,
     SimulationPublic,
@@ -21,6 +23,7 @@ from schemas import (
 )
 from service.resources.fleets import FleetView
 from service.resources.maps import MapView
+from service.resources.passages import PassageSet
 from service.resources.plans import PlanView, StepView
 
 __all__ = [
@@ -29,6 +32,7 @@ __all__ = [
     "map_public",
     "meters",
     "nav_path",
+    "passages_public",
     "plan_detail",
     "plan_public",
     "simulation_public",
@@ -261,9 +265,10 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
             "duration_s": s["duration_s"],
             "goal_used": _xy(s["goal_used"]),
             "waypoint_indices": s["waypoint_indices"],
+            "narrowest": _narrowest(view.record.get("narrowest")),
+            "passages": view.record.get("passages"),
         },
         "waypoints": s["waypoints"],
-        "fleet": view.record.get("fleet"),
     }
 
 
@@ -278,6 +283,30 @@ def _poses(poses: list[list[float]], speeds: list[float | None]) -> list[dict[st
 
 def _xy(point: list[float] | None) -> dict[str, float] | None:
     return None if point is None else {"x": point[0], "y": point[1]}
+
+
+def _narrowest(point: list[float] | None) -> dict[str, float] | None:
+    if point is None:
+        return None
+    x, y, width = (round(v, 6) for v in point)
+    return {"x": x, "y": y, "width_m": width}
+
+
+def passages_public(found: PassageSet) -> PassagesPublic:
+    return PassagesPublic(
+        passages=[
+            PassagePublic(
+                id=p.id,
+                x=round(p.x, 6),
+                y=round(p.y, 6),
+                width_m=round(p.width_m, 6),
+                length_m=round(p.length_m, 6),
+            )
+            for p in found.passages
+        ],
+        robot_radius=found.robot_radius,
+        max_width=found.max_width,
+    )
 
 
 def nav_path(plan: planner.Plan, frame_id: str, now: float) -> dict[str, Any]:

@@ -20,6 +20,7 @@ APIError                 .status_code, .code, .detail, .field, .response
 ├── PayloadTooLargeError 413  body or map over the service's limits (TOO_LARGE)
 ├── ValidationError      422  a bad request (INVALID_INPUT)
 │   └── NoValidPathError 422  the goal cannot be reached (NO_VALID_PATH)
+├── TooManyRequestsError 429  the key's cap of plans or streams (TOO_MANY_PLANS, ...)
 ├── UnavailableError     503  the store is out of reach (STORE_UNAVAILABLE); .retry_after
 └── ServerError          other 5xx
 
@@ -31,63 +32,8 @@ model's shape (a server of another version) raises ``pydantic.ValidationError``.
 imports neither FastAPI nor the service's app: a client machine needs httpx and pydantic.
 """
 
-from schemas import NavPath, PlanDetail
-from service.client.clients import (
-    Analysis,
-    AsyncPlannerClient,
-    Fleet,
-    MapInfo,
-    Plan,
-    PlanFields,
-    PlannerClient,
-    Preview,
-    RouteFields,
-    SimulateFields,
-    Simulation,
-    Step,
-    StepFields,
-    UploadMapFields,
-    ZonesFields,
-)
-from service.client.errors import (
-    APIError,
-    BadRequestError,
-    ConflictError,
-    MapFileError,
-    NotFoundError,
-    NoValidPathError,
-    PayloadTooLargeError,
-    ServerError,
-    UnavailableError,
-    ValidationError,
-)
+from service.client import clients, errors
+from service.client.clients import *  # noqa: F403
+from service.client.errors import *  # noqa: F403
 
-__all__ = [
-    "APIError",
-    "Analysis",
-    "AsyncPlannerClient",
-    "BadRequestError",
-    "ConflictError",
-    "Fleet",
-    "MapFileError",
-    "MapInfo",
-    "NavPath",
-    "NoValidPathError",
-    "NotFoundError",
-    "PayloadTooLargeError",
-    "Plan",
-    "PlanDetail",
-    "PlanFields",
-    "PlannerClient",
-    "Preview",
-    "RouteFields",
-    "ServerError",
-    "SimulateFields",
-    "Simulation",
-    "Step",
-    "StepFields",
-    "UnavailableError",
-    "UploadMapFields",
-    "ValidationError",
-    "ZonesFields",
-]
+__all__ = [*clients.__all__, *errors.__all__]

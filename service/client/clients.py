@@ -19,6 +19,7 @@ from schemas import (
     FleetPublic,
     MapPublic,
     NavPath,
+    PassagesPublic,
     PlanDetail,
     PlanPublic,
     PreviewPublic,
@@ -26,6 +27,27 @@ from schemas import (
     StepPublic,
 )
 from service.client.errors import MapFileError, raise_for
+
+__all__ = [
+    "Analysis",
+    "AsyncPlannerClient",
+    "Fleet",
+    "MapInfo",
+    "NavPath",
+    "Passages",
+    "Plan",
+    "PlanDetail",
+    "PlanFields",
+    "PlannerClient",
+    "Preview",
+    "RouteFields",
+    "SimulateFields",
+    "Simulation",
+    "Step",
+    "StepFields",
+    "UploadMapFields",
+    "ZonesFields",
+]
 
 CellIn = Sequence[int] | Mapping[str, float]
 """A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
@@ -40,6 +62,7 @@ Plan = PlanPublic
 Step = StepPublic
 Simulation = SimulationPublic
 Fleet = FleetPublic
+Passages = PassagesPublic
 
 
 class MapInfo(MapPublic):
@@ -242,6 +265,11 @@ def _get_map(map_id: str) -> _Call[MapInfo]:
     return _Call("GET", f"/maps/{map_id}", _decode(MapInfo))
 
 
+def _passages(map_id: str, robot_radius: float, max_width: float | None) -> _Call[Passages]:
+    query = _body({"robot_radius": robot_radius, "max_width": max_width})
+    return _Call("GET", f"/maps/{map_id}/passages", _decode(Passages), {"params": query})
+
+
 def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> _Call[Plan]:
     body = _body({"map_id": map_id, "start": start, "goal": goal, **options})
     return _Call("POST", "/plan", _decode(Plan), {"json": body})
@@ -249,10 +277,6 @@ def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> _Ca
 
 def _get_plan(plan_id: str) -> _Call[PlanDetail]:
     return _Call("GET", f"/plan/{plan_id}", _decode(PlanDetail))
-
-
-def _fleet(name: str) -> _Call[Fleet]:
-    return _Call("GET", f"/fleets/{name}", _decode(Fleet))
 
 
 def _path(plan_id: str, frame_id: str | None) -> _Call[NavPath]:
@@ -345,6 +369,13 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def get_map(self, map_id: str) -> MapInfo:
         return self._call(_get_map(map_id))
 
+    def passages(
+        self, map_id: str, robot_radius: float, max_width: float | None = None
+    ) -> Passages:
+        """The map's narrow passages for a robot of ``robot_radius`` meters (narrower than
+        ``max_width``, by default the server's ``2 * robot_radius + 0.3``)."""
+        return self._call(_passages(map_id, robot_radius, max_width))
+
     def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
         """Zone an uploaded map: ``keepout`` polygons, ``speed`` zones, or a keepout filter
         mask's ``yaml`` file; the answer is the zoned map (a new ``map_id``, its ``zones``).
@@ -370,9 +401,8 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
         self._call(_delete_plan(plan_id))
 
     def fleet(self, name: str) -> Fleet:
-        """The robots of a fleet (plans made with ``fleet=name``) as they stand, and the
-        passages of its map with who holds each."""
-        return self._call(_fleet(name))
+        """A fleet's robots (plans made with ``fleet=name``), its passages, who holds each."""
+        return self._call(_Call("GET", f"/fleets/{name}", _decode(Fleet)))
 
     def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]
@@ -428,6 +458,11 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
     async def get_map(self, map_id: str) -> MapInfo:
         return await self._call(_get_map(map_id))
 
+    async def passages(
+        self, map_id: str, robot_radius: float, max_width: float | None = None
+    ) -> Passages:
+        return await self._call(_passages(map_id, robot_radius, max_width))
+
     async def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
         return await self._call(_add_zones(map_id, fields))
 
@@ -446,7 +481,7 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
         await self._call(_delete_plan(plan_id))
 
     async def fleet(self, name: str) -> Fleet:
-        return await self._call(_fleet(name))
+        return await self._call(_Call("GET", f"/fleets/{name}", _decode(Fleet)))
 
     async def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]

@@ -18,9 +18,9 @@ __all__ = [
     "NotFoundError",
     "PayloadTooLargeError",
     "ServerError",
+    "TooManyRequestsError",
     "UnavailableError",
     "ValidationError",
-    "raise_for",
 ]
 
 
@@ -68,6 +68,11 @@ class NoValidPathError(ValidationError):
     """422 ``NO_VALID_PATH``: the goal cannot be reached from the start."""
 
 
+class TooManyRequestsError(APIError):
+    """429: the key holds its cap of live plans (``TOO_MANY_PLANS``) or of open event streams
+    (``TOO_MANY_STREAMS``)."""
+
+
 class UnavailableError(APIError):
     """503: the store is out of reach for now; retry after ``retry_after`` seconds."""
 
@@ -99,6 +104,7 @@ _ERRORS: dict[int, type[APIError]] = {
     409: ConflictError,
     413: PayloadTooLargeError,
     422: ValidationError,
+    429: TooManyRequestsError,
     503: UnavailableError,
 }
 

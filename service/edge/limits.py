@@ -1,7 +1,8 @@
 """A request's bounds: its body's size (413) and arrival time (408), and its run time (504).
 
 The edge middleware (:mod:`service.edge.middleware`) applies them; the settings are
-``PLANNER_MAX_BODY_BYTES``, ``PLANNER_MAX_STEP_BODY_BYTES``, ``PLANNER_BODY_TIMEOUT_SECONDS`` and
+``PLANNER_MAX_BODY_BYTES`` (a map upload), ``PLANNER_MAX_STEP_BODY_BYTES`` (any other body: a
+step, a plan, a simulation), ``PLANNER_BODY_TIMEOUT_SECONDS`` and
 ``PLANNER_REQUEST_TIMEOUT_SECONDS``.
 """
 
@@ -15,14 +16,14 @@ from starlette.types import Receive, Scope
 
 from service.errors import BodyTimeout, TimedOut, TooLarge
 
-__all__ = ["Deadline", "Deadlines", "Limits", "is_heavy", "is_step"]
+__all__ = ["Deadline", "Deadlines", "Limits", "is_heavy", "is_map_upload"]
 
 log = logging.getLogger("service.requests")
 
 
-def is_step(scope: Scope) -> bool:
-    """A step: ``POST /plan/{plan_id}/step``."""
-    return scope["method"] == "POST" and str(scope["path"]).endswith("/step")
+def is_map_upload(scope: Scope) -> bool:
+    """A map upload, ``POST /maps``: the one body that may be megabytes."""
+    return scope["method"] == "POST" and str(scope["path"]).rstrip("/") == "/maps"
 
 
 def is_heavy(scope: Scope) -> bool:
@@ -49,14 +50,15 @@ class Limits:
         self._deadlines = Deadlines()
 
     async def read(self, scope: Scope, receive: Receive) -> bytes | None:
-        """The whole body now, bounded in bytes and in time (nothing downstream waits on a
+        """The whole body now, bounded in bytes (a map upload's by ``max_bytes``, any other by
+        ``max_step_bytes``) and in time (nothing downstream waits on a
         trickling client): :class:`TooLarge` over the limit, by its ``Content-Length`` or once
         that much has arrived, :class:`BodyTimeout` when it has not all come in time, ``None``
         when the client went away (logged)."""
         limit, setting = (
-            (self.max_step_bytes, "PLANNER_MAX_STEP_BODY_BYTES")
-            if is_step(scope)
-            else (self.max_bytes, "PLANNER_MAX_BODY_BYTES")
+            (self.max_bytes, "PLANNER_MAX_BODY_BYTES")
+            if is_map_upload(scope)
+            else (self.max_step_bytes, "PLANNER_MAX_STEP_BODY_BYTES")
         )
         for name, length in scope["headers"]:
             if name == b"content-length":

@@ -1,12 +1,14 @@
 """The service's one ASGI middleware, in front of the app: what every request meets before any
 route, and what it leaves behind.
 
-In turn: its request id (``X-Request-ID``, echoed on the answer); its API key (401 without one,
-before the body is read); its body, read whole and bounded (413 over the limit, by its
-``Content-Length`` or as it streams in; 408 when it has not all come in time); the app, under the
-request timeout (504), a heavy request's work cancelled when its client goes away; then its
-metrics and its log line, labelled by its route template (the route the router would give a
-request refused before it). One wrapper of ``send`` sees the answer's status and adds the id.
+In turn: its request id (``X-Request-ID``, echoed on the answer); a place among the requests in
+progress (503 beyond ``PLANNER_MAX_REQUESTS``; ``/healthz`` and ``/readyz`` always answered);
+its API key (401 without one, before the body is read); its body, read whole and bounded (413
+over the limit, by its ``Content-Length`` or as it streams in; 408 when it has not all come in
+time); the app, under the request timeout (504), a heavy request's work cancelled when its
+client goes away; then its metrics and its log line, labelled by its route template (the route
+the router would give a request refused before it). One wrapper of ``send`` sees the answer's
+status and adds the id.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from service.edge.auth import ApiKeys
 from service.edge.cancel import CANCEL
 from service.edge.limits import Limits, is_heavy
-from service.errors import ServiceError, send_problem
+from service.errors import Busy, ServiceError, send_problem
 from service.ops.logs import REQUEST_ID
 from service.ops.metrics import Metrics
 from service.ops.observe import HEADER, Recorder, request_id_of, route_of
@@ -33,6 +35,9 @@ from service.tenants import TENANT
 __all__ = ["Edge"]
 
 log = logging.getLogger("service.requests")
+
+PROBES = frozenset({"/healthz", "/readyz"})
+"""Paths never refused for want of a place: a probe must tell a busy process from a dead one."""
 
 
 class _Answer:
@@ -70,8 +75,12 @@ class Edge:
         max_step_bytes: int | None = None,
         body_timeout: float = 30.0,
         request_timeout: float = 30.0,
+        max_requests: int | None = None,
     ) -> None:
         self.app = app
+        self.max_requests = max_requests
+        self.requests = 0
+        """Requests in progress now (probes not counted)."""
         self.routes = routes
         self.recorder = Recorder(metrics)
         self.keys = ApiKeys(keys)
@@ -89,8 +98,20 @@ class Edge:
         began = time.perf_counter()
         answer = _Answer(send, request_id_of(scope))
         token = REQUEST_ID.set(answer.request_id.decode())
+        counted = scope["path"] not in PROBES
         try:
-            await self._serve(scope, receive, answer)
+            if counted and self.max_requests is not None and self.requests >= self.max_requests:
+                msg = (
+                    f"the service is busy: {self.requests} requests are in progress "
+                    f"(PLANNER_MAX_REQUESTS is {self.max_requests}); retry later"
+                )
+                await send_problem(scope, answer, Busy(msg))
+                return
+            self.requests += counted
+            try:
+                await self._serve(scope, receive, answer)
+            finally:
+                self.requests -= counted
         finally:
             route = route_of(scope, self.routes)
             self.recorder.record(scope, route, answer.status or 500, began, answer.request_id)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 import planner
 from planner import quote
@@ -94,7 +95,7 @@ async def step_in_fleet(
     engine: Engine,
     plan_id: str,
     session: planner.Session,
-    obstacles: list[list[int]],
+    obstacles: list[list[int]] | npt.NDArray[np.int64],
     fleet: FleetRecord,
     *,
     position: Any,

@@ -10,10 +10,10 @@ from typing import Any, Literal
 import planner
 from schemas import MapCreate, PlanCreate
 from service.errors import TooLarge
-from service.resources import plans
+from service.resources import passages, plans
 from service.work.engine import Engine, cell_size
 
-__all__ = ["MapView", "add_map", "get_map", "render_map"]
+__all__ = ["MapView", "add_map", "get_map", "json_cells_message", "render_map"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -27,7 +27,10 @@ class MapView:
 
 async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
     """Keep the map (True when new); plan on it too when the body has a start and a goal."""
-    robot_map = await engine.pool.run(_decode, body, engine.settings.max_map_cells)
+    settings = engine.settings
+    robot_map = await engine.pool.run(
+        _decode, body, settings.max_map_cells, settings.max_json_map_cells
+    )
     map_id = robot_map.map_id
     created = await engine.store.put_map(map_id, robot_map)
     engine.remember(map_id, robot_map)
@@ -61,10 +64,17 @@ async def render_map(
     field: Literal["clean"] | None,
     cell: int | None,
     overrides: dict[str, Any],
+    with_passages: bool = False,
 ) -> bytes:
-    analysis, _ = await engine.analysis(map_id, planner.resolve_params(preset, **overrides))
+    params = planner.resolve_params(preset, **overrides)
+    analysis, _ = await engine.analysis(map_id, params)
     size = cell_size(analysis.shape, cell)
-    return await engine.pool.run(planner.render_map, analysis, field=field, cell=size)
+    found: tuple[planner.Passage, ...] = ()
+    if with_passages:
+        found = (await passages.map_passages(engine, map_id, params.robot_radius)).passages
+    return await engine.pool.run(
+        planner.render_map, analysis, field=field, cell=size, passages=found
+    )
 
 
 def _too_large(name: str, height: int, width: int, limit: int) -> None:
@@ -73,7 +83,21 @@ def _too_large(name: str, height: int, width: int, limit: int) -> None:
         raise TooLarge(msg, field=name)
 
 
-def _decode(body: MapCreate, limit: int) -> planner.RobotMap:
+def json_cells_message(cells: str, limit: int) -> str:
+    """Why a map sent as JSON numbers is too large, and how to send it."""
+    return (
+        f"map: a `grid` or `occupancy_grid` of {cells} cells; PLANNER_MAX_JSON_MAP_CELLS is "
+        f"{limit} (JSON numbers are slow to parse): send a larger map as Moving AI `rows`, or "
+        "as an image with its YAML (multipart/form-data)"
+    )
+
+
+def _too_many_numbers(name: str, cells: int, limit: int) -> None:
+    if cells > limit:
+        raise TooLarge(json_cells_message(str(cells), limit), field=name)
+
+
+def _decode(body: MapCreate, limit: int, json_limit: int) -> planner.RobotMap:
     # Every size is checked before numpy sees the cells: a map too large is refused without
     # copying it (an image, from its header, before its pixels are decoded).
     if body.yaml is not None:
@@ -88,6 +112,7 @@ def _decode(body: MapCreate, limit: int) -> planner.RobotMap:
             w, h = info.get("width"), info.get("height")
             if isinstance(w, int) and isinstance(h, int):
                 _too_large("occupancy_grid", h, w, limit)
+                _too_many_numbers("occupancy_grid", h * w, json_limit)
         return planner.occupancy_grid_map(body.occupancy_grid)
     frame: dict[str, Any] = {}
     if body.resolution is not None:
@@ -101,4 +126,5 @@ def _decode(body: MapCreate, limit: int) -> planner.RobotMap:
     assert body.grid is not None
     height, width = len(body.grid), len(body.grid[0]) if body.grid else 0
     _too_large("grid", height, width, limit)
+    _too_many_numbers("grid", height * width, json_limit)
     return planner.grid_map(body.grid, **frame)

@@ -13,14 +13,15 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 import planner
 from planner import quote
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
-from service.resources import fleets
+from service.resources import fleets, passages
 from service.stores import PlanRecord
-from service.stores.base import Event, FleetRecord, Update
+from service.stores.base import Event, FleetRecord, Update, unknown_map
 from service.work.engine import (
     Engine,
     cell_size,
@@ -44,6 +45,10 @@ __all__ = [
 ]
 
 
+Obstacles = list[list[int]] | npt.NDArray[np.int64]
+"""A step's blocked cells: JSON's lists as given, or an ``(n, 2)`` array once circles are in."""
+
+
 @dataclass(frozen=True, slots=True)
 class PlanView:
     """A stored plan with its arrays and the robot's state: what a response is made of."""
@@ -61,7 +66,7 @@ class StepView:
 
     step: planner.Step
     frame: planner.MapFrame
-    obstacles: list[list[int]]
+    obstacles: Obstacles
     replayed: bool = False
     """The answer of a retried ``seq``: nothing moved, nothing was written or published."""
     zones: planner.Zones | None = None
@@ -91,6 +96,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
+        **await passages.crossings(engine, body.map_id, plan),
     }
     append = stored.pop("trajectory")
     if body.fleet is None:
@@ -150,7 +156,12 @@ async def step(
         position: Any = body.position
         if isinstance(position, Point):
             position = position.model_dump(exclude_none=True)
-        obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
+        if _circle_rows(plan, body.dynamic_obstacles) > CIRCLE_ROWS_ON_LOOP:
+            # Off the event loop: the kernel then runs without the GIL, and the request's
+            # deadline can stop the step here, before anything is written.
+            obstacles = await engine.pool.run_step(_obstacle_cells, plan, body.dynamic_obstacles)
+        else:
+            obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
         waiting_for, new_fleet = None, None
         if "fleet" in record and (fleet is None or fleet["map_id"] != record["map_id"]):
@@ -186,9 +197,27 @@ async def step(
     return update.answer
 
 
-def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:
+CIRCLE_ROWS_ON_LOOP = 2048
+"""Map rows a step's circles may span in all and still be rasterised on the event loop
+(a millisecond or so); beyond, a step worker does it."""
+
+
+def _circle_rows(plan: planner.Plan, given: list[Any]) -> float:
+    """The map rows the step's circles span in all (each at most the map's height): what
+    rasterising them costs."""
+    frame = plan.analysis.frame
+    height, res, widen = frame.shape[0], frame.resolution, plan.params.robot_radius
+    rows = 0.0
+    for obstacle in given:
+        if type(obstacle) is not list:
+            rows += min(height, 2.0 * (obstacle.radius + widen) / res + 1.0)
+    return rows
+
+
+def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> Obstacles:
     """The cells the step's obstacles block: cells as given, circles as the cells whose
-    centers are within ``radius + robot_radius`` of theirs."""
+    centers are within ``radius + robot_radius`` of theirs (then an ``(n, 2)`` array: a
+    circle over a whole map is a million cells, too many to hold as Python lists)."""
     cells: list[list[int]] = []
     circles = []
     for obstacle in given:
@@ -196,12 +225,12 @@ def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> list[list[int]]:
             cells.append(obstacle)
         else:
             circles.append(obstacle.model_dump())
-    if circles:
-        covered = planner.circle_cells(
-            frame_map(plan.analysis.frame), circles, robot_radius=plan.params.robot_radius
-        )
-        cells += np.asarray(covered).tolist()
-    return cells
+    if not circles:
+        return cells  # as given: the planner checks them, and quotes one out of the map
+    covered = planner.circle_cells(
+        frame_map(plan.analysis.frame), circles, robot_radius=plan.params.robot_radius
+    )
+    return np.concatenate([np.array(cells, dtype=np.int64).reshape(-1, 2), covered])
 
 
 async def render_plan(
@@ -211,8 +240,9 @@ async def render_plan(
     plan = await engine.plan_of(record)
     trajectory = await engine.store.get_trajectory(plan_id)
     size = cell_size(plan.analysis.shape, cell)
+    crossed = await passages.crossed(engine, record, plan)
     return await engine.pool.run(
-        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size
+        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size, passages=crossed
     )
 
 
@@ -227,9 +257,13 @@ async def require(engine: Engine, plan_id: str) -> None:
 
 
 async def _record(engine: Engine, plan_id: str) -> PlanRecord:
+    """The plan's record; ``NotFound`` naming the plan when it is gone, naming its map when
+    the map is (then the plan cannot be drawn or stepped on any replica: see ``step``)."""
     record = await engine.store.get_plan(plan_id)
     if record is None:
         raise _unknown_plan(plan_id)
+    if "map_id" in record and not await engine.store.has_map(record["map_id"]):
+        raise unknown_map(record["map_id"])
     return record
 
 

@@ -42,10 +42,16 @@ def open_store(
     map_bytes: int | None = None,
     map_ttl_seconds: float = 0,
     shares: int = 1,
+    max_plans: int | None = None,
 ) -> Store:
     """The store that ``PLANNER_STORE_URL`` names: ``memory://`` (its maps bounded by
     ``map_bytes``, each of ``shares`` tenants to an equal share) or a Redis URL (its maps
-    expiring ``map_ttl_seconds`` after their last use; 0: kept)."""
+    expiring ``map_ttl_seconds`` after their last use; 0: kept). Each tenant holds at most
+    ``max_plans`` live plans (None: any number)."""
     if url.startswith("memory://"):
-        return MemoryStore(ttl_seconds=ttl_seconds, max_map_bytes=map_bytes, shares=shares)
-    return RedisStore(url, ttl_seconds=ttl_seconds, map_ttl_seconds=map_ttl_seconds)
+        return MemoryStore(
+            ttl_seconds=ttl_seconds, max_map_bytes=map_bytes, shares=shares, max_plans=max_plans
+        )
+    return RedisStore(
+        url, ttl_seconds=ttl_seconds, map_ttl_seconds=map_ttl_seconds, max_plans=max_plans
+    )

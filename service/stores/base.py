@@ -16,7 +16,8 @@ import numpy as np
 import numpy.typing as npt
 import orjson
 
-from planner import MapFrame, RobotMap, Zones
+from planner import MapFrame, RobotMap, Zones, quote
+from service.errors import NotFound, TooManyPlans
 
 __all__ = [
     "Cells",
@@ -34,6 +35,8 @@ __all__ = [
     "live_fleet",
     "pack",
     "stamp_robot",
+    "too_many_plans",
+    "unknown_map",
     "unpack",
 ]
 
@@ -137,6 +140,24 @@ class _Held:
             self._locks[self._key] = (lock, users - 1)
 
 
+def unknown_map(map_id: str) -> NotFound:
+    """No map ``map_id`` in the store: never uploaded with this key, or forgotten since."""
+    msg = (
+        f"map_id: no map {quote(map_id)} (unknown, or forgotten: unused for "
+        "PLANNER_MAP_TTL_SECONDS, or evicted); upload it with POST /maps"
+    )
+    return NotFound(msg, field="map_id")
+
+
+def too_many_plans(held: int) -> TooManyPlans:
+    """The tenant holds its ``PLANNER_MAX_PLANS_PER_TENANT`` live plans already."""
+    msg = (
+        f"this key has {held} live plans (PLANNER_MAX_PLANS_PER_TENANT); delete plans "
+        "(DELETE /plan/{plan_id}) or wait for them to expire"
+    )
+    return TooManyPlans(msg)
+
+
 def pack(cells: Cells) -> bytes:
     """Cells as little-endian int32 pairs: the trajectory log's format, in every store."""
     flat = [v for cell in cells for v in cell]
@@ -203,9 +224,15 @@ class Store(ABC):
         """The map (read-only), or None."""
 
     @abstractmethod
+    async def has_map(self, map_id: str) -> bool:
+        """Whether the store holds the map now (a use of it: restarts its TTL)."""
+
+    @abstractmethod
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         """Keep (or replace) a plan's record and add ``append`` to its trajectory, both at once;
-        restarts the plan's TTL (and its map's)."""
+        restarts the plan's TTL (and its map's). Refused, with nothing written, when the
+        record's map is not in the store (:func:`unknown_map`) or when the tenant holds its
+        cap of live plans already (:func:`too_many_plans`)."""
 
     @abstractmethod
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
@@ -214,7 +241,8 @@ class Store(ABC):
         that :attr:`publishes`), all at once, restarting the plan's TTL and its map's. Steps on
         one plan never interleave: none loses or doubles a move. None when the plan does not
         exist or was deleted before the write (then nothing is written or published); errors of
-        ``decide`` propagate, with nothing written. ``decide`` reads the record it is given and
+        ``decide`` propagate, with nothing written; the record's map gone from the store is
+        :func:`unknown_map`, with nothing written. ``decide`` reads the record it is given and
         changes nothing in it (a store may hand it the record it keeps)."""
 
     @abstractmethod

@@ -21,11 +21,18 @@ from service.stores.base import (
     T,
     Update,
     pack,
+    too_many_plans,
+    unknown_map,
     unpack,
 )
 from service.tenants import TENANT, scoped
 
-__all__ = ["MemoryStore"]
+__all__ = ["MAP_OVERHEAD_BYTES", "MemoryStore"]
+
+MAP_OVERHEAD_BYTES = 1024
+"""What a stored map costs beside its cells (its arrays' headers, frame, id and entry: ~760
+bytes measured with tracemalloc), counted against ``PLANNER_MAP_STORE_BYTES``: so the bound
+holds for many tiny maps too (a key's share holds at most share / 1 KiB maps)."""
 
 _Entry = tuple[float, bytes, bytearray, str | None, PlanRecord]
 
@@ -34,7 +41,8 @@ class MemoryStore(Store):
     """Everything in this process: for one uvicorn worker.
 
     Maps take at most ``max_map_bytes``: a new map evicts the least recently used maps that no
-    live plan uses, and is refused (507) when those do not free enough.
+    live plan uses, and is refused (507) when those do not free enough. Each tenant holds at
+    most ``max_plans`` live plans (429 beyond).
     """
 
     kind = "memory"
@@ -45,9 +53,12 @@ class MemoryStore(Store):
         ttl_seconds: float,
         max_map_bytes: int | None = None,
         shares: int = 1,
+        max_plans: int | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._ttl = ttl_seconds
+        self._max_plans = max_plans
+        self._plans_of: dict[str, int] = {}  # live plans per tenant
         self._clock = clock
         self.max_map_bytes = max_map_bytes
         self.map_bytes = 0
@@ -69,6 +80,7 @@ class MemoryStore(Store):
             self._maps.move_to_end(key)
             return False
         size = _size(robot_map)
+        self._expire()  # expired plans hold no map
         self._make_room(size)
         self._maps[key] = robot_map  # read-only, and never shared with a writer
         self.map_bytes += size
@@ -82,13 +94,26 @@ class MemoryStore(Store):
             self._maps.move_to_end(key)
         return robot_map
 
+    async def has_map(self, map_id: str) -> bool:
+        return await self.get_map(map_id) is not None
+
     async def counts(self) -> tuple[int, int]:
         self._expire()
         return len(self._maps), len(self._plans)
 
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         self._expire()
-        self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)  # its own copy
+        key = scoped(plan_id)
+        self._check_room(key, record)
+        self._write(key, orjson.loads(orjson.dumps(record)), append)  # its own copy
+
+    def _check_room(self, key: str, record: PlanRecord) -> None:
+        """A new plan's map must be stored, and its tenant under its number of plans."""
+        if "map_id" in record and scoped(record["map_id"]) not in self._maps:
+            raise unknown_map(record["map_id"])
+        held = self._plans_of.get(TENANT.get(), 0)
+        if self._max_plans is not None and key not in self._plans and held >= self._max_plans:
+            raise too_many_plans(held)
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
         return await self._update(scoped(plan_id), lambda record: decide(record))
@@ -155,6 +180,7 @@ class MemoryStore(Store):
         fleet_key = scoped(record["fleet"])
         async with self._locks.hold(_FLEET + fleet_key):
             fleet = join(self._fleets.get(fleet_key))
+            self._check_room(scoped(plan_id), record)
             self._write(scoped(plan_id), orjson.loads(orjson.dumps(record)), append)
             self._fleets[fleet_key] = orjson.loads(orjson.dumps(fleet))
 
@@ -169,6 +195,8 @@ class MemoryStore(Store):
             map_key = scoped(record["map_id"]) if "map_id" in record else None
             if map_key is not None:
                 self._plans_on[map_key] = self._plans_on.get(map_key, 0) + 1
+            tenant = _owner(key)
+            self._plans_of[tenant] = self._plans_of.get(tenant, 0) + 1
             log = bytearray()
         else:
             log, map_key = entry[2], entry[3]
@@ -246,6 +274,12 @@ class MemoryStore(Store):
         fleet = entry[4].get("fleet")
         if fleet is not None:
             self._leave(key, fleet)
+        tenant = _owner(key)
+        left = self._plans_of[tenant] - 1
+        if left:
+            self._plans_of[tenant] = left
+        else:
+            del self._plans_of[tenant]
         map_key = entry[3]
         if map_key is not None:
             left = self._plans_on.get(map_key, 1) - 1
@@ -282,11 +316,11 @@ _FLEET = "\0fleet "
 
 
 def _owner(key: str) -> str:
-    """The tenant of a stored map key (``""`` without keys): map ids themselves hold no dot."""
+    """The tenant of a stored map or plan key (``""`` without keys): ids hold no dot."""
     return key.split(".", 1)[0] if "." in key else ""
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell (and a zoned map's zones)."""
+    """The bytes a stored map holds: one per cell, a zoned map's zones, and its bookkeeping."""
     zones = 0 if robot_map.zones is None else len(repr(robot_map.zones))
-    return int(robot_map.occupancy.nbytes) + zones
+    return int(robot_map.occupancy.nbytes) + zones + MAP_OVERHEAD_BYTES

@@ -33,6 +33,8 @@ from service.stores.base import (
     decode_map,
     encode_map,
     pack,
+    too_many_plans,
+    unknown_map,
     unpack,
 )
 from service.stores.redis_fleets import (
@@ -42,8 +44,10 @@ from service.stores.redis_fleets import (
     FLEET_TRIES,
     FleetSteps,
     _CachedFleet,
+    _plans_of,
     _split,
 )
+from service.stores.scripts import PUT, STEP
 from service.tenants import scoped
 
 __all__ = ["CACHED_PLANS", "FLEET_TRIES", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
@@ -64,36 +68,6 @@ _Cached = tuple[int, PlanRecord]
 """A plan as this replica last read or wrote it: its version and its record (read-only: what a
 step decides on)."""
 
-# A step's one round trip: KEYS the plan, its path (and its map, when maps expire); ARGV the
-# version prefix the step decided on, the new value ('' for none: a replay, only checked), the
-# plan's TTL, the cells to append, the map's TTL, the viewer's channel and message ('': none).
-# Returns {1} (written, or checked), {0} (no such plan: nothing written), {2, value} (another
-# step wrote first: the plan's value now, to decide again on). Every write has a version of its
-# own (random), so a value already there exactly as this call would write it is this call's
-# own write: the same call sent again (the client resends once when an answer is lost) is {1}.
-_STEP = """
-local now = redis.call('GET', KEYS[1])
-if not now then return {0} end
-if ARGV[2] ~= '' and now == ARGV[2] then return {1} end
-if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
-if ARGV[2] == '' then return {1} end
-redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
-if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
-redis.call('PEXPIRE', KEYS[2], ARGV[3])
-if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[5]) end
-if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
-return {1}
-"""
-
-# A new plan (or a replaced one) in one round trip: the same keys and arguments, unfenced.
-_PUT = """
-redis.call('SET', KEYS[1], ARGV[1], 'PX', ARGV[2])
-if ARGV[3] ~= '' then redis.call('APPEND', KEYS[2], ARGV[3]) end
-redis.call('PEXPIRE', KEYS[2], ARGV[2])
-if KEYS[3] then redis.call('PEXPIRE', KEYS[3], ARGV[4]) end
-return 1
-"""
-
 
 class RedisStore(FleetSteps, Store):
     """Maps and plans in Redis, for any number of replicas.
@@ -108,7 +82,14 @@ class RedisStore(FleetSteps, Store):
     kind = "redis"
     publishes = True
 
-    def __init__(self, url: str, *, ttl_seconds: float, map_ttl_seconds: float = 0) -> None:
+    def __init__(
+        self,
+        url: str,
+        *,
+        ttl_seconds: float,
+        map_ttl_seconds: float = 0,
+        max_plans: int | None = None,
+    ) -> None:
         self._redis = Redis.from_url(
             url,
             socket_timeout=SOCKET_TIMEOUT,
@@ -121,8 +102,9 @@ class RedisStore(FleetSteps, Store):
         self._reaching = _Reaching(self.address)
         self._ttl_ms = max(1, round(ttl_seconds * 1000))
         self._map_ttl_ms = max(0, round(map_ttl_seconds * 1000))
-        self._step = _Collector(self._redis, self._redis.register_script(_STEP))
-        self._put = self._redis.register_script(_PUT)
+        self._max_plans = max_plans or 0
+        self._step = _Collector(self._redis, self._redis.register_script(STEP))
+        self._put = self._redis.register_script(PUT)
         self._fleet_step = _Collector(self._redis, self._redis.register_script(_FLEET_STEP))
         self._fleet_put = self._redis.register_script(_FLEET_PUT)
         self._fleet_delete = self._redis.register_script(_FLEET_DELETE)
@@ -157,16 +139,28 @@ class RedisStore(FleetSteps, Store):
         assert isinstance(value, bytes)  # no decode_responses
         return decode_map(value)
 
+    async def has_map(self, map_id: str) -> bool:
+        key = f"planner:map:{scoped(map_id)}"
+        with self._reaching:
+            if self._map_ttl_ms:
+                return bool(await self._redis.pexpire(key, self._map_ttl_ms))
+            return bool(await self._redis.exists(key))
+
     async def put_plan(self, plan_id: str, record: PlanRecord, *, append: Cells = ()) -> None:
         key = scoped(plan_id)
         # A new plan's version starts at random: a record cached of a plan replaced under the
         # same id is never taken for the new one.
         version, json = random.getrandbits(62) + 1, orjson.dumps(record)
+        value = b"%d %b" % (version, json)
+        args: list[bytes | int | str] = [
+            value, self._ttl_ms, pack(append), self._map_ttl_ms, self._max_plans, key,
+        ]  # fmt: skip
         with self._reaching:
-            await self._put(
-                keys=self._keys(key, record),
-                args=[b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms],
-            )
+            written = await self._put(keys=self._keys(key, record), args=args)
+        if written == 0:
+            raise unknown_map(record["map_id"])
+        if written < 0:
+            raise too_many_plans(-written)
         self._remember(key, version, orjson.loads(json))  # a copy of its own
 
     async def update_plan(self, plan_id: str, decide: Decide[T]) -> Update[T] | None:
@@ -202,6 +196,9 @@ class RedisStore(FleetSteps, Store):
                 if answer[0] == 0:
                     self._plans.pop(key, None)
                     return None
+                if answer[0] == 3:
+                    assert update.record is not None  # only a write checks the map
+                    raise unknown_map(update.record["map_id"])
                 cached, fresh = self._parse(key, answer[1]), True
         msg = (
             f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps on it were recorded "
@@ -223,7 +220,10 @@ class RedisStore(FleetSteps, Store):
         if fleet is not None:
             return await self._leave(plan_id, key, scoped(fleet))
         with self._reaching:
-            gone = await self._redis.delete(f"planner:plan:{key}", f"planner:path:{key}")
+            async with self._redis.pipeline(transaction=True) as pipe:
+                pipe.delete(f"planner:plan:{key}", f"planner:path:{key}")
+                pipe.zrem(_plans_of(), key)
+                gone, _ = await pipe.execute()
         self._plans.pop(key, None)
         return bool(gone)
 
@@ -233,8 +233,8 @@ class RedisStore(FleetSteps, Store):
         return len(self._locks)
 
     def _keys(self, key: str, record: PlanRecord) -> list[str]:
-        keys = [f"planner:plan:{key}", f"planner:path:{key}"]
-        if self._map_ttl_ms and "map_id" in record:
+        keys = [f"planner:plan:{key}", f"planner:path:{key}", _plans_of()]
+        if "map_id" in record:
             keys.append(f"planner:map:{scoped(record['map_id'])}")
         return keys
 
@@ -247,13 +247,13 @@ class RedisStore(FleetSteps, Store):
             keys, args = [f"planner:plan:{key}"], [expect, b""]
         else:
             json = orjson.dumps(update.record)
-            written = random.getrandbits(62) + 1  # a version of its own: see _STEP
+            written = random.getrandbits(62) + 1  # a version of its own: see STEP
             value = b"%d %b" % (written, json)
             channel, message = update.event or ("", b"")
             keys = self._keys(key, update.record)
             args = [
                 expect, value, self._ttl_ms, pack(update.append), self._map_ttl_ms, channel,
-                message,
+                message, key,
             ]  # fmt: skip
         with self._reaching:
             answer: list[bytes | int] = await self._step(keys=keys, args=args)

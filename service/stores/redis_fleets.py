@@ -26,8 +26,11 @@ from service.stores.base import (
     live_fleet,
     pack,
     stamp_robot,
+    too_many_plans,
+    unknown_map,
 )
-from service.tenants import scoped
+from service.stores.scripts import PUT, STEP
+from service.tenants import TENANT, scoped
 
 __all__ = ["FLEET_TRIES", "FleetSteps"]
 
@@ -43,63 +46,73 @@ _FLEET = "\0fleet "
 """The prefix of a fleet's lock key (no plan id holds a NUL)."""
 
 
-# The fleet's version check, shared by the fleet scripts: KEYS[f] the fleet, ARGV[e] the version
-# prefix decided on ('': there was no fleet). Returns {3, value} ('' for none) when it moved on.
-_FLEET_FENCE = """
-local fleet = redis.call('GET', KEYS[{f}])
+# The fleet's version check, shared by the fleet scripts: KEYS[5] the fleet, ARGV[e] the version
+# prefix decided on ('': there was no fleet). Returns {4, value} ('' for none) when it moved on.
+def _fence(e: int) -> str:
+    return f"""
+local fleet = redis.call('GET', KEYS[5])
 if ARGV[{e}] == '' then
-  if fleet then return {{3, fleet}} end
-elseif not fleet then return {{3, ''}}
-elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{3, fleet}} end
+  if fleet then return {{4, fleet}} end
+elseif not fleet then return {{4, ''}}
+elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{4, fleet}} end
 """
 
-# A fleet robot's step in one round trip: _STEP's keys and arguments, then KEYS[3] the fleet
-# (the map moves to KEYS[4]), ARGV[8] the fleet's version prefix decided on, ARGV[9] its new
-# value. Besides _STEP's answers, {3, value}: another robot of the fleet was recorded first.
-_FLEET_STEP = (
-    """
-local now = redis.call('GET', KEYS[1])
-if not now then return {0} end
-if now == ARGV[2] then return {1} end
-if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
-"""
-    + _FLEET_FENCE.format(f=3, e=8)
-    + """
-redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
-if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
-redis.call('PEXPIRE', KEYS[2], ARGV[3])
-redis.call('SET', KEYS[3], ARGV[9], 'PX', ARGV[3])
-if KEYS[4] then redis.call('PEXPIRE', KEYS[4], ARGV[5]) end
-if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
-return {1}
-"""
+
+def _edit(script: str, old: str, new: str) -> str:
+    """``script`` with ``old`` (present exactly once) replaced."""
+    if script.count(old) != 1:
+        raise AssertionError(f"{old!r} is not in the script once")
+    return script.replace(old, new)
+
+
+# A fleet robot's step in one round trip: STEP's keys (the plan, its path, its tenant's plans,
+# its map) and arguments, then KEYS[5] the fleet, ARGV[9] the fleet's version prefix decided
+# on, ARGV[10] its new value. Besides STEP's answers, {4, value}: another robot of the fleet was
+# recorded first (the fleet's value now, to decide again on).
+_WRITE_FLEET = "redis.call('SET', KEYS[5], ARGV[10], 'PX', ARGV[3])\n"
+_FLEET_STEP = _edit(
+    _edit(STEP, "if map_gone(ARGV[5])", _fence(9) + "if map_gone(ARGV[5])"),
+    "if ARGV[6] ~= '' then",
+    _WRITE_FLEET + "if ARGV[6] ~= '' then",
 )
 
-# A new plan of a fleet, joining it: KEYS the fleet, the plan, its path (and its map); ARGV the
-# fleet's version prefix, its new value, the TTL, the plan's value, the cells, the map's TTL.
-_FLEET_PUT = (
-    _FLEET_FENCE.format(f=1, e=1)
-    + """
-redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
-redis.call('SET', KEYS[2], ARGV[4], 'PX', ARGV[3])
-if ARGV[5] ~= '' then redis.call('APPEND', KEYS[3], ARGV[5]) end
-redis.call('PEXPIRE', KEYS[3], ARGV[3])
-if KEYS[4] then redis.call('PEXPIRE', KEYS[4], ARGV[6]) end
-return {1}
-"""
+# A new plan of a fleet, joining it: PUT's keys and arguments, then KEYS[5] the fleet, ARGV[7]
+# the fleet's version prefix, ARGV[8] its new value; PUT's answers as {answer}, or {4, value}.
+_FLEET_PUT = _fence(7) + _edit(
+    _edit(
+        _edit(PUT, "then return 0 end", "then return {0} end"),
+        "then return -held end",
+        "then return {-held} end",
+    ),
+    "return 1\n",
+    "redis.call('SET', KEYS[5], ARGV[8], 'PX', ARGV[2])\nreturn {1}\n",
 )
 
-# A fleet's plan deleted, leaving it: KEYS the plan, its path, the fleet; ARGV the fleet's
-# version prefix and its new value ('': the fleet goes with its last robot). {1, deleted keys}.
+# A fleet's plan deleted, leaving it: KEYS the plan, its path, its tenant's plans, (unused), the
+# fleet; ARGV[1] the fleet's version prefix, ARGV[2] its new value ('': the fleet goes with its
+# last robot), ARGV[3] the plan's member in its tenant's set. {1, deleted keys}, or {4, value}.
 _FLEET_DELETE = (
-    _FLEET_FENCE.format(f=3, e=1)
+    _fence(1)
     + """
 local gone = redis.call('DEL', KEYS[1], KEYS[2])
-if ARGV[2] == '' then redis.call('DEL', KEYS[3])
-else redis.call('SET', KEYS[3], ARGV[2], 'KEEPTTL') end
+redis.call('ZREM', KEYS[3], ARGV[3])
+if ARGV[2] == '' then redis.call('DEL', KEYS[5])
+else redis.call('SET', KEYS[5], ARGV[2], 'KEEPTTL') end
 return {1, gone}
 """
 )
+
+
+def _with_map(keys: list[str]) -> list[str]:
+    """A fleet's plan's keys: its map's among them (the fleet's key comes fifth)."""
+    if len(keys) != 4:
+        raise ValueError("a fleet's plan record names its map_id")
+    return keys
+
+
+def _plans_of() -> str:
+    """The key of the current tenant's set of live plans (scored by their expiry, in ms)."""
+    return f"planner:plans-of:{TENANT.get()}"
 
 
 class FleetSteps:
@@ -108,6 +121,7 @@ class FleetSteps:
 
     _ttl_ms: int
     _map_ttl_ms: int
+    _max_plans: int
     _locks: PlanLocks
     _plans: OrderedDict[str, _Cached]
     _fleets: OrderedDict[str, _CachedFleet]
@@ -187,6 +201,8 @@ class FleetSteps:
             if answer[0] == 0:
                 self._plans.pop(key, None)
                 return None
+            if answer[0] == 3:
+                raise unknown_map(record["map_id"])
             if answer[0] == 2:
                 cached, fresh = self._parse(key, answer[1]), True
             else:
@@ -209,11 +225,10 @@ class FleetSteps:
         plan_id = key.rpartition(".")[2]
         state = stamp_robot(update.fleet, plan_id, time.time() + self._ttl_ms / 1000)
         channel, message = update.event or ("", b"")
-        keys = self._keys(key, update.record)
-        keys.insert(2, f"planner:fleet:{fleet_key}")
+        keys = [*_with_map(self._keys(key, update.record)), f"planner:fleet:{fleet_key}"]
         args: list[bytes | int | str] = [
             expect, b"%d %b" % (written, orjson.dumps(update.record)), self._ttl_ms,
-            pack(update.append), self._map_ttl_ms, channel, message,
+            pack(update.append), self._map_ttl_ms, channel, message, key,
             b"%d " % fleet_version if fleet_version else b"",
             b"%d %b" % (fleet_written, orjson.dumps(state)),
         ]  # fmt: skip
@@ -234,17 +249,17 @@ class FleetSteps:
     ) -> None:
         key, fleet_key = scoped(plan_id), scoped(record["fleet"])
         json = orjson.dumps(record)
-        keys = [f"planner:fleet:{fleet_key}", *self._keys(key, record)]
+        keys = [*_with_map(self._keys(key, record)), f"planner:fleet:{fleet_key}"]
         async with self._locks.hold(_FLEET + fleet_key):
             fleet = await self._read_fleet(fleet_key)
             for _ in range(FLEET_TRIES):
                 state = join(live_fleet(fleet[1], time.time()))
                 state = stamp_robot(state, plan_id, time.time() + self._ttl_ms / 1000)
                 version, fleet_version = random.getrandbits(62) + 1, random.getrandbits(62) + 1
-                args: list[bytes | int] = [
-                    b"%d " % fleet[0] if fleet[0] else b"",
-                    b"%d %b" % (fleet_version, orjson.dumps(state)), self._ttl_ms,
-                    b"%d %b" % (version, json), pack(append), self._map_ttl_ms,
+                args: list[bytes | int | str] = [
+                    b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms,
+                    self._max_plans, key, b"%d " % fleet[0] if fleet[0] else b"",
+                    b"%d %b" % (fleet_version, orjson.dumps(state)),
                 ]  # fmt: skip
                 with self._reaching:
                     answer = await self._fleet_put(keys=keys, args=args)
@@ -252,6 +267,10 @@ class FleetSteps:
                     self._remember(key, version, orjson.loads(json))
                     self._remember_fleet(fleet_key, fleet_version, state)
                     return
+                if answer[0] == 0:
+                    raise unknown_map(record["map_id"])
+                if answer[0] < 0:
+                    raise too_many_plans(-answer[0])
                 fleet = self._parse_fleet(fleet_key, answer[1])
         msg = f"fleet: fleet {quote(record['fleet'])} is busy; retry later"
         raise StoreUnavailable(msg, field="fleet")
@@ -285,7 +304,10 @@ class FleetSteps:
 
     async def _leave(self, plan_id: str, key: str, fleet_key: str) -> bool:
         """Delete a fleet's plan and its robot in the fleet at once."""
-        keys = [f"planner:plan:{key}", f"planner:path:{key}", f"planner:fleet:{fleet_key}"]
+        keys = [
+            f"planner:plan:{key}", f"planner:path:{key}", _plans_of(), f"planner:plan:{key}",
+            f"planner:fleet:{fleet_key}",
+        ]  # fmt: skip
         async with self._locks.hold(_FLEET + fleet_key):
             fleet = await self._read_fleet(fleet_key)
             for _ in range(FLEET_TRIES):
@@ -298,7 +320,7 @@ class FleetSteps:
                     new = b"%d %b" % (random.getrandbits(62) + 1, orjson.dumps(live))
                 with self._reaching:
                     answer = await self._fleet_delete(
-                        keys=keys, args=[b"%d " % version if version else b"", new]
+                        keys=keys, args=[b"%d " % version if version else b"", new, key]
                     )
                 if answer[0] == 1:
                     self._plans.pop(key, None)

@@ -32,8 +32,9 @@ from planner import Unsettled, params_key, quote
 from planner.render import auto_cell
 from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
-from service.errors import NotFound, TooLarge
+from service.errors import TooLarge
 from service.stores import PlanRecord, Store
+from service.stores.base import unknown_map
 from service.tenants import TENANT, scoped
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
@@ -58,6 +59,10 @@ MAX_IMAGE_SIDE = 8192
 ``MAX_IMAGE_PIXELS``: a 4096 x 4096 map at 1 pixel a cell)."""
 MAX_IMAGE_PIXELS = 4096 * 4096
 """Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
+
+OBSTACLES_ON_LOOP = 4096
+"""Blocked cells a step may have and still be decided on the event loop (circles covering a
+whole map are a million cells: those steps go to a step worker)."""
 
 PLAIN_MEMO = 65536
 """Maps whose plainness (:attr:`planner.RobotMap.plain`) the engine remembers: with it, a
@@ -247,22 +252,22 @@ class Engine:
         """An uploaded map; ``NotFound`` when unknown."""
         robot_map = await self.store.get_map(map_id)
         if robot_map is None:
-            raise NotFound(
-                f"map_id: no map {quote(map_id)}; upload it with POST /maps", field="map_id"
-            )
+            raise unknown_map(map_id)
         self.remember(map_id, robot_map)
         return robot_map
 
     def remember(self, map_id: str, robot_map: planner.RobotMap) -> None:
-        """Note whether the map is plain: its cache keys depend on it."""
-        self._plain[map_id] = robot_map.plain
-        self._plain.move_to_end(map_id)
+        """Note whether the tenant's map is plain: its cache keys depend on it (another
+        tenant's note never stands for the map: it must read the map from the store)."""
+        key = scoped(map_id)
+        self._plain[key] = robot_map.plain
+        self._plain.move_to_end(key)
         while len(self._plain) > PLAIN_MEMO:
             self._plain.popitem(last=False)
 
     async def plain(self, map_id: str) -> bool:
         """Whether the map is plain (read from the store once, then remembered)."""
-        known = self._plain.get(map_id)
+        known = self._plain.get(scoped(map_id))
         return known if known is not None else (await self.robot_map(map_id)).plain
 
     async def analysis(self, map_id: str, params: planner.Params) -> tuple[planner.Analysis, bool]:
@@ -283,7 +288,7 @@ class Engine:
         if robot_map.zones is None:
             return None
         base_id = robot_map.zones.base_map_id
-        plain = self._plain.get(base_id)
+        plain = self._plain.get(scoped(base_id))
         if plain is None:
             return None
         base = self.cache.peek(analysis_key(base_id, params, plain=plain))
@@ -460,6 +465,8 @@ class Engine:
         (never queued behind analyses): it may search (A*, up to the whole map), or wait for
         the thread growing its wave."""
         wave = session.plan.wave
+        if len(obstacles) > OBSTACLES_ON_LOOP:  # checking them alone takes milliseconds
+            return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
         if not isinstance(wave, planner.ResumableWave):
             if session.may_replan_at(position):
                 return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)

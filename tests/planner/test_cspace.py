@@ -89,6 +89,43 @@ def test_circle_cells_against_brute_force(
     assert len(got) == len(want)
 
 
+@pytest.mark.parametrize("yaw", [0.0, 0.3, -2.0])
+def test_many_and_huge_circles_against_brute_force(yaw: float) -> None:
+    """Radii from 0 to 10**6 m, centers in and far beyond the map: each row's run of cells,
+    solved for and clipped to the map, is the brute force's."""
+    rng = np.random.default_rng(7)
+    robot_map = planner.grid_map(np.zeros((12, 15)), resolution=0.1, origin=(-0.7, -0.5, yaw))
+    middle = robot_map.frame.centers([[6, 7]])[0]
+    circles = []
+    for radius in [0.0, 0.05, 0.13, 0.4, 0.75, 3.0, 1e3, 1e6]:
+        for _ in range(4):
+            cell = [rng.integers(0, 12), rng.integers(0, 15)]
+            x, y = robot_map.frame.centers([cell])[0] + rng.uniform(-0.04, 0.04, 2)
+            circles.append({"x": float(x), "y": float(y), "radius": radius})
+    # Far away, reaching just into the map.
+    far = 1e5
+    circles.append({"x": float(middle[0] + far), "y": float(middle[1]), "radius": far - 0.3})
+    for some in (circles[:8], circles[8:20], circles[-1:], circles):
+        got = planner.circle_cells(robot_map, some, robot_radius=0.02)
+        want = naive.circle_cells((12, 15), 0.1, (-0.7, -0.5, yaw), some, 0.02)
+        assert {tuple(rc) for rc in got.tolist()} == want
+        assert len(got) == len(want)
+        assert got.tolist() == sorted(got.tolist())
+
+
+def test_circle_cells_cost_the_rows_not_the_radius() -> None:
+    """2,000 circles of 10**6 m over a 2000 x 2000 map: every cell once (a box per circle
+    would be 8 * 10**9 cells)."""
+    robot_map = planner.grid_map(np.zeros((2000, 2000), dtype=np.int8), resolution=0.05)
+    rng = np.random.default_rng(1)
+    circles = [
+        {"x": float(x), "y": float(y), "radius": 1e6} for x, y in rng.uniform(0, 100, (2000, 2))
+    ]
+    cells = planner.circle_cells(robot_map, circles)
+    assert cells.shape == (4_000_000, 2)
+    assert cells[-1].tolist() == [1999, 1999]
+
+
 def test_bad_circles_and_radius() -> None:
     robot_map = planner.grid_map([[0]], resolution=0.1)
     with pytest.raises(InvalidInput) as info:

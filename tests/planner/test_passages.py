@@ -3,15 +3,20 @@ rooms or dead ends, and the shared ROS maps against a brute-force medial referen
 
 from __future__ import annotations
 
+import io
+import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, Passage, crossed_passages, find_passages
-from tests import naive_passages
+from planner.analysis.medial import medial_axis
+from tests import naive, naive_passages
 from tests.doors import GAPS, RESOLUTION, doors_grid, doors_map
 
 RADIUS = 0.2
@@ -215,3 +220,130 @@ def test_ros_maps_against_the_reference(
 ) -> None:
     robot_map = planner.read_ros_map(ros / f"{name}.yaml")
     assert_matches(robot_map, radius, max_width, exact)
+
+
+def violet(png: bytes) -> np.ndarray:
+    """The pixels of the passages' colour (their labels and dots), as a mask."""
+    from PIL import Image
+
+    from planner.render_passages import PASSAGE_COLOUR
+
+    with Image.open(io.BytesIO(png)) as image:
+        rgb = np.asarray(image.convert("RGB"))
+    mask: np.ndarray = np.all(rgb == PASSAGE_COLOUR, axis=2)
+    return mask
+
+
+def test_renders_draw_the_passages_with_their_width() -> None:
+    robot_map = doors_map()
+    found = find_passages(robot_map, RADIUS, 1.1)
+    analysis = planner.analyse_map(robot_map, planner.resolve_params(robot_radius=RADIUS))
+    plain = planner.render_map(analysis, cell=2)
+    drawn = planner.render_map(analysis, cell=2, passages=found)
+    assert not violet(plain).any()
+    mask = violet(drawn)
+    for p in found:  # a dot on each narrowest cell, its label beside it
+        assert mask[p.row * 2 : p.row * 2 + 2, p.col * 2 : p.col * 2 + 2].all()
+        assert mask[p.row * 2 - 8 : p.row * 2 + 8, p.col * 2 + 4 : p.col * 2 + 80].sum() > 20
+    rows = [[0] * 9 for _ in range(9)]
+    for r in range(9):
+        rows[r][4] = 0 if r == 4 else 1
+    tiny = planner.grid_map(rows, resolution=0.1)
+    result = planner.plan(tiny, [4, 0], [4, 8], robot_radius=0.05)
+    (door,) = find_passages(tiny, 0.05, 0.3)
+    assert violet(planner.render_plan(result, cell=24, passages=(door,)))[4 * 24 + 12].any()
+
+
+def test_the_command_line(ros: Path, capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from planner.cli import main
+
+    yaml = str(ros / "depot.yaml")
+    args = ["passages", "--map", yaml, "--robot-radius", "0.35", "--max-width", "1.0"]
+    assert main([*args, "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    found = find_passages(planner.read_ros_map(yaml), 0.35, 1.0)
+    assert [(p["x"], p["width_m"]) for p in answer["passages"]] == [
+        (round(p.x, 6), round(p.width_m, 6)) for p in found
+    ]
+    assert (answer["robot_radius"], answer["max_width"]) == (0.35, 1.0)
+    png = tmp_path / "passages.png"
+    assert main(["passages", "--map", yaml, "--robot-radius", "0.2", "--png", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("depot.yaml: 2 narrow passage(s) for a robot of radius 0.2 m")
+    assert violet(png.read_bytes()).any()
+    assert main(["passages", "--map", yaml, "--robot-radius", "0.2", "--max-width", "0.3"]) == 2
+    assert "max_width" in capsys.readouterr().err
+
+
+def test_the_command_line_plan_preview_names_its_passages(
+    ros: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from planner.cli import EXAMPLE_MAP, main
+
+    yaml = str(ros / "depot.yaml")
+    start, goal = {"x": 24.075, "y": 4.225}, {"x": 22.425, "y": 3.025}
+    ends = ["--start", "24.075,4.225", "--goal", "22.425,3.025", "--preset", "shortest"]
+    assert main(["plan", "--map", yaml, *ends, "--robot-radius", "0.2", "--json"]) == 0
+    preview = json.loads(capsys.readouterr().out)
+    robot_map = planner.read_ros_map(yaml)
+    result = planner.plan(robot_map, start, goal, preset="shortest", robot_radius=0.2)
+    found = find_passages(robot_map, 0.2)
+    crossed = list(crossed_passages(found, result.path, robot_map.shape))
+    assert preview["passages"] == crossed
+    assert len(crossed) >= 1  # it goes through the gap between the shelves
+    assert result.analysis.cspace is not None
+    x, y, width = planner.path_narrowest(result.analysis.cspace, robot_map.frame, result.path)
+    assert preview["narrowest"] == {"x": round(x, 6), "y": round(y, 6), "width_m": round(width, 6)}
+    assert width <= min(found[i].width_m for i in crossed)
+    grid = ["plan", str(EXAMPLE_MAP), "--start", "7", "2", "--goal", "7", "26", "--json"]
+    assert main(grid) == 0
+    preview = json.loads(capsys.readouterr().out)
+    assert preview["narrowest"] is None
+    assert preview["passages"] is None
+
+
+@given(
+    st.lists(st.integers(2, 14), min_size=1, max_size=3),
+    st.integers(1, 5),
+    st.integers(0, 4),
+    st.integers(1, 6),
+)
+def test_random_doors_against_the_reference(
+    gaps: list[int], wall: int, radius_cells: int, slack_cells: int
+) -> None:
+    """Rooms of 24 cells joined by doors of ``gaps`` cells through walls ``wall`` cells thick,
+    a robot of ``radius_cells``, ``max_width`` that many cells over its diameter: the passages
+    are the doors of width in (2 R, max_width), each found once at its door, as the reference
+    finds them."""
+    res = 0.1
+    cells = tuple(g * RESOLUTION for g in gaps)  # doors_grid's meters, as cells
+    grid, middles = doors_grid(cells, wall=wall * RESOLUTION, room=24 * RESOLUTION)
+    robot_map = planner.grid_map(grid, resolution=res)
+    radius = radius_cells * res
+    max_width = 2 * radius + slack_cells * res
+    found = find_passages(robot_map, radius, max_width)
+    # A door of g free cells is g + 1 cells wide, center to center, at its middle (g odd) or
+    # g cells at the two middle cells (g even).
+    widths = [(g + 1 if g % 2 else g) * res for g in gaps]
+    expect = [i for i, w in enumerate(widths) if 2 * radius + 1e-9 < w < max_width - 1e-9]
+    assert sorted(door_of(p, middles) for p in found) == expect
+    assert_matches(robot_map, radius, max_width, exact=True)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.integers(1, 12), st.floats(0.0, 0.6))
+def test_the_medial_axis_against_brute_force(seed: int, H: int, W: int, density: float) -> None:
+    rng = np.random.default_rng(seed)
+    free = rng.random((H, W)) >= density
+    blocked = ~free
+    dist = naive.distances(blocked, outside_blocked=True)
+    got = medial_axis(free, dist.astype(np.float32))
+    np.testing.assert_array_equal(got, naive_passages.medial_axis(free, dist))
+
+
+@pytest.mark.parametrize("name", ["depot", "tb3_sandbox", "smoothers_world"])
+def test_the_medial_axis_is_scikit_images(ros: Path, name: str) -> None:
+    skimage = pytest.importorskip("skimage.morphology")
+    cs = planner.configuration_space(planner.read_ros_map(ros / f"{name}.yaml"))
+    free = cs.blocked == 0
+    theirs = skimage.medial_axis(np.pad(free, 1), rng=0)[1:-1, 1:-1]
+    np.testing.assert_array_equal(medial_axis(free, cs.distance), theirs)

@@ -176,6 +176,50 @@ def test_quoted_values_are_cut_short() -> None:
     assert len(str(info.value)) < 200
 
 
+def alias_bomb(levels: int = 9) -> str:
+    """The "billion laughs" as a map YAML: ``levels`` lists of 9 aliases of the one before
+    (nine levels: 479 bytes, 9**9 strings once expanded)."""
+    lines = ["image: m.pgm", "resolution: 0.05", "origin: [0, 0, 0]"]
+    lines.append('a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]')
+    names = "abcdefghijklmnopqrstuvwxyz"
+    for i in range(1, levels):
+        prev, name = names[i - 1], names[i]
+        lines.append(f"{name}: &{name} [{','.join([f'*{prev}'] * 9)}]")
+    lines.append(f"mode: *{names[levels - 1]}")
+    return "\n".join(lines) + "\n"
+
+
+def test_a_yaml_alias_bomb_is_refused_without_expanding() -> None:
+    text = alias_bomb()
+    assert len(text) < 600
+    with pytest.raises(InvalidInput, match=r"alias \(\*a, line 5\).*aliases are refused") as info:
+        planner.parse_map_yaml(text)
+    assert info.value.field == "yaml"
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("origin: " + "[" * 5000 + "]" * 5000 + "\n", "nests deeper than 8 levels"),
+        ("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n#" + "x" * 70000, "65536 at most"),
+    ],
+)
+def test_a_deep_or_long_yaml_is_refused(text: str, match: str) -> None:
+    with pytest.raises(InvalidInput, match=match):
+        planner.parse_map_yaml(text)
+
+
+def test_a_yaml_that_is_not_text_is_refused() -> None:
+    with pytest.raises(InvalidInput, match="yaml is not valid YAML") as info:
+        planner.parse_map_yaml(png(np.zeros((1, 1), dtype=np.uint8)))
+    assert info.value.field == "yaml"
+
+
+def test_an_anchor_without_alias_still_reads() -> None:
+    meta = planner.parse_map_yaml("image: &i m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    assert meta.image == "m.pgm"
+
+
 def test_an_image_that_does_not_decode() -> None:
     with pytest.raises(InvalidInput, match="not an image") as info:
         planner.parse_ros_map(YAML, b"P5 this is not a picture")

@@ -158,7 +158,11 @@ def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
 class Replica:
     """The service as uvicorn runs it in production, in a process of its own, on 127.0.0.1."""
 
-    def __init__(self, store_url: str, log: Path, env: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, store_url: str, log: Path, env: dict[str, str] | None = None, *, main: bool = False
+    ) -> None:
+        """``main``: started as ``python -m service`` starts it (its connection limits and
+        timeouts from the settings), else by the ``uvicorn`` command with its defaults."""
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.log = log
@@ -167,6 +171,9 @@ class Replica:
         }  # fmt: skip
         args = [sys.executable, "-m", "uvicorn", "service.main:app", "--host", "127.0.0.1"]
         args += ["--port", str(self.port), "--log-level", "warning"]
+        if main:
+            args = [sys.executable, "-m", "service"]
+            env |= {"PLANNER_HOST": "127.0.0.1", "PLANNER_PORT": str(self.port)}
         with log.open("ab") as out:
             self.process = subprocess.Popen(
                 args, env=env, cwd=ROOT, stdout=out, stderr=subprocess.STDOUT
@@ -192,13 +199,19 @@ class Replica:
 
 @contextmanager
 def replicas(
-    store_url: str, directory: Path, count: int, env: dict[str, str] | None = None
+    store_url: str,
+    directory: Path,
+    count: int,
+    env: dict[str, str] | None = None,
+    *,
+    main: bool = False,
 ) -> Iterator[list[Replica]]:
-    """``count`` uvicorn processes sharing ``store_url``, stopped on the way out."""
+    """``count`` uvicorn processes sharing ``store_url``, stopped on the way out (``main``:
+    each started as ``python -m service``)."""
     started: list[Replica] = []
     try:
         for i in range(count):
-            started.append(Replica(store_url, directory / f"uvicorn-{i}.log", env))
+            started.append(Replica(store_url, directory / f"uvicorn-{i}.log", env, main=main))
         for replica in started:
             replica.wait_ready()
         yield started

@@ -8,6 +8,7 @@ import itertools
 
 import httpx
 import numpy as np
+import orjson
 import pytest
 from fastapi import FastAPI
 
@@ -337,6 +338,6 @@ async def test_a_retried_seq_is_no_new_event_for_the_viewer(
         first, second = await subscription.next(), await subscription.next()
         assert first is not None
         assert second is not None
-        assert (first["seq"], second["seq"]) == (0, 1)
+        assert (orjson.loads(first)["seq"], orjson.loads(second)["seq"]) == (0, 1)
     finally:
         await subscription.close()

@@ -56,7 +56,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("start without goal", "POST", "/maps", {"rows": ROWS, "start": [0, 0]}, 422, ["'goal'"]),
     ("too many cells", "POST", "/maps", {"rows": ["." * 65] * 65}, 413, ["rows", "65 x 65", "4225", "4096"]),
     ("body too large", "POST", "/maps", {"rows": ["." * 60] * 1200}, 413, ["body", "bytes", "65536"]),
-    ("too large, not even parsed", "POST", "/plan", b"{" * 70000, 413, ["body", "70000 bytes"]),
+    ("too large, not even parsed", "POST", "/maps", b"{" * 70000, 413, ["body", "70000 bytes"]),
     ("malformed JSON", "POST", "/plan", b'{"map_id": "x", "start": [0', 422, ["JSON", "character"]),
     ("body not an object", "POST", "/plan", [1, 2], 422, ["body", "[1, 2]"]),
     ("start too short", "POST", "/plan", {"map_id": "{map}", "start": [0], "goal": [4, 5]}, 422, ["start", "[0]"]),

@@ -383,6 +383,7 @@ def _example(model: type[BaseModel]) -> Any:
 ROUTES = {
     "upload_map": ("post", "/maps"),
     "get_map": ("get", "/maps/{map_id}"),
+    "passages": ("get", "/maps/{map_id}/passages"),
     "add_zones": ("post", "/maps/{map_id}/zones"),
     "plan": ("post", "/plan"),
     "get_plan": ("get", "/plan/{plan_id}"),

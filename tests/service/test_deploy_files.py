@@ -238,5 +238,9 @@ def test_uvicorn_runs_with_keep_alive_and_concurrency_limits() -> None:
     assert "service" in dict(_dockerfile())["CMD"]
     assert "-m service" in (ROOT / "Makefile").read_text(encoding="utf-8")
     main = (ROOT / "service" / "__main__.py").read_text(encoding="utf-8")
-    for setting in ("timeout_keep_alive=KEEP_ALIVE_SECONDS", "limit_concurrency=MAX_CONCURRENCY"):
+    for setting in (
+        "timeout_keep_alive=settings.keep_alive_seconds",
+        "limit_concurrency=settings.max_connections",
+        "h11_max_incomplete_event_size=settings.max_header_bytes",
+    ):
         assert setting in main

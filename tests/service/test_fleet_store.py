@@ -8,8 +8,10 @@ from __future__ import annotations
 import asyncio
 from typing import Any
 
+import numpy as np
 import pytest
 
+import planner
 from service.stores import MemoryStore, RedisStore
 from service.stores.base import FleetRecord, Store, Update
 from service.tenants import TENANT
@@ -44,10 +46,16 @@ def _claim(plan_id: str) -> Any:
     return decide
 
 
+MAP = planner.RobotMap(np.zeros((2, 2), dtype=np.int8), planner.MapFrame((2, 2)))
+RECORD = {"fleet": "f", "n": 0, "map_id": "m"}
+"""A fleet's plan always names its map (the stores check it is still there)."""
+
+
 async def _race(stores: list[Store], robots: int, rounds: int) -> None:
     plans = [f"p{i}" for i in range(robots)]
+    await stores[0].put_map("m", MAP)
     for plan_id in plans:
-        await stores[0].put_fleet_plan(plan_id, {"fleet": "f", "n": 0}, _join(plan_id))
+        await stores[0].put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
     for r in range(rounds):
         # Every robot steps at once, each on a store of its own in turn (replicas alternate).
         updates = await asyncio.gather(
@@ -101,9 +109,8 @@ async def test_fleets_of_two_tenants_are_two_fleets(redis_server: RedisServer) -
             for tenant in ("a", "b"):
                 token = TENANT.set(tenant)
                 try:
-                    await store.put_fleet_plan(
-                        f"{tenant}1", {"fleet": "f", "n": 0}, _join(f"{tenant}1")
-                    )
+                    await store.put_map("m", MAP)
+                    await store.put_fleet_plan(f"{tenant}1", dict(RECORD), _join(f"{tenant}1"))
                 finally:
                     TENANT.reset(token)
             for tenant in ("a", "b"):
@@ -124,8 +131,9 @@ async def test_a_step_decided_on_a_replicas_stale_fleet_decides_again(
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
     try:
+        await a.put_map("m", MAP)
         for plan_id in ("x", "y"):
-            await a.put_fleet_plan(plan_id, {"fleet": "f", "n": 0}, _join(plan_id))
+            await a.put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
         await a.step_plan("x", _claim("x"))  # a's copy of the fleet: x holds slot 0
         await b.step_plan("y", _claim("y"))  # b read the fleet: y takes slot 1
         seen: list[FleetRecord] = []

@@ -146,7 +146,6 @@ async def test_a_robot_on_the_goal_makes_the_other_wait_until_it_is_deleted(
     parked = (await _plan(client, map_id, [15, 20], [15, 21], fleet="f")).json()["plan_id"]
     made = await _plan(client, map_id, [15, 3], [15, 21], fleet="f")
     assert made.status_code == 201, made.text
-    assert made.json()["fleet"] == "f"
     mover = made.json()["plan_id"]
     assert (await client.post(f"/plan/{parked}/step", json={})).json()["status"] == "arrived"
     answer: dict[str, Any] = {}
@@ -209,7 +208,6 @@ async def test_bad_fleet_names_are_refused(client: httpx.AsyncClient, name: Any)
     answer = await _plan(client, map_id, [5, 5], [20, 20], fleet=name)
     if name is None:
         assert answer.status_code == 201
-        assert answer.json()["fleet"] is None
         return
     assert answer.status_code == 422
     assert "fleet" in answer.text

@@ -22,6 +22,7 @@ from service.edge.guards import MAX_JSON_DEPTH, json_depth
 from service.errors import Busy, InsufficientStorage
 from service.main import create_app
 from service.stores import MemoryStore
+from service.stores.memory import MAP_OVERHEAD_BYTES
 from service.tenants import TENANT
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
@@ -135,12 +136,16 @@ async def test_steps_to_unknown_plans_leave_no_lock(client: httpx.AsyncClient) -
     assert engine.store.lock_count == 0  # released on the error path too
 
 
+MIB_MAP = 1024 * 1024 + MAP_OVERHEAD_BYTES
+"""What a 1024 x 1024 map takes of the memory store's bound."""
+
+
 async def test_the_memory_map_store_evicts_idle_maps_and_refuses_when_plans_hold_it() -> None:
-    store = MemoryStore(ttl_seconds=60, max_map_bytes=4 * 1024 * 1024)
+    store = MemoryStore(ttl_seconds=60, max_map_bytes=4 * MIB_MAP)
     grids = [planner.grid_map(random_map(1024, 1024, 0.2, seed)) for seed in range(6)]
     for i, grid in enumerate(grids[:4]):
         assert await store.put_map(f"m{i}", grid)
-    assert store.map_bytes == 4 * 1024 * 1024
+    assert store.map_bytes == 4 * MIB_MAP
     await store.get_map("m0")  # used: now the most recent
     await store.put_plan("p", {"map_id": "m1"})  # m1 has a live plan
     assert await store.put_map("m4", grids[4])  # evicts m2, the least recently used idle map
@@ -156,11 +161,11 @@ async def test_the_memory_map_store_evicts_idle_maps_and_refuses_when_plans_hold
     assert await store.delete_plan("q")
     assert await store.put_map("m5", grids[5])  # m0 is idle again: evicted
     assert await store.get_map("m0") is None
-    assert store.map_bytes <= 4 * 1024 * 1024
+    assert store.map_bytes <= 4 * MIB_MAP
 
 
 async def test_a_full_map_store_answers_507() -> None:
-    settings = SMALL.model_copy(update={"map_store_bytes": 2048, "max_map_cells": 10_000})
+    settings = SMALL.model_copy(update={"map_store_bytes": 4096, "max_map_cells": 10_000})
     async with serving(settings) as client:
         body = {"grid": random_map(40, 40, 0.2, 1).tolist(), "start": [0, 0], "goal": [39, 39]}
         assert (await client.post("/maps", json=body)).status_code == 201
@@ -221,16 +226,23 @@ async def test_simulation_steps_are_capped_and_a_long_one_is_stopped() -> None:
         assert engine.pool.busy == 0
 
 
-async def test_a_step_body_has_its_own_smaller_limit() -> None:
+async def test_only_a_map_upload_has_the_large_body_limit() -> None:
     settings = SMALL.model_copy(update={"max_step_body_bytes": 4096})
     async with serving(settings) as client:
-        _, plan_id = await _plan(client)
+        map_id, plan_id = await _plan(client)
         big = {"dynamic_obstacles": [[4, 4]] * 1000}
         r = await client.post(f"/plan/{plan_id}/step", json=big)
         assert r.status_code == 413
         assert "PLANNER_MAX_STEP_BODY_BYTES is 4096" in r.json()["detail"]
-        r = await client.post("/plan", json={"map_id": "x" * 5000, "start": [0, 0], "goal": [0, 1]})
-        assert r.status_code == 422  # other routes keep the body limit: parsed, refused
+        for url, body in [
+            ("/plan", {"map_id": "x" * 5000, "start": [0, 0], "goal": [0, 1]}),
+            (f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [0, 1], "preset": "x" * 5000}),
+        ]:
+            r = await client.post(url, json=body)
+            assert r.status_code == 413, url
+            assert "PLANNER_MAX_STEP_BODY_BYTES is 4096" in r.json()["detail"]
+        r = await client.post("/maps", json={"rows": ["." * 64] * 64})  # over 4096 bytes
+        assert r.status_code in (200, 201), r.text
 
 
 async def test_api_keys_guard_every_endpoint_but_the_open_ones_and_split_tenants() -> None:
@@ -298,7 +310,7 @@ async def test_a_picture_over_the_pixel_limit_is_refused_naming_it() -> None:
 
 
 async def test_one_tenant_cannot_evict_another_tenants_maps() -> None:
-    store = MemoryStore(ttl_seconds=60, max_map_bytes=4 * 1024 * 1024, shares=2)
+    store = MemoryStore(ttl_seconds=60, max_map_bytes=4 * MIB_MAP, shares=2)
     grids = [planner.grid_map(random_map(1024, 1024, 0.2, seed)) for seed in range(8)]
     TENANT.set("a")
     for i in range(2):
@@ -316,7 +328,7 @@ async def test_one_tenant_cannot_evict_another_tenants_maps() -> None:
     assert await store.get_map("m0") is not None
     assert await store.get_map("m1") is not None
     TENANT.set("")
-    assert store.map_bytes <= 4 * 1024 * 1024
+    assert store.map_bytes <= 4 * MIB_MAP
 
 
 async def test_heavy_jobs_beyond_the_queue_are_refused_and_steps_still_run() -> None:

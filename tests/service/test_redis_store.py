@@ -10,6 +10,7 @@ from collections.abc import AsyncIterator
 from typing import Any, Literal
 
 import numpy as np
+import orjson
 import pytest
 from pydantic import ValidationError
 
@@ -18,8 +19,9 @@ from service.config import Settings
 from service.errors import StoreUnavailable
 from service.stores import MemoryStore, PlanRecord, RedisStore, open_store
 from service.stores import redis as redis_store
+from service.stores import scripts as redis_scripts
 from service.stores.base import Decide, Update
-from service.viewer.events import RedisBus, Subscription
+from service.viewer.events import Hub, RedisBus, Subscription
 from tests.service.conftest import RedisServer, free_port
 
 
@@ -157,7 +159,8 @@ async def test_keys_live_under_the_planner_namespace(store: RedisStore) -> None:
         return Update(None, {"n": 1})
 
     assert await store.update_plan("p", decide) is not None
-    assert seen == [b"planner:map:m", b"planner:path:p", b"planner:plan:p"]
+    # The tenant's set of live plans beside the plan (the tenant without keys: "").
+    assert seen == [b"planner:map:m", b"planner:path:p", b"planner:plan:p", b"planner:plans-of:"]
     assert sorted(await store._redis.keys("*"), key=str) == seen
     assert await store._redis.ttl("planner:map:m") == -1  # maps are kept
 
@@ -455,7 +458,7 @@ async def test_a_write_sent_again_finds_itself_and_moves_once(relay: Relay) -> N
     decided: list[int] = []
     try:
         await store.put_plan("p", {"n": 0}, append=[(0, 0)])
-        await store._redis.script_load(redis_store._STEP)  # no NOSCRIPT resend to count
+        await store._redis.script_load(redis_scripts.STEP)  # no NOSCRIPT resend to count
         relay.lose()
         update = await store.update_plan("p", _count(log=decided))
         assert update is not None
@@ -654,7 +657,7 @@ async def test_a_steps_write_publishes_its_event_only_when_written(
 ) -> None:
     """One round trip writes the step and publishes its event for the live viewer; a write
     that does not happen (the plan deleted meanwhile, or a replay) publishes nothing."""
-    bus = RedisBus(redis_server.url)
+    bus = RedisBus(redis_server.url, Hub(max_bytes=1 << 20, max_streams=4))
     subscription = await bus.subscribe("p")
     try:
         await store.put_plan("p", {"n": 0})
@@ -683,5 +686,5 @@ async def _next_event(subscription: Subscription) -> dict[str, object] | None:
     for _ in range(3):
         event = await subscription.next()
         if event is not None:
-            return event
+            return dict(orjson.loads(event))
     return None

@@ -6,16 +6,17 @@ from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Response, status
 
-from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, Preset
+from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, PassagesPublic, Preset
 from schemas.plans import Unknown
 from service.api import present
 from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, MapRoute
 from service.errors import responses
 from service.resources import maps
+from service.resources import passages as passage_sets
 
 __all__ = ["router"]
 
-ERRORS = responses(413, 422, 507)
+ERRORS = responses(413, 422, 429, 507)
 
 router = APIRouter(tags=["maps"], route_class=MapRoute)
 
@@ -72,12 +73,49 @@ async def render_map(
     unknown: Annotated[
         Unknown | None, Query(description="How unknown cells count: `blocked` or `free`.")
     ] = None,
+    passages: Annotated[
+        bool,
+        Query(description="Draw the narrow passages for `robot_radius`, labelled with width."),
+    ] = False,
 ) -> Response:
     """The map as the paper draws it: obstacles black, tight-tunnel cells orange (when the
     preset seals them), gates red; with `field=clean`, free cells tinted by their penalty. On a
     robot map, unknown cells grey-blue, the configuration space's margin for `robot_radius`
-    pink, with a legend and a scale bar in meters."""
+    pink, with a legend and a scale bar in meters. With `passages=true`, the narrow passages
+    (as `GET /maps/{map_id}/passages` for `robot_radius`) violet, each labelled with its id and
+    width."""
     overrides = {"robot_radius": robot_radius, "unknown": unknown}
     given = {name: value for name, value in overrides.items() if value is not None}
-    png = await maps.render_map(engine, map_id, preset, field, cell, given)
+    png = await maps.render_map(engine, map_id, preset, field, cell, given, passages)
     return Response(png, media_type="image/png")
+
+
+@router.get(
+    "/maps/{map_id}/passages",
+    summary="The narrow passages of a map for a round robot",
+    responses=responses(404, 422),
+)
+async def get_passages(
+    map_id: str,
+    engine: EngineDep,
+    robot_radius: Annotated[
+        float, Query(ge=0, le=100, description="The robot's radius in meters.")
+    ],
+    max_width: Annotated[
+        float | None,
+        Query(
+            gt=0,
+            le=1000,
+            description="Narrow means narrower than this, meters (default `2 * robot_radius + "
+            "0.3`); more than the robot's diameter.",
+        ),
+    ] = None,
+) -> PassagesPublic:
+    """The places where free space narrows below `max_width` between wider spaces and the robot
+    still fits (width > 2 `robot_radius`): doors, gaps between shelves, narrow corridors. Each
+    passage: `id`, its narrowest point `x`, `y` (meters, map frame), `width_m` there (center to
+    center, to within one `resolution`) and `length_m` (how far the width stays below
+    `max_width`). Unknown cells count as blocked. Computed once for a map, radius and
+    `max_width`, then cached."""
+    found = await passage_sets.map_passages(engine, map_id, robot_radius, max_width)
+    return present.passages_public(found)

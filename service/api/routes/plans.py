@@ -75,7 +75,7 @@ async def step(plan_id: str, request: Request) -> Response:
         view = await plans.step(engine, plan_id, body)
         answer = present.step_answer(view)
         if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
-            await bus.publish(plan_id, _event(answer, view))
+            await bus.publish(plan_id, orjson.dumps(_event(answer, view)))
     # Built and encoded directly: `response_model` documents it, and
     # tests/service/test_api.py checks that its answers validate as StepPublic.
     return Response(orjson.dumps(answer), media_type="application/json")
@@ -101,20 +101,23 @@ does not take."""
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
     """What the live viewer gets of a step: its answer, and the cells the obstacles blocked
     (it draws cells: circles go out as the cells they blocked)."""
-    return {**answer, "dynamic_obstacles": view.obstacles}
+    cells = view.obstacles
+    return {**answer, "dynamic_obstacles": cells if isinstance(cells, list) else cells.tolist()}
 
 
 @router.post(
     "/plan",
     status_code=status.HTTP_201_CREATED,
     summary="Plan from start to goal on an uploaded map",
-    responses=responses(404, 413, 422),
+    responses=responses(404, 413, 422, 429),
 )
 async def create_plan(body: PlanCreate, engine: EngineDep) -> PlanPublic:
     """Analyse the map (cached per map and analysis parameters), run the goal wave (cached per
     goal) and return the plan with its `preview`: the path with no dynamic obstacles. `422`
     when start or goal is outside the map or blocked, or with `NO_VALID_PATH` when the goal
-    cannot be reached (or only through tight tunnels while `allow_narrow` is false)."""
+    cannot be reached (or only through tight tunnels while `allow_narrow` is false); `404`
+    when the map is not in the store (whatever a replica has cached); `429` `TOO_MANY_PLANS`
+    when the key holds `PLANNER_MAX_PLANS_PER_TENANT` live plans."""
     return present.plan_public(await plans.create_plan(engine, body))
 
 
@@ -183,6 +186,7 @@ async def render_plan(
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
     trajectory so far (green) and its cell, the start (magenta) and the goal (gold), and the
-    `preview.poses` the robot drives (a blue line, the goal's heading an arrow)."""
+    `preview.poses` the robot drives (a blue line, the goal's heading an arrow), and the narrow
+    passages it crosses (`preview.passages`: violet, labelled with their id and width)."""
     png = await plans.render_plan(engine, plan_id, field, cell)
     return Response(png, media_type="image/png")

@@ -14,10 +14,11 @@ from fastapi.responses import HTMLResponse, StreamingResponse
 from starlette.background import BackgroundTask
 
 import planner
+from schemas import ErrorPublic
 from service.api.deps import EngineDep
 from service.errors import responses
 from service.resources import plans
-from service.viewer.events import BusDep, Subscription
+from service.viewer.events import DROPPED, BusDep, Dropped, Subscription
 
 __all__ = ["router"]
 
@@ -38,11 +39,16 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
     yaw in `data-yaw`), and on a zoned map its zones (`.keepout` polygons hatched red,
     `.speed-zone` polygons labelled by `.speed-label` with their max speed), updated
-    live from `/plan/{plan_id}/events` as steps arrive. Everything it loads comes from the
-    service."""
+    live from `/plan/{plan_id}/events` as steps arrive; on a robot map, the map's narrow
+    passages for the plan's robot (`.passage`, from `/maps/{map_id}/passages`: a dot and its
+    width in meters). Everything it loads comes from the service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
     zones = view_.plan.analysis.zones
+    passages = None
+    if not view_.plan.analysis.plain:  # relative to the page: /maps/{map_id}/passages
+        radius = view_.plan.params.robot_radius
+        passages = f"../../maps/{view_.record['map_id']}/passages?robot_radius={radius!r}"
     data = {
         "plan_id": plan_id,
         "height": height,
@@ -54,6 +60,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "origin": list(view_.plan.analysis.frame.origin),
         "last_step": _last_step(view_.state.last_step),
         "zones": None if zones is None else zones.as_dict(),
+        "passages_url": passages,
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
@@ -73,12 +80,15 @@ def _last_step(step: planner.Step | None) -> dict[str, Any] | None:
     "/plan/{plan_id}/events",
     summary="The plan's steps as server-sent events",
     response_class=StreamingResponse,
-    responses={200: {"content": {"text/event-stream": {}}}, **responses(404, 422)},
+    responses={200: {"content": {"text/event-stream": {}}}, **responses(404, 422, 429)},
 )
 async def events(plan_id: str, engine: EngineDep, bus: BusDep) -> StreamingResponse:
     """`text/event-stream`: one event per step served from now on, by any replica; its `data`
     is the step's answer with the step's `dynamic_obstacles` (`seq`, `position`, `move`,
-    `status`, ...). A comment every 15 s keeps idle connections open."""
+    `status`, ...). A comment every 15 s keeps idle connections open. A reader more than
+    `PLANNER_STREAM_QUEUE_BYTES` behind gets a last event, `event: dropped` (its `data` an
+    error, code `TOO_SLOW`), and the stream ends; a key may hold
+    `PLANNER_MAX_STREAMS_PER_TENANT` streams on a replica (`429` `TOO_MANY_STREAMS` beyond)."""
     await plans.require(engine, plan_id)
     subscription = await bus.subscribe(plan_id)
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}  # nginx: no buffering
@@ -90,6 +100,17 @@ async def events(plan_id: str, engine: EngineDep, bus: BusDep) -> StreamingRespo
     )
 
 
+_DROPPED = orjson.dumps(
+    ErrorPublic(
+        detail="this stream fell more than PLANNER_STREAM_QUEUE_BYTES of events behind its "
+        "steps and was dropped; read faster, or reconnect to follow from now on",
+        field=None,
+        code=DROPPED,
+    ).model_dump()
+)
+"""The ``data`` of the ``dropped`` event."""
+
+
 async def _frames(subscription: Subscription) -> AsyncIterator[bytes]:
     try:
         yield b": subscribed\n\n"
@@ -98,8 +119,9 @@ async def _frames(subscription: Subscription) -> AsyncIterator[bytes]:
                 event = await subscription.next()
             except EOFError:  # the bus is gone: the browser reconnects by itself
                 return
-            yield (
-                b": keep-alive\n\n" if event is None else b"data: " + orjson.dumps(event) + b"\n\n"
-            )
+            except Dropped:
+                yield b"event: dropped\ndata: " + _DROPPED + b"\n\n"
+                return
+            yield b": keep-alive\n\n" if event is None else b"data: " + event + b"\n\n"
     finally:
         await subscription.close()
