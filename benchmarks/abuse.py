@@ -33,6 +33,9 @@ import numpy as np
 import orjson
 from PIL import Image
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from streams import CIRCLE, SIDE, open_stream
+
 ROOT = Path(__file__).resolve().parents[1]
 STALL_TARGET = 0.5
 RSS_TARGET_MB = 300.0
@@ -275,6 +278,29 @@ def huge_header(service: Service) -> str:
     return f"{status} after {sent} MB sent"
 
 
+def stream_never_read(service: Service) -> str:
+    """An event stream whose client reads nothing (a 4 KB receive buffer), behind 300 steps
+    whose events are ~700 KB each: how the stream ended (``dropped``: its queue let go)."""
+    with httpx.Client(base_url=service.url, trust_env=False, timeout=60) as c:
+        grid = [[0] * SIDE for _ in range(SIDE)]
+        r = c.post("/maps", json={"grid": grid, "start": [0, 0], "goal": [0, SIDE - 1]})
+        plan_id = r.json()["plan"]["plan_id"]
+        sock = open_stream(service.port, plan_id)
+        try:
+            for _ in range(300):
+                step = c.post(f"/plan/{plan_id}/step", json={"dynamic_obstacles": [CIRCLE]})
+                assert step.status_code == 200, step.text
+            sock.setblocking(False)
+            seen = b""
+            with contextlib.suppress(OSError):
+                while chunk := sock.recv(1 << 20):
+                    seen += chunk
+        finally:
+            sock.close()
+            c.delete(f"/plan/{plan_id}")
+    return "stream dropped" if b"event: dropped" in seen else "stream held"
+
+
 PATTERNS: dict[str, tuple[str, Callable[[Service], str]]] = {
     "quiet": ("the quiet service (polling only)", quiet),
     "alias-bomb": ("YAML alias bomb: 9 levels of 9 aliases, ~480 bytes", alias_bomb),
@@ -290,6 +316,10 @@ PATTERNS: dict[str, tuple[str, Callable[[Service], str]]] = {
     "idle-sockets": ("4,100 idle TCP connections, held 3 s", idle_sockets),
     "slowloris": ("200 connections trickling header lines, 8 s", slowloris),
     "huge-header": ("one connection sending a 64 MB header", huge_header),
+    "stream-never-read": (
+        "an event stream never read, 300 steps of ~700 KB events",
+        stream_never_read,
+    ),
 }
 
 
