@@ -6,7 +6,10 @@ memory store (one server) and Redis (two replicas, a robot's steps alternating r
 Counts, after every tick: collisions (two robots in one cell, two that swapped cells, or two
 whose centers are closer than the sum of their radii), robots waiting inside a passage while
 another robot is in it; at the end, whether all arrived within 4 x the sum of their solo path
-lengths + 50 ticks (else a deadlock), and the step's p50/p99 (HTTP round trip).
+lengths + 50 ticks (else a deadlock), and the step's p50/p99: the client's (HTTP round trip,
+queue included), the server's own (its ``planner_http_request_duration_seconds`` histogram on
+``/metrics``, read before and after each run: arrival to the end of the answer, interpolated in
+its buckets), the client's CPU time per step and the servers' (``/proc/PID/stat``).
 
     .venv/bin/python benchmarks/fleet.py [--seeds 20] [--robots 16] [--store memory redis]
 
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import itertools
 import os
 import shutil
 import socket
@@ -37,6 +41,7 @@ import numpy.typing as npt
 
 import planner
 import planner.fleets
+from service.ops.metrics import BUCKETS
 
 ROOT = Path(__file__).resolve().parents[1]
 CORRIDOR_RADIUS = 0.325
@@ -188,6 +193,12 @@ class Outcome:
     collisions: list[str] = field(default_factory=list)
     passage_waits: list[str] = field(default_factory=list)
     step_ms: list[float] = field(default_factory=list)
+    client_cpu_s: float = 0.0
+    """The client process's CPU time (user and system) while the ticks' steps were in flight."""
+    server_buckets: list[float] = field(default_factory=list)
+    """Steps answered 200 in each bucket of the servers' histogram (the last: over them all)."""
+    server_cpu_s: float = 0.0
+    """The servers' CPU time (user and system) over the run (the map and plans too)."""
     errors: list[str] = field(default_factory=list)
 
     @property
@@ -245,7 +256,9 @@ async def run(
                     return
                 answers[i] = got.json()
 
+            cpu = time.process_time()
             await asyncio.gather(*(step(int(i)) for i in order))
+            outcome.client_cpu_s += time.process_time() - cpu
             before = list(where)
             for i, a in answers.items():
                 where[i] = tuple(a["position"])
@@ -316,10 +329,64 @@ def _wait(url: str, process: subprocess.Popen[bytes]) -> None:
             time.sleep(0.1)
 
 
+def cpu_seconds(pid: int) -> float:
+    """A process's CPU time so far, user and system (``/proc/PID/stat``, Linux)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+STEP_ROUTE = ("POST", "/plan/{plan_id}/step", "200")
+
+
+async def step_buckets(client: httpx.AsyncClient) -> list[float]:
+    """The server's count of steps answered 200 in each bucket of its request-duration
+    histogram, not cumulative (the last: over every bound), from ``GET /metrics``."""
+    from prometheus_client.parser import text_string_to_metric_families
+
+    text = (await client.get("/metrics")).text
+    cumulative: dict[float, float] = {}
+    for family in text_string_to_metric_families(text):
+        if family.name != "planner_http_request_duration_seconds":
+            continue
+        for sample in family.samples:
+            labels = sample.labels
+            key = (labels.get("method"), labels.get("route"), labels.get("status"))
+            if sample.name.endswith("_bucket") and key == STEP_ROUTE:
+                cumulative[float(labels["le"])] = sample.value
+    bounds = sorted(cumulative)
+    if not bounds:
+        return [0.0] * (len(BUCKETS) + 1)
+    assert tuple(bounds[:-1]) == BUCKETS, bounds
+    counts = [cumulative[b] for b in bounds]
+    return [counts[0]] + [b - a for a, b in itertools.pairwise(counts)]
+
+
+def bucket_percentile(counts: Sequence[float], q: float) -> float:
+    """The ``q``-th percentile (milliseconds) of values counted in the histogram's buckets,
+    interpolated linearly inside its bucket (as Prometheus' ``histogram_quantile``)."""
+    total = sum(counts)
+    if not total:
+        return float("nan")
+    rank, seen, lower = total * q / 100, 0.0, 0.0
+    for bound, count in zip((*BUCKETS, float("inf")), counts, strict=True):
+        if seen + count >= rank and count:
+            if bound == float("inf"):
+                return lower * 1000
+            return (lower + (bound - lower) * (rank - seen) / count) * 1000
+        seen += count
+        lower = bound
+    return lower * 1000
+
+
+SERVER_PIDS: list[int] = []
+"""The pids of the uvicorn servers :func:`servers` started (for their CPU time)."""
+
+
 @contextmanager
 def servers(store: str, directory: Path) -> Iterator[list[str]]:
     """One uvicorn server on the memory store, or a redis-server and two replicas on it."""
     started: list[subprocess.Popen[bytes]] = []
+    SERVER_PIDS.clear()
     try:
         url = "memory://"
         count = 1
@@ -340,6 +407,7 @@ def servers(store: str, directory: Path) -> Iterator[list[str]]:
                     "--port", str(port), "--log-level", "warning"]  # fmt: skip
             process = subprocess.Popen(args, env=env, cwd=ROOT)
             started.append(process)
+            SERVER_PIDS.append(process.pid)
             urls.append(f"http://127.0.0.1:{port}")
             _wait(urls[-1], process)
         yield urls
@@ -355,22 +423,47 @@ async def _bench(urls: list[str], scenarios: list[tuple[Scenario, int]]) -> list
     try:
         out = []
         for n, (scenario, seed) in enumerate(scenarios):
-            out.append(await run(clients, scenario, fleet=f"bench-{n}", seed=seed))
+            before = [await step_buckets(c) for c in clients]
+            cpu = sum(cpu_seconds(pid) for pid in SERVER_PIDS)
+            outcome = await run(clients, scenario, fleet=f"bench-{n}", seed=seed)
+            outcome.server_cpu_s = sum(cpu_seconds(pid) for pid in SERVER_PIDS) - cpu
+            after = [await step_buckets(c) for c in clients]
+            outcome.server_buckets = [
+                sum(a[k] - b[k] for a, b in zip(after, before, strict=True))
+                for k in range(len(after[0]))
+            ]
+            out.append(outcome)
         return out
     finally:
         for c in clients:
             await c.aclose()
 
 
+HEADER = (
+    "| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
+    "| client p50 ms | client p99 ms | server p50 ms | server p99 ms | server ≤ 10 ms "
+    "| client CPU µs/step | server CPU µs/step |\n"
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+)
+"""The table :func:`_report` writes a row of."""
+
+
 def _report(store: str, name: str, outcomes: list[Outcome]) -> str:
     steps = [ms for o in outcomes for ms in o.step_ms]
     robots = sum(o.robots for o in outcomes)
+    buckets = [sum(k) for k in zip(*(o.server_buckets for o in outcomes), strict=True)]
+    served = sum(buckets)
+    within = sum(buckets[: BUCKETS.index(0.01) + 1]) / served if served else float("nan")
+    client_cpu = sum(o.client_cpu_s for o in outcomes) / max(len(steps), 1) * 1e6
+    server_cpu = sum(o.server_cpu_s for o in outcomes) / max(len(steps), 1) * 1e6
     return (
         f"| {store} | {name} | {len(outcomes)} | {sum(len(o.collisions) for o in outcomes)} | "
         f"{sum(o.deadlock for o in outcomes)} | {sum(o.arrived for o in outcomes)}/{robots} | "
         f"{sum(len(o.passage_waits) for o in outcomes)} | "
         f"{sum(len(o.errors) for o in outcomes)} | {_percentile(steps, 50):.2f} | "
-        f"{_percentile(steps, 99):.2f} |"
+        f"{_percentile(steps, 99):.2f} | {bucket_percentile(buckets, 50):.2f} | "
+        f"{bucket_percentile(buckets, 99):.2f} | {within:.1%} | {client_cpu:.0f} | "
+        f"{server_cpu:.0f} |"
     )
 
 
@@ -428,9 +521,8 @@ def main() -> None:
                   f"| {_percentile(times, 99):.3f} | {np.mean(times):.3f} |")  # fmt: skip
         return
     depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
-    print("| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
-          "| step p50 ms | step p99 ms |")  # fmt: skip
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    print(HEADER)
     for store in args.store:
         every: dict[str, tuple[str, Callable[[int], Scenario], int]] = {
             "swap2": ("corridor swap x2", lambda s: corridor_scenario(1, s), args.seeds),
@@ -448,6 +540,7 @@ def main() -> None:
             for name, scenarios in sets.items():
                 outcomes = asyncio.run(_bench(urls, scenarios))
                 print(_report(store, name, outcomes), flush=True)
+                print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:
                     for line in (o.collisions + o.passage_waits + o.errors)[:3]:
                         print("  ", line, file=sys.stderr)
