@@ -12,6 +12,11 @@ queue included), the server's own (its ``planner_http_request_duration_seconds``
 its buckets), the client's CPU time per step and the servers' (``/proc/PID/stat``).
 
     .venv/bin/python benchmarks/fleet.py [--seeds 20] [--robots 16] [--store memory redis]
+        [--client httpx raw]
+
+``--client raw`` sends the steps over connections written by hand (:class:`RawClient`, a tenth
+of httpx's CPU time a request): on two cores shared with the server, httpx's own work is most
+of the latency it sees.
 
 tests/service/test_fleet_scenarios.py drives the same code at smaller sizes.
 """
@@ -38,6 +43,7 @@ import edt
 import httpx
 import numpy as np
 import numpy.typing as npt
+import orjson
 
 import planner
 import planner.fleets
@@ -217,9 +223,11 @@ async def run(
     fleet: str,
     seed: int,
     max_ticks: int | None = None,
+    steppers: Sequence[Any] | None = None,
 ) -> Outcome:
     """Upload the map, create the fleet's plans, step every robot once a tick (concurrently, in
-    a random order; a robot's steps alternate between ``clients``) until all arrived or the
+    a random order; a robot's steps alternate between ``clients``, or ``steppers``: clients of
+    the same URLs with httpx's ``post``, such as :class:`RawClient`) until all arrived or the
     budget is spent; delete the plans."""
     m, radius = scenario.robot_map, scenario.radius
     res, w = m.resolution, m.shape[1]
@@ -247,7 +255,7 @@ async def run(
             answers: dict[int, dict[str, Any]] = {}
 
             async def step(i: int, tick: int = tick, answers: dict[int, Any] = answers) -> None:
-                client = clients[(tick + i) % len(clients)]
+                client = (steppers or clients)[(tick + i) % len(clients)]
                 t0 = time.perf_counter()
                 got = await client.post(f"/plan/{plan_ids[i]}/step", json={"seq": tick})
                 outcome.step_ms.append((time.perf_counter() - t0) * 1000)
@@ -274,6 +282,49 @@ async def run(
         for plan_id in plan_ids:
             await clients[0].delete(f"/plan/{plan_id}")
     return outcome
+
+
+@dataclass
+class RawAnswer:
+    status_code: int
+    text: str
+
+    def json(self) -> Any:
+        return orjson.loads(self.text)
+
+
+class RawClient:
+    """``POST`` with a JSON body over kept-alive HTTP/1.1 connections written by hand: a
+    load generator that costs the client a fraction of httpx's CPU time per request, so that
+    the latency it sees is less its own work (the service answers with a ``content-length``)."""
+
+    def __init__(self, url: str) -> None:
+        host, port = url.removeprefix("http://").split(":")
+        self._address = (host, int(port))
+        self._idle: list[tuple[asyncio.StreamReader, asyncio.StreamWriter]] = []
+
+    async def post(self, path: str, json: Any) -> RawAnswer:
+        body = orjson.dumps(json)
+        head = (f"POST {path} HTTP/1.1\r\nhost: {self._address[0]}\r\ncontent-type: "
+                f"application/json\r\ncontent-length: {len(body)}\r\n\r\n")  # fmt: skip
+        if self._idle:
+            reader, writer = self._idle.pop()
+        else:
+            reader, writer = await asyncio.open_connection(*self._address)
+        writer.write(head.encode() + body)
+        lines = (await reader.readuntil(b"\r\n\r\n")).split(b"\r\n")
+        length = next(
+            int(line.split(b":", 1)[1]) for line in lines
+            if line.lower().startswith(b"content-length:")
+        )  # fmt: skip
+        text = (await reader.readexactly(length)).decode()
+        self._idle.append((reader, writer))
+        return RawAnswer(int(lines[0].split()[1]), text)
+
+    async def aclose(self) -> None:
+        for _, writer in self._idle:
+            writer.close()
+        self._idle.clear()
 
 
 def _check(
@@ -417,15 +468,18 @@ def servers(store: str, directory: Path) -> Iterator[list[str]]:
             process.wait(timeout=30)
 
 
-async def _bench(urls: list[str], scenarios: list[tuple[Scenario, int]]) -> list[Outcome]:
+async def _bench(
+    urls: list[str], scenarios: list[tuple[Scenario, int]], *, raw: bool = False
+) -> list[Outcome]:
     limits = httpx.Limits(max_connections=64)
     clients = [httpx.AsyncClient(base_url=u, timeout=60, limits=limits) for u in urls]
+    steppers = [RawClient(u) for u in urls] if raw else None
     try:
         out = []
         for n, (scenario, seed) in enumerate(scenarios):
             before = [await step_buckets(c) for c in clients]
             cpu = sum(cpu_seconds(pid) for pid in SERVER_PIDS)
-            outcome = await run(clients, scenario, fleet=f"bench-{n}", seed=seed)
+            outcome = await run(clients, scenario, fleet=f"bench-{n}", seed=seed, steppers=steppers)
             outcome.server_cpu_s = sum(cpu_seconds(pid) for pid in SERVER_PIDS) - cpu
             after = [await step_buckets(c) for c in clients]
             outcome.server_buckets = [
@@ -437,18 +491,21 @@ async def _bench(urls: list[str], scenarios: list[tuple[Scenario, int]]) -> list
     finally:
         for c in clients:
             await c.aclose()
+        for raw_client in steppers or ():
+            await raw_client.aclose()
 
 
 HEADER = (
-    "| store | scenario | runs | collisions | deadlocks | arrived | passage waits | errors "
+    "| store | scenario | client | runs | collisions | deadlocks | arrived | passage waits "
+    "| errors "
     "| client p50 ms | client p99 ms | server p50 ms | server p99 ms | server ≤ 10 ms "
     "| client CPU µs/step | server CPU µs/step |\n"
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 )
 """The table :func:`_report` writes a row of."""
 
 
-def _report(store: str, name: str, outcomes: list[Outcome]) -> str:
+def _report(store: str, name: str, outcomes: list[Outcome], client: str) -> str:
     steps = [ms for o in outcomes for ms in o.step_ms]
     robots = sum(o.robots for o in outcomes)
     buckets = [sum(k) for k in zip(*(o.server_buckets for o in outcomes), strict=True)]
@@ -457,7 +514,8 @@ def _report(store: str, name: str, outcomes: list[Outcome]) -> str:
     client_cpu = sum(o.client_cpu_s for o in outcomes) / max(len(steps), 1) * 1e6
     server_cpu = sum(o.server_cpu_s for o in outcomes) / max(len(steps), 1) * 1e6
     return (
-        f"| {store} | {name} | {len(outcomes)} | {sum(len(o.collisions) for o in outcomes)} | "
+        f"| {store} | {name} | {client} | {len(outcomes)} | "
+        f"{sum(len(o.collisions) for o in outcomes)} | "
         f"{sum(o.deadlock for o in outcomes)} | {sum(o.arrived for o in outcomes)}/{robots} | "
         f"{sum(len(o.passage_waits) for o in outcomes)} | "
         f"{sum(len(o.errors) for o in outcomes)} | {_percentile(steps, 50):.2f} | "
@@ -508,6 +566,10 @@ def main() -> None:
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
     parser.add_argument("--scenarios", nargs="+", default=["swap2", "swap4", "depot"])
     parser.add_argument(
+        "--client", nargs="+", choices=["httpx", "raw"], default=["httpx"],
+        help="who sends the steps: httpx, or connections written by hand (RawClient)",
+    )  # fmt: skip
+    parser.add_argument(
         "--engine", action="store_true", help="only the step in-process, fleet against none"
     )
     args = parser.parse_args()
@@ -537,9 +599,9 @@ def main() -> None:
             every[k][0]: [(every[k][1](s), s) for s in range(every[k][2])] for k in args.scenarios
         }
         with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as urls:
-            for name, scenarios in sets.items():
-                outcomes = asyncio.run(_bench(urls, scenarios))
-                print(_report(store, name, outcomes), flush=True)
+            for (name, scenarios), client in itertools.product(sets.items(), args.client):
+                outcomes = asyncio.run(_bench(urls, scenarios, raw=client == "raw"))
+                print(_report(store, name, outcomes, client), flush=True)
                 print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:
                     for line in (o.collisions + o.passage_waits + o.errors)[:3]:
