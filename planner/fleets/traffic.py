@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from planner.fleets.robots import Robot, robot_cells
+from planner.fleets.robots import Robot, covering, robot_cells
 from planner.fleets.waiting import WaitingZones
 
 __all__ = ["Traffic", "after_step", "traffic_for"]
@@ -72,14 +72,20 @@ def traffic_for(
     me = robots[plan_id]
     r, c = me.target if here is None else here
     others = {k: v for k, v in robots.items() if k != plan_id}
-    fleet = _Others.of(others)
-    on_goal = _on_goal(me, fleet, resolution=resolution, margin=margin)
-    keep = np.array([k not in on_goal for k in fleet.keys], dtype=bool)
-    if within is not None and fleet.keys:
-        # Chebyshev distance from (r, c) to the nearer of each robot's cell and target.
-        gap = np.abs(fleet.centers - np.array([r, c], dtype=np.int64)).max(axis=2).min(axis=1)
-        keep &= gap <= within + (me.radius + fleet.radii) / resolution
-    nearby = [others[k] for k, kept in zip(fleet.keys, keep.tolist(), strict=True) if kept]
+    on_goal = _on_goal(me, others, resolution=resolution, shape=shape, margin=margin)
+    nearby = [
+        o
+        for k, o in others.items()
+        if k not in on_goal
+        and (
+            within is None
+            or min(
+                max(abs(o.cell[0] - r), abs(o.cell[1] - c)),
+                max(abs(o.target[0] - r), abs(o.target[1] - c)),
+            )
+            <= within + (me.radius + o.radius) / resolution
+        )
+    ]
     cells = robot_cells(me.radius, nearby, resolution=resolution, shape=shape, margin=margin)
     if on_goal:
         near = robot_cells(
@@ -87,73 +93,54 @@ def traffic_for(
             margin=margin,
         )  # fmt: skip
         reach = NEAR + margin
-        keep_near = (np.abs(near[:, 0] - r) <= reach) & (np.abs(near[:, 1] - c) <= reach)
-        cells = np.concatenate((cells, near[keep_near]))
+        keep = (np.abs(near[:, 0] - r) <= reach) & (np.abs(near[:, 1] - c) <= reach)
+        cells = np.concatenate((cells, near[keep]))
     closed: dict[int, str] = {}
     if zones is not None and zones.count:
         # A robot holds the groups whose zones hold its cell or its target.
         mine = zones.groups_of(me.cell, me.target)
-        held: dict[int, list[tuple[int, str]]] = {}
-        if fleet.keys:
-            flat = fleet.centers[:, :, 0] * zones.shape[1] + fleet.centers[:, :, 1]
-            groups = zones.group[flat]  # (n, 2): the group of each cell and target, or -1
-            for i, j in zip(*np.nonzero(groups >= 0), strict=True):
-                k = fleet.keys[int(i)]
-                held.setdefault(int(groups[i, j]), []).append((others[k].rank, k))
-        ahead: dict[int, list[tuple[int, str]]] = {}
-        for k, o in others.items():
-            if o.wants is not None and o.rank < me.rank:
-                ahead.setdefault(o.wants, []).append((o.rank, k))
-        for group in sorted(held.keys() | ahead.keys()):
-            if group in mine or not 0 <= group < zones.count:
+        held = {k: zones.groups_of(o.cell, o.target) for k, o in others.items()}
+        for group in range(zones.count):
+            if group in mine:
                 continue
-            first = min(held[group]) if group in held else min(ahead[group])
-            closed[group] = first[1]
+            holders = sorted((others[k].rank, k) for k, gs in held.items() if group in gs)
+            ahead = sorted(
+                (o.rank, k) for k, o in others.items() if o.wants == group and o.rank < me.rank
+            )
+            if holders or ahead:
+                closed[group] = (holders or ahead)[0][1]
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
         zone_cells = np.concatenate([zones.group_cells[g] for g in sorted(closed)])
     return Traffic(cells, closed, zone_cells, tuple(on_goal))
 
 
-@dataclass(frozen=True, slots=True)
-class _Others:
-    """The other robots of a fleet as arrays, in the order of ``keys``."""
-
-    keys: list[str]
-    centers: npt.NDArray[np.int64]
-    """``(n, 2, 2)``: each robot's cell, then its target."""
-    radii: npt.NDArray[np.float64]
-    ranks: npt.NDArray[np.int64]
-
-    @classmethod
-    def of(cls, others: Mapping[str, Robot]) -> _Others:
-        values = list(others.values())
-        return cls(
-            list(others),
-            np.array([(o.cell, o.target) for o in values], dtype=np.int64).reshape(-1, 2, 2),
-            np.array([o.radius for o in values], dtype=np.float64),
-            np.array([o.rank for o in values], dtype=np.int64),
-        )
-
-
-def _on_goal(me: Robot, fleet: _Others, *, resolution: float, margin: int) -> list[str]:
+def _on_goal(
+    me: Robot,
+    others: Mapping[str, Robot],
+    *,
+    resolution: float,
+    shape: tuple[int, int],
+    margin: int,
+) -> list[str]:
     """The robots (by rank) whose cells, grown by the decision's ``margin``, hold ``me``'s
-    goal: those within the sum of radii of it (as :func:`covering` finds them), and those the
-    margin brings to it (as robot_cells gives them: disks of the eroded radius about cells and
-    targets; is one within Chebyshev ``margin`` of the goal?)."""
-    if not fleet.keys:
-        return []
-    reach = (me.radius + fleet.radii) / resolution
-    gap = np.abs(fleet.centers - np.array(me.goal, dtype=np.int64))  # (n, 2 centers, 2 axes)
-    found = ((gap**2).sum(axis=2) <= (reach * reach + 1e-9)[:, None]).any(axis=1)
-    if margin > 0:
-        eroded = np.hypot(reach - margin, margin)
-        reach = np.where(reach <= margin, 0.0, eroded)
-    near = np.maximum(gap - margin, 0).astype(np.float64)  # the window's nearest cell
-    found |= (near**2).sum(axis=2).min(axis=1) <= reach**2 + 1e-9
-    hits = np.flatnonzero(found)
-    order = np.argsort(fleet.ranks[hits], kind="stable")
-    return [fleet.keys[int(i)] for i in hits[order]]
+    goal: those within the sum of radii of it (:func:`covering`), and those the margin brings
+    to it."""
+    found = set(covering(me.goal, me.radius, others, resolution=resolution))
+    rest = [k for k in others if k not in found]
+    if rest:
+        # As robot_cells gives them: disks of the eroded radius about cells and targets; is
+        # one within Chebyshev ``margin`` of the goal?
+        reach = np.array([(me.radius + others[k].radius) / resolution for k in rest])
+        if margin > 0:
+            eroded = np.hypot(reach - margin, margin)
+            reach = np.where(reach <= margin, 0.0, eroded)
+        centers = np.array([[others[k].cell, others[k].target] for k in rest], dtype=np.int64)
+        gap = np.abs(centers - np.array(me.goal, dtype=np.int64))  # (n, 2 centers, 2 axes)
+        near = np.maximum(gap - margin, 0).astype(np.float64)  # the window's nearest cell
+        squared = (near**2).sum(axis=2).min(axis=1)
+        found |= {k for k, hit in zip(rest, squared <= reach**2 + 1e-9, strict=True) if hit}
+    return sorted(found, key=lambda k: others[k].rank)
 
 
 def after_step(
