@@ -120,7 +120,7 @@ class Settings(BaseSettings):
         default=20,
         ge=1,
         description="Event streams (`/plan/{plan_id}/events`) one API key may hold open on one "
-        "replica (429 `TOO_MANY_STREAMS` beyond).",
+        "replica (503 `TOO_MANY_STREAMS` beyond).",
     )
     stream_queue_bytes: int = Field(
         default=4 * MIB,

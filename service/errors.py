@@ -11,7 +11,7 @@ ServiceError (here)
 ├── BodyTimeout       body not arrived in time       408, and the connection closes
 ├── TooLarge          body, map or picture too big   413
 ├── TooManyPlans      the key's plans at its cap     429
-├── TooManyStreams    the key's streams at its cap   429
+├── TooManyStreams    the key's streams at its cap   503, with Retry-After
 ├── InsufficientStorage  the map store is full       507
 ├── Busy              too many heavy jobs queued     503, with Retry-After
 ├── StoreUnavailable  the shared store (Redis) down  503, with Retry-After
@@ -95,7 +95,7 @@ class TooManyPlans(ServiceError, status=429, code="TOO_MANY_PLANS"):
     """The key already has ``PLANNER_MAX_PLANS_PER_TENANT`` live plans."""
 
 
-class TooManyStreams(ServiceError, status=429, code="TOO_MANY_STREAMS"):
+class TooManyStreams(ServiceError, status=503, code="TOO_MANY_STREAMS"):
     """The key already has ``PLANNER_MAX_STREAMS_PER_TENANT`` event streams open on this
     replica."""
 

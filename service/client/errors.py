@@ -69,12 +69,12 @@ class NoValidPathError(ValidationError):
 
 
 class TooManyRequestsError(APIError):
-    """429: the key holds its cap of live plans (``TOO_MANY_PLANS``) or of open event streams
-    (``TOO_MANY_STREAMS``)."""
+    """429: the key holds its cap of live plans (``TOO_MANY_PLANS``)."""
 
 
 class UnavailableError(APIError):
-    """503: the store is out of reach for now; retry after ``retry_after`` seconds."""
+    """503: the service cannot take this now (the store out of reach, ``BUSY``, or the key's
+    event streams at their cap, ``TOO_MANY_STREAMS``); retry after ``retry_after`` seconds."""
 
     @property
     def retry_after(self) -> float | None:

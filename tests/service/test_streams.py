@@ -2,7 +2,7 @@
 
 A stream whose reader never reads is dropped once its queue holds ``PLANNER_STREAM_QUEUE_BYTES``
 (its last event says so), on both buses; a key holds ``PLANNER_MAX_STREAMS_PER_TENANT`` streams
-on a replica (429 ``TOO_MANY_STREAMS`` beyond, another key unaffected); with Redis, a replica's
+on a replica (503 ``TOO_MANY_STREAMS`` beyond, another key unaffected); with Redis, a replica's
 streams share one pub/sub connection, so 150 streams take no pool connection each; Redis out of
 reach answers 503 without its exception text.
 """
@@ -133,7 +133,7 @@ def test_a_key_holds_at_most_its_streams_and_redis_one_connection(
     redis_server: RedisServer, tmp_path: Path
 ) -> None:
     """150 streams of one key on one replica (over Redis' default pool of 100 connections):
-    all served, over one pub/sub connection, every one getting the step; the 151st is 429
+    all served, over one pub/sub connection, every one getting the step; the 151st is 503
     ``TOO_MANY_STREAMS``; another key still opens its own; a stream closed frees its place."""
     env = {"PLANNER_API_KEYS": "ka,kb", "PLANNER_MAX_STREAMS_PER_TENANT": "150"}
     with (
@@ -154,7 +154,7 @@ def test_a_key_holds_at_most_its_streams_and_redis_one_connection(
             over = Stream(replica, plan_ids[0], "ka")
             body = over.read_until(b"}").decode()
             over.close()
-            assert over.status == 429, body
+            assert over.status == 503, body
             assert '"code":"TOO_MANY_STREAMS"' in body
             assert "PLANNER_MAX_STREAMS_PER_TENANT" in body
             assert not any(word in body for word in INTERNALS), body

@@ -80,7 +80,7 @@ def _last_step(step: planner.Step | None) -> dict[str, Any] | None:
     "/plan/{plan_id}/events",
     summary="The plan's steps as server-sent events",
     response_class=StreamingResponse,
-    responses={200: {"content": {"text/event-stream": {}}}, **responses(404, 422, 429)},
+    responses={200: {"content": {"text/event-stream": {}}}, **responses(404, 422, 503)},
 )
 async def events(plan_id: str, engine: EngineDep, bus: BusDep) -> StreamingResponse:
     """`text/event-stream`: one event per step served from now on, by any replica; its `data`
@@ -88,7 +88,7 @@ async def events(plan_id: str, engine: EngineDep, bus: BusDep) -> StreamingRespo
     `status`, ...). A comment every 15 s keeps idle connections open. A reader more than
     `PLANNER_STREAM_QUEUE_BYTES` behind gets a last event, `event: dropped` (its `data` an
     error, code `TOO_SLOW`), and the stream ends; a key may hold
-    `PLANNER_MAX_STREAMS_PER_TENANT` streams on a replica (`429` `TOO_MANY_STREAMS` beyond)."""
+    `PLANNER_MAX_STREAMS_PER_TENANT` streams on a replica (`503` `TOO_MANY_STREAMS` beyond)."""
     await plans.require(engine, plan_id)
     subscription = await bus.subscribe(plan_id)
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}  # nginx: no buffering
