@@ -88,7 +88,7 @@ class Settings(BaseSettings):
     http_parser: Literal["h11", "httptools"] = Field(
         default="h11",
         description="uvicorn's HTTP/1.1 parser: `h11` holds a request's head to "
-        "`PLANNER_MAX_HEADER_BYTES` (431 beyond); `httptools` is faster on small requests but "
+        "`PLANNER_MAX_HEADER_BYTES` (400 beyond); `httptools` is faster on small requests but "
         "holds heads of any size: only behind a proxy that bounds them (docker/nginx.conf).",
     )
     max_header_bytes: int = Field(

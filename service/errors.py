@@ -271,7 +271,7 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
         parts.append(f"{', '.join(_cut(name) for name in missing)}: Field required")
     # A map can be megabytes: echo only the start of what was received, and only a few errors.
     parts += [_describe(e) for e in rest[:3]]
-    more = len(rest) - 3 + len(every) - len(errors)
+    more = max(len(rest) - 3, 0) + max(len(unknown) - 5, 0) + len(every) - len(errors)
     if more > 0:
         parts.append(f"and {more} more errors")
     first = ("body", fields[0]) if fields else errors[0]["loc"] if errors else ()

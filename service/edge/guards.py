@@ -11,6 +11,7 @@ import numpy.typing as npt
 
 import planner
 from planner import quote
+from schemas.zones import POLYGON_POINTS_MAX, ZONES_MAX
 
 __all__ = ["MAX_JSON_DEPTH", "check_depth", "check_keys", "json_depth", "json_keys", "key_limit"]
 
@@ -86,9 +87,12 @@ def json_keys(body: bytes) -> int:
     return sum(colons.size for colons in _outside_strings(body, b":"))
 
 
-def key_limit(max_dynamic_obstacles: int) -> int:
+def key_limit(max_dynamic_obstacles: int, *, zones: bool = False) -> int:
     """The most object keys a request body may hold: three for each circle a step may give,
-    and 1024 for everything else (a valid map, plan or simulation needs a few dozen)."""
+    and 1024 for everything else (a valid map, plan or simulation needs a few dozen); a zones
+    body, two for each point its polygons may have and two for each polygon."""
+    if zones:
+        return 2 * ZONES_MAX * POLYGON_POINTS_MAX + 2 * ZONES_MAX + 1024
     return 3 * max_dynamic_obstacles + 1024
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import re
 from asyncio import Task
 
 from starlette.types import Receive, Scope
@@ -19,11 +20,14 @@ from service.errors import BodyTimeout, TimedOut, TooLarge
 __all__ = ["Deadline", "Deadlines", "Limits", "is_heavy", "is_map_upload"]
 
 log = logging.getLogger("service.requests")
+_ZONES = re.compile(r"/maps/[^/]+/zones")
 
 
 def is_map_upload(scope: Scope) -> bool:
-    """A map upload, ``POST /maps``: the one body that may be megabytes."""
-    return scope["method"] == "POST" and str(scope["path"]).rstrip("/") == "/maps"
+    """A map upload, ``POST /maps``, or a keepout mask, ``POST /maps/{map_id}/zones``: the
+    bodies that may be megabytes."""
+    path = str(scope["path"]).rstrip("/")
+    return scope["method"] == "POST" and (path == "/maps" or _ZONES.fullmatch(path) is not None)
 
 
 def is_heavy(scope: Scope) -> bool:

@@ -248,6 +248,7 @@ class RedisBus(EventBus):
         self._redis = Redis.from_url(url, socket_connect_timeout=2.0, retry=Retry(NoBackoff(), 0))
         self._pubsub: PubSub | None = None
         self._reader: asyncio.Task[None] | None = None
+        self._connecting = asyncio.Lock()  # streams opening together share one connection
         self._confirmed: dict[str, asyncio.Future[None]] = {}  # channels subscribed (or asked)
         hub.on_empty = self._unsubscribe
 
@@ -281,14 +282,16 @@ class RedisBus(EventBus):
         return inbox
 
     async def _connected(self) -> PubSub:
-        """The process's pub/sub connection, and the task reading it (started once)."""
-        if self._pubsub is None:
-            self._pubsub = self._redis.pubsub()
-        pubsub = self._pubsub
-        if self._reader is None:
-            await pubsub.connect()  # type: ignore[no-untyped-call]
-            self._reader = asyncio.get_running_loop().create_task(self._read(pubsub))
-        return pubsub
+        """The process's pub/sub connection, and the task reading it (started once, also when
+        streams open together)."""
+        async with self._connecting:
+            if self._pubsub is None:
+                self._pubsub = self._redis.pubsub()
+            pubsub = self._pubsub
+            if self._reader is None:
+                await pubsub.connect()  # type: ignore[no-untyped-call]
+                self._reader = asyncio.get_running_loop().create_task(self._read(pubsub))
+            return pubsub
 
     async def _read(self, pubsub: PubSub) -> None:
         try:

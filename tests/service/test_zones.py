@@ -398,3 +398,50 @@ async def test_a_mask_and_polygons_in_one_multipart_request(
     files["data"] = {"speed": "fast"}
     r = await client.post(f"/maps/{depot['map_id']}/zones", **files)
     assert r.status_code == 422
+
+
+async def test_a_polygon_of_many_points_is_not_refused_by_the_key_limit() -> None:
+    """A zones body has its own key limit (two keys a point): a 900-point polygon passes even
+    where steps may give only 100 circles (whose limit, 3 x 100 + 1024 keys, it would pass)."""
+    from service.main import create_app
+
+    app = create_app(SMALL.model_copy(update={"max_dynamic_obstacles": 100}))
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
+            grid = [[0] * 40 for _ in range(40)]
+            map_id = (await client.post("/maps", json={"grid": grid})).json()["map_id"]
+            circle = [
+                (20 + 10 * math.cos(t), 20 + 10 * math.sin(t))
+                for t in np.linspace(0, 2 * math.pi, 900, endpoint=False)
+            ]
+            r = await client.post(f"/maps/{map_id}/zones", json={"keepout": [points(circle)]})
+            assert r.status_code == 201, r.text
+            flood = {"keepout": [points(circle)], **{f"k{i}": 1 for i in range(2 * 256 * 1000)}}
+            r = await client.post(f"/maps/{map_id}/zones", json=flood)
+            assert r.status_code in (413, 422), r.text
+
+
+async def test_a_keepout_mask_may_be_as_large_as_a_map_upload(ros: Path) -> None:
+    """A mask is a map: its body is held to PLANNER_MAX_BODY_BYTES, not to the smaller limit
+    of a step's (set here to 1 KiB, under the mask's size)."""
+    from service.main import create_app
+
+    app = create_app(BIG.model_copy(update={"max_step_body_bytes": 1024}))
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
+            r = await client.post("/maps", **multipart(*ros_files(ros, "depot")))
+            assert r.status_code == 201, r.text
+            pixels = np.full((307, 604), 254, dtype=np.uint8)
+            rng = np.random.default_rng(0)
+            pixels[100:180, 200:280] = np.where(rng.random((80, 80)) < 0.5, 0, 254)
+            buf = io.BytesIO()
+            Image.fromarray(pixels).save(buf, format="PNG")
+            yaml = b"image: m.png\nresolution: 0.05\norigin: [0.0, 0.0, 0]\n"
+            files = multipart(yaml, buf.getvalue())
+            assert len(buf.getvalue()) > 1024
+            r = await client.post(f"/maps/{r.json()['map_id']}/zones", **files)
+            assert r.status_code == 201, r.text
+            r = await client.post("/plan", json={"map_id": "x" * 2000, "start": [0, 0]})
+            assert r.status_code == 413, r.text
