@@ -24,7 +24,16 @@ from service.stores.base import FleetRecord
 from service.tenants import scoped
 from service.work.engine import Engine
 
-__all__ = ["FleetView", "Moved", "empty", "get_fleet", "join", "step_in_fleet", "waiting_zones"]
+__all__ = [
+    "FleetView",
+    "Moved",
+    "empty",
+    "get_fleet",
+    "join",
+    "moved_away",
+    "step_in_fleet",
+    "waiting_zones",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,6 +61,17 @@ class Moved:
 def empty(map_id: str, radius: float) -> FleetRecord:
     """A fleet with no robot yet, on ``map_id``, its passages for robots of ``radius``."""
     return {"map_id": map_id, "radius": float(radius), "next": 0, "robots": {}}
+
+
+def moved_away(plan_id: str, fleet: str, map_id: str) -> planner.InvalidInput:
+    """The error of a step whose fleet's name belongs to a fleet on another map now (its own
+    fleet was gone, and the name taken again): ``FLEET_MAP_MISMATCH``, naming what to do."""
+    msg = (
+        f"FLEET_MAP_MISMATCH: fleet {quote(fleet)} of plan {quote(plan_id)} is on map "
+        f"{quote(map_id)} now (the plan's fleet was gone and the name taken again); delete "
+        "the plan and plan again"
+    )
+    return planner.InvalidInput(msg, field="fleet", code="FLEET_MAP_MISMATCH")
 
 
 def join(

@@ -164,10 +164,13 @@ async def step(
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
         waiting_for, new_fleet = None, None
-        if "fleet" in record and (fleet is None or fleet["map_id"] != record["map_id"]):
-            # Its fleet's state expired (it starts again), or this is a replica's copy of a
-            # fleet of that name since gone (the write is fenced: it decides again on the new).
+        if "fleet" in record and fleet is None:
+            # Its fleet's state expired: it starts again (the write is fenced on its absence).
             fleet = fleets.empty(record["map_id"], plan.params.robot_radius)
+        elif fleet is not None and fleet["map_id"] != record["map_id"]:
+            # The name is another map's fleet now: never written over. A replica's stale copy
+            # is read again by the store, which then decides again on the fleet as it is.
+            raise fleets.moved_away(plan_id, record["fleet"], fleet["map_id"])
         if replayed or fleet is None:
             # Here when it cannot search, else on the steps' own workers (see Engine.step).
             result = await engine.step(session, obstacles, position=position, seq=body.seq)

@@ -279,3 +279,25 @@ def test_store_keeps_no_lock_after_fleet_steps() -> None:
             assert app.state.engine.store.lock_count == 0
 
     asyncio.run(main())
+
+
+async def test_a_step_never_writes_over_another_maps_fleet_of_its_name() -> None:
+    """A plan whose fleet was gone while it lived, the name since taken by a fleet on another
+    map: its step is a 422 FLEET_MAP_MISMATCH saying what to do, and the other map's fleet is
+    left as it was (not replaced by a new fleet on the plan's map)."""
+    app = create_app(SETTINGS)
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
+            one, two = await _map(client, room(20)), await _map(client, room(24))
+            made = await _plan(client, one, [3, 3], [15, 15], fleet="reused")
+            assert made.status_code == 201, made.text
+            plan_id = made.json()["plan_id"]
+            store = app.state.engine.store
+            other = {"map_id": two, "radius": 0.25, "next": 0, "robots": {}}
+            store._fleets["reused"] = other  # the name taken again on map two
+            step = await client.post(f"/plan/{plan_id}/step", json={})
+            assert step.status_code == 422, step.text
+            assert step.json()["code"] == "FLEET_MAP_MISMATCH"
+            assert "delete the plan" in step.json()["detail"]
+            assert store._fleets["reused"] is other
