@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
-from pydantic.json_schema import SkipJsonSchema
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from schemas.fleet_names import FleetName
+from schemas.parts import MapParts
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
@@ -60,7 +60,7 @@ MULTIPART_FIELDS: dict[str, Any] = {
 ``image``, and the JSON body's other fields as form fields (each value JSON, or a bare word)."""
 
 
-class MapEncoding(BaseModel):
+class MapEncoding(MapParts):
     """A map: exactly one of ``grid``, ``rows``, ``occupancy_grid``, or the multipart parts
     ``yaml`` and ``image``."""
 
@@ -89,17 +89,6 @@ class MapEncoding(BaseModel):
         description="With `grid`/`rows`: `[x, y, yaw]` of the bottom-left cell's lower-left "
         "corner (default `[0, 0, 0]`).",
     )
-    yaml: SkipJsonSchema[bytes | None] = None
-    """multipart/form-data only: the ``yaml`` part."""
-    image: SkipJsonSchema[bytes | None] = None
-    """multipart/form-data only: the ``image`` part."""
-
-    @field_validator("yaml", "image", mode="before")
-    @classmethod
-    def _parts_only(cls, value: Any) -> Any:
-        if value is not None and not isinstance(value, bytes):
-            raise ValueError("a ROS map comes as multipart/form-data parts 'yaml' and 'image'")
-        return value
 
     @model_validator(mode="after")
     def _one_encoding(self) -> MapEncoding:

@@ -3,11 +3,11 @@ and the zones ``GET /maps/{map_id}`` lists."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
-from pydantic.json_schema import SkipJsonSchema
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from schemas.parts import MapParts
 from schemas.plans import STRICT, XYPublic
 
 __all__ = [
@@ -88,7 +88,7 @@ ZONES_MULTIPART: dict[str, Any] = {
 """The ``multipart/form-data`` form of ``POST /maps/{map_id}/zones``, for ``/docs``."""
 
 
-class ZonesCreate(BaseModel):
+class ZonesCreate(MapParts):
     """Zones to apply to a map: ``keepout`` polygons, ``speed`` zones, or (multipart) a keepout
     filter mask as the parts ``yaml`` and ``image``; at least one of them."""
 
@@ -112,17 +112,7 @@ class ZonesCreate(BaseModel):
         max_length=ZONES_MAX,
         description="Polygons where poses carry `max_speed`.",
     )
-    yaml: SkipJsonSchema[bytes | None] = None
-    """multipart/form-data only: the mask's ``yaml`` part."""
-    image: SkipJsonSchema[bytes | None] = None
-    """multipart/form-data only: the mask's ``image`` part."""
-
-    @field_validator("yaml", "image", mode="before")
-    @classmethod
-    def _parts_only(cls, value: Any) -> Any:
-        if value is not None and not isinstance(value, bytes):
-            raise ValueError("a keepout mask comes as multipart/form-data parts 'yaml' and 'image'")
-        return value
+    parts_of: ClassVar[str] = "a keepout mask"
 
     @model_validator(mode="after")
     def _at_least_one(self) -> ZonesCreate:
