@@ -2,11 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 from hypothesis import given
@@ -14,21 +10,9 @@ from hypothesis import strategies as st
 
 import planner
 from tests import naive
+from tests.scripts import load_benchmark
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "nav2_baseline.py"
-
-
-def load() -> Any:
-    spec = importlib.util.spec_from_file_location("nav2_baseline", SCRIPT)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while it is executed
-    spec.loader.exec_module(module)
-    return module
-
-
-BASELINE = load()
+BASELINE = load_benchmark("nav2_baseline")
 
 
 def path_cost(cost: np.ndarray, path: np.ndarray) -> float:

@@ -4,27 +4,13 @@ it was not measured. No timing here: the measurements are made up."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
 from typing import Any
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "summary.py"
+from tests.scripts import load_benchmark
 
-
-def load() -> Any:
-    spec = importlib.util.spec_from_file_location("bench_summary", SCRIPT)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while it is executed
-    spec.loader.exec_module(module)
-    return module
-
-
-S = load()
+S = load_benchmark("summary")
 
 
 def wrk(rps: float, p99: float = 10.0, errors: float = 0.0) -> dict[str, float]:

@@ -4,9 +4,6 @@ arrive at once; a robot on another's goal makes it wait; fleets are per map and 
 from __future__ import annotations
 
 import asyncio
-import importlib.util
-import sys
-from pathlib import Path
 from typing import Any
 
 import httpx
@@ -17,21 +14,9 @@ from pydantic import SecretStr
 import planner
 from service.config import Settings
 from service.main import create_app
+from tests.scripts import load_benchmark
 
-SCRIPT = Path(__file__).resolve().parents[2] / "benchmarks" / "fleet.py"
-
-
-def _load() -> Any:
-    spec = importlib.util.spec_from_file_location("bench_fleet", SCRIPT)
-    assert spec is not None
-    assert spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while it is executed
-    spec.loader.exec_module(module)
-    return module
-
-
-F = _load()
+F = load_benchmark("fleet")
 pytestmark = pytest.mark.anyio
 SETTINGS = Settings(pool_size=1)
 
