@@ -30,22 +30,13 @@ from pathlib import Path
 import httpx
 import redis
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from leaks import free_port, rss_mib
+
 ROOT = Path(__file__).resolve().parents[1]
 SIDE = 400
 CIRCLE = {"x": 200.0, "y": 200.0, "radius": 150.0}
 """~70,000 cells: an event of ~700 KB."""
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def rss_mib(pid: int) -> float:
-    status = Path(f"/proc/{pid}/status").read_text()
-    kib = next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS"))
-    return int(kib) / 1024
 
 
 @contextmanager
