@@ -4,13 +4,14 @@ it afterwards (where it stands and was told to go, what it holds, waits at and w
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from planner.fleets.robots import Robot, covering, robot_cells
+from planner.fleets.robots import Robot, robot_cells
 from planner.fleets.waiting import WaitingZones
 
 __all__ = ["Traffic", "after_step", "traffic_for"]
@@ -71,76 +72,79 @@ def traffic_for(
     through any moving obstacle, seeing them when they come near."""
     me = robots[plan_id]
     r, c = me.target if here is None else here
-    others = {k: v for k, v in robots.items() if k != plan_id}
-    on_goal = _on_goal(me, others, resolution=resolution, shape=shape, margin=margin)
-    nearby = [
-        o
-        for k, o in others.items()
-        if k not in on_goal
-        and (
+    groups = zones.count if zones is not None else 0
+    group_at = zones.group_at if zones is not None else None
+    mine = set() if group_at is None else {group_at(me.cell), group_at(me.target)}
+    on_goal: list[tuple[int, str]] = []
+    nearby: list[Robot] = []
+    closed_by: dict[int, tuple[int, str]] = {}  # group -> (rank, plan_id) of its holder
+    wanted_by: dict[int, tuple[int, str]] = {}  # group -> the first waiting at it ahead of me
+    for k, o in robots.items():
+        if k == plan_id:
+            continue
+        reach = (me.radius + o.radius) / resolution
+        if _holds(me.goal, o, reach, margin):
+            on_goal.append((o.rank, k))
+        elif (
             within is None
             or min(
                 max(abs(o.cell[0] - r), abs(o.cell[1] - c)),
                 max(abs(o.target[0] - r), abs(o.target[1] - c)),
             )
-            <= within + (me.radius + o.radius) / resolution
-        )
-    ]
+            <= within + reach
+        ):
+            nearby.append(o)
+        if group_at is not None and groups:
+            # A robot holds the groups whose zones hold its cell or its target.
+            for group in {group_at(o.cell), group_at(o.target)}:
+                if group >= 0 and group not in mine:
+                    _first(closed_by, group, (o.rank, k))
+            if o.wants is not None and o.wants not in mine and o.rank < me.rank:
+                _first(wanted_by, o.wants, (o.rank, k))
+    on_goal.sort()
     cells = robot_cells(me.radius, nearby, resolution=resolution, shape=shape, margin=margin)
     if on_goal:
         near = robot_cells(
-            me.radius, [others[k] for k in on_goal], resolution=resolution, shape=shape,
+            me.radius, [robots[k] for _, k in on_goal], resolution=resolution, shape=shape,
             margin=margin,
         )  # fmt: skip
         reach = NEAR + margin
         keep = (np.abs(near[:, 0] - r) <= reach) & (np.abs(near[:, 1] - c) <= reach)
         cells = np.concatenate((cells, near[keep]))
-    closed: dict[int, str] = {}
-    if zones is not None and zones.count:
-        # A robot holds the groups whose zones hold its cell or its target.
-        mine = zones.groups_of(me.cell, me.target)
-        held = {k: zones.groups_of(o.cell, o.target) for k, o in others.items()}
-        for group in range(zones.count):
-            if group in mine:
-                continue
-            holders = sorted((others[k].rank, k) for k, gs in held.items() if group in gs)
-            ahead = sorted(
-                (o.rank, k) for k, o in others.items() if o.wants == group and o.rank < me.rank
-            )
-            if holders or ahead:
-                closed[group] = (holders or ahead)[0][1]
+    # A group another robot holds is closed for it; else one a robot ahead waits at, for that.
+    closed = {g: k for g, (_, k) in sorted({**wanted_by, **closed_by}.items())}
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
-        zone_cells = np.concatenate([zones.group_cells[g] for g in sorted(closed)])
-    return Traffic(cells, closed, zone_cells, tuple(on_goal))
+        zone_cells = np.concatenate([zones.group_cells[g] for g in closed])
+    return Traffic(cells, closed, zone_cells, tuple(k for _, k in on_goal))
 
 
-def _on_goal(
-    me: Robot,
-    others: Mapping[str, Robot],
-    *,
-    resolution: float,
-    shape: tuple[int, int],
-    margin: int,
-) -> list[str]:
-    """The robots (by rank) whose cells, grown by the decision's ``margin``, hold ``me``'s
-    goal: those within the sum of radii of it (:func:`covering`), and those the margin brings
-    to it."""
-    found = set(covering(me.goal, me.radius, others, resolution=resolution))
-    rest = [k for k in others if k not in found]
-    if rest:
-        # As robot_cells gives them: disks of the eroded radius about cells and targets; is
-        # one within Chebyshev ``margin`` of the goal?
-        reach = np.array([(me.radius + others[k].radius) / resolution for k in rest])
+def _first(by: dict[int, tuple[int, str]], group: int, robot: tuple[int, str]) -> None:
+    """Keeps in ``by[group]`` the robot of lowest rank."""
+    if group not in by or robot < by[group]:
+        by[group] = robot
+
+
+def _holds(goal: tuple[int, int], o: Robot, reach: float, margin: int) -> bool:
+    """Whether robot ``o``'s cells, grown by the decision's ``margin``, hold ``goal``: it is
+    within ``reach`` (the sum of radii, cells) of its cell or target (as :func:`covering`
+    finds), or the margin brings it there (as :func:`robot_cells` gives the disks: of the
+    eroded radius about cell and target; is one within Chebyshev ``margin`` of the goal?)."""
+    gr, gc = goal
+    far = reach + margin + 1  # beyond it on an axis, neither test holds
+    eroded = reach
+    for r, c in (o.cell, o.target):
+        dr, dc = abs(r - gr), abs(c - gc)
+        if dr > far or dc > far:
+            continue
         if margin > 0:
-            eroded = np.hypot(reach - margin, margin)
-            reach = np.where(reach <= margin, 0.0, eroded)
-        centers = np.array([[others[k].cell, others[k].target] for k in rest], dtype=np.int64)
-        gap = np.abs(centers - np.array(me.goal, dtype=np.int64))  # (n, 2 centers, 2 axes)
-        near = np.maximum(gap - margin, 0).astype(np.float64)  # the window's nearest cell
-        squared = (near**2).sum(axis=2).min(axis=1)
-        found |= {k for k, hit in zip(rest, squared <= reach**2 + 1e-9, strict=True) if hit}
-    return sorted(found, key=lambda k: others[k].rank)
+            eroded = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
+        if dr * dr + dc * dc <= reach * reach + 1e-9:
+            return True
+        nr, nc = max(dr - margin, 0), max(dc - margin, 0)
+        if nr * nr + nc * nc <= eroded * eroded + 1e-9:
+            return True
+    return False
 
 
 def after_step(

@@ -79,7 +79,7 @@ class WaitingZones:
 
     def group_at(self, cell: tuple[int, int]) -> int:
         """The group whose zone holds ``cell``, or -1."""
-        return int(self.group[cell[0] * self.shape[1] + cell[1]])
+        return int(self.group.item(cell[0] * self.shape[1] + cell[1]))
 
     def near(self, cell: tuple[int, int], groups: Sequence[int], reach: int) -> bool:
         """Whether a cell within Chebyshev ``reach`` of ``cell`` is in one of ``groups``."""

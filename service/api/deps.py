@@ -127,7 +127,7 @@ def check_json(request: Request, body: bytes) -> None:
     """A JSON body's depth and number of keys, from its bytes, before it is parsed (422)."""
     check_depth(body)
     settings = cast(Settings, request.app.state.settings)
-    zones = request.url.path.rstrip("/").endswith("/zones")
+    zones = request.scope["path"].rstrip("/").endswith("/zones")
     check_keys(body, key_limit(settings.max_dynamic_obstacles, zones=zones))
 
 

@@ -68,6 +68,37 @@ def test_robot_cells_stay_inside_the_map_and_cover_cell_and_target() -> None:
     assert set(map(tuple, cells.tolist())) == {(0, 0), (0, 1), (1, 0), (1, 1), (1, 2), (2, 1)}
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_robot_cells_are_the_union_of_the_disks_about_each_cell_and_target(seed: int) -> None:
+    """The kernel against brute force: several robots, near the map's edges, with and without
+    a margin; every robot's cells once (a robot's two disks overlap)."""
+    rng = np.random.default_rng(seed)
+    shape, resolution, mine = (30, 40), 0.05, 0.2
+    margin = int(rng.integers(0, 3))
+    others = [
+        Robot(i, (int(r), int(c)), (int(r + dr), int(c + dc)), float(radius), (0, 0))
+        for i, (r, c, dr, dc, radius) in enumerate(
+            zip(
+                rng.integers(-2, 32, 8), rng.integers(-2, 42, 8), rng.integers(-1, 2, 8),
+                rng.integers(-1, 2, 8), rng.uniform(0.0, 0.4, 8), strict=True,
+            )
+        )
+    ]  # fmt: skip
+    cells = robot_cells(mine, others, resolution=resolution, shape=shape, margin=margin)
+    expected: list[tuple[int, int]] = []
+    for o in others:
+        reach = (mine + o.radius) / resolution
+        if margin > 0:
+            reach = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
+        expected += {
+            (r, c)
+            for r, c in itertools.product(range(shape[0]), range(shape[1]))
+            if min(math.hypot(r - o.cell[0], c - o.cell[1]),
+                   math.hypot(r - o.target[0], c - o.target[1])) <= reach + 1e-9
+        }  # fmt: skip
+    assert sorted(map(tuple, cells.tolist())) == sorted(expected)
+
+
 def test_covering_lists_the_robots_touching_a_cell_by_rank() -> None:
     others = {
         "b": Robot(2, (10, 10), (10, 11), 0.2, (0, 0)),
