@@ -20,7 +20,7 @@ connections, bodies encoded by orjson), or ``httpx``. On two cores shared with t
 httpx's own work is most of the latency it sees: about 1.7 to 2.2 ms of client CPU a step,
 aiohttp's 0.23 to 0.25 ms (docs/performance.md#fleets).
 
-tests/service/test_fleet_scenarios.py drives the same code at smaller sizes.
+tests/service/test_fleets.py drives the same code at smaller sizes.
 """
 
 from __future__ import annotations
