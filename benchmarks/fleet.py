@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import gc
 import itertools
 import os
 import shutil
@@ -479,6 +480,10 @@ async def _bench(
     limits = httpx.Limits(max_connections=64)
     clients = [httpx.AsyncClient(base_url=u, timeout=60, limits=limits) for u in urls]
     steppers = [AiohttpStepper(u) for u in urls] if client == "aiohttp" else None
+    # The client's own full garbage collections (over numpy, httpx, the scenarios: ~0.1 s
+    # each) would stop it mid-tick and add their pause to the steps in flight.
+    gc.collect()
+    gc.freeze()
     try:
         out = []
         for n, (scenario, seed) in enumerate(scenarios):
@@ -494,6 +499,7 @@ async def _bench(
             out.append(outcome)
         return out
     finally:
+        gc.unfreeze()
         for c in clients:
             await c.aclose()
         for stepper in steppers or ():
