@@ -7,7 +7,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from schemas.fleet_names import FleetName
-from schemas.parts import MapParts
+from schemas.parts import MapParts, multipart_form
 from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
@@ -35,27 +35,19 @@ EXAMPLE_OCCUPANCY_GRID: dict[str, Any] = {
     "data": [0, 0, 0, 0, 100, -1],
 }
 
-MULTIPART_FIELDS: dict[str, Any] = {
-    "type": "object",
-    "required": ["yaml", "image"],
-    "properties": {
-        "yaml": {"type": "string", "format": "binary", "description": "A map_server map YAML."},
-        "image": {
-            "type": "string",
-            "format": "binary",
-            "description": "The PGM/PNG/BMP image it describes (the YAML's `image` is not read).",
-        },
-        "start": {"type": "string", "description": 'JSON: a cell `[r, c]` or `{"x", "y"}`.'},
-        "goal": {"type": "string", "description": "JSON, as `start`."},
-        "preset": {"type": "string", "description": "A preset name, as in JSON bodies."},
-        "params": {"type": "string", "description": "JSON object of parameter overrides."},
-        "allow_narrow": {"type": "string", "description": "`true` or `false`."},
-        "robot_radius": {"type": "string", "description": "Meters, e.g. `0.22`."},
-        "unknown": {"type": "string", "description": "`blocked` or `free`."},
-        "waypoints": {"type": "string", "description": "JSON list of cells or points."},
-        "fleet": {"type": "string", "description": "The plan's fleet name."},
-    },
-}
+MULTIPART_FIELDS = multipart_form(
+    yaml="A map_server map YAML.",
+    image="The PGM/PNG/BMP image it describes (the YAML's `image` is not read).",
+    start='JSON: a cell `[r, c]` or `{"x", "y"}`.',
+    goal="JSON, as `start`.",
+    preset="A preset name, as in JSON bodies.",
+    params="JSON object of parameter overrides.",
+    allow_narrow="`true` or `false`.",
+    robot_radius="Meters, e.g. `0.22`.",
+    unknown="`blocked` or `free`.",
+    waypoints="JSON list of cells or points.",
+    fleet="The plan's fleet name.",
+)
 """The ``multipart/form-data`` form of ``POST /maps``, for ``/docs``: parts ``yaml`` and
 ``image``, and the JSON body's other fields as form fields (each value JSON, or a bare word)."""
 

@@ -8,7 +8,7 @@ from typing import Any, ClassVar
 from pydantic import BaseModel, field_validator
 from pydantic.json_schema import SkipJsonSchema
 
-__all__ = ["MapParts"]
+__all__ = ["MapParts", "multipart_form"]
 
 
 class MapParts(BaseModel):
@@ -29,3 +29,18 @@ class MapParts(BaseModel):
             msg = f"{cls.parts_of} comes as multipart/form-data parts 'yaml' and 'image'"
             raise ValueError(msg)
         return value
+
+
+def multipart_form(*, yaml: str, image: str, **fields: str) -> dict[str, Any]:
+    """The ``multipart/form-data`` schema, for ``/docs``, of a request with the parts ``yaml``
+    and ``image`` (each described as given) and text ``fields`` (name: description)."""
+    binary = {"type": "string", "format": "binary"}
+    return {
+        "type": "object",
+        "required": ["yaml", "image"],
+        "properties": {
+            "yaml": {**binary, "description": yaml},
+            "image": {**binary, "description": image},
+            **{name: {"type": "string", "description": text} for name, text in fields.items()},
+        },
+    }

@@ -7,7 +7,7 @@ from typing import Annotated, Any, ClassVar
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from schemas.parts import MapParts
+from schemas.parts import MapParts, multipart_form
 from schemas.plans import STRICT, XYPublic
 
 __all__ = [
@@ -67,24 +67,12 @@ class SpeedZoneCreate(BaseModel):
     max_speed: float = Field(gt=0, le=100, allow_inf_nan=False, description="m/s.")
 
 
-ZONES_MULTIPART: dict[str, Any] = {
-    "type": "object",
-    "required": ["yaml", "image"],
-    "properties": {
-        "yaml": {
-            "type": "string",
-            "format": "binary",
-            "description": "The keepout filter mask's map_server YAML (the map's frame).",
-        },
-        "image": {
-            "type": "string",
-            "format": "binary",
-            "description": "Its PGM/PNG/BMP, the map's size: an occupied cell is keepout.",
-        },
-        "keepout": {"type": "string", "description": "JSON list of polygons, as in JSON bodies."},
-        "speed": {"type": "string", "description": "JSON list of speed zones."},
-    },
-}
+ZONES_MULTIPART = multipart_form(
+    yaml="The keepout filter mask's map_server YAML (the map's frame).",
+    image="Its PGM/PNG/BMP, the map's size: an occupied cell is keepout.",
+    keepout="JSON list of polygons, as in JSON bodies.",
+    speed="JSON list of speed zones.",
+)
 """The ``multipart/form-data`` form of ``POST /maps/{map_id}/zones``, for ``/docs``."""
 
 

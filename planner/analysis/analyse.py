@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Hashable
+from dataclasses import KW_ONLY, dataclass
 from functools import cached_property
 from typing import Any
 
@@ -33,6 +34,7 @@ __all__ = [
 ]
 
 
+@dataclass(eq=False, repr=False)  # by identity: its fields are large arrays
 class Analysis:
     """A map's analysis: cell states, gate and tunnel counts, the ``clean`` field.
 
@@ -47,44 +49,25 @@ class Analysis:
     cap the poses' speed).
     """
 
-    def __init__(
-        self,
-        state: npt.NDArray[np.uint8],
-        clean: npt.NDArray[np.float32],
-        *,
-        gates: int,
-        tunnels: int,
-        seal_tunnels: bool,
-        clean_weight: float,
-        clean_radius: int,
-        elapsed_ms: float,
-        frame: MapFrame | None = None,
-        cspace: CSpace | None = None,
-        wall_cost: WallCost = "cells",
-        params_key: tuple[Hashable, ...] | None = None,
-        plain: bool = True,
-        zones: Zones | None = None,
-    ) -> None:
-        self.state = state
-        self.clean = clean
-        self.gates = gates
-        self.tunnels = tunnels
-        self.seal_tunnels = seal_tunnels
-        self.clean_weight = clean_weight
-        self.clean_radius = clean_radius
-        self.elapsed_ms = elapsed_ms
-        self.frame = frame if frame is not None else MapFrame((state.shape[0], state.shape[1]))
-        self.cspace = cspace
-        self.wall_cost = wall_cost
-        self.plain = plain
-        self.zones = zones
-        self.params_key = (
-            params_key
-            if params_key is not None
-            else (0.0, "blocked", None, seal_tunnels, "cells", clean_weight, clean_radius)
-        )
-        state.flags.writeable = False
-        clean.flags.writeable = False
+    state: npt.NDArray[np.uint8]
+    clean: npt.NDArray[np.float32]
+    _: KW_ONLY
+    gates: int
+    tunnels: int
+    seal_tunnels: bool
+    clean_weight: float
+    clean_radius: int
+    elapsed_ms: float
+    frame: MapFrame
+    params_key: tuple[Hashable, ...]
+    cspace: CSpace | None = None
+    wall_cost: WallCost = "cells"
+    plain: bool = True
+    zones: Zones | None = None
+
+    def __post_init__(self) -> None:
+        self.state.flags.writeable = False
+        self.clean.flags.writeable = False
 
     @property
     def penalised(self) -> bool:
@@ -179,7 +162,11 @@ def analyse(
         msg = f"clean_weight must be >= 0; got {quote(clean_weight)}"
         raise InvalidInput(msg, field="params.clean_weight")
     t0 = time.perf_counter()
-    return _analysis(g, t0, seal_tunnels, float(clean_weight), clean_radius)
+    seal, weight, radius = bool(seal_tunnels), float(clean_weight), int(clean_radius)
+    return _analysis(
+        g, t0, seal, weight, radius, frame=MapFrame((g.shape[0], g.shape[1])),
+        params_key=(0.0, "blocked", None, seal, "cells", weight, radius),
+    )  # fmt: skip
 
 
 def _analysis(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import edt
 import numpy as np
@@ -249,10 +250,17 @@ def _analysis(
     t0: float,
     robot_map: RobotMap,
 ) -> Analysis:
-    return Analysis(
-        state, clean, gates=gates, tunnels=int(np.count_nonzero(state == TUNNEL)),
-        seal_tunnels=base.seal_tunnels, clean_weight=base.clean_weight,
-        clean_radius=base.clean_radius, elapsed_ms=(time.perf_counter() - t0) * 1e3,
-        frame=robot_map.frame, cspace=space, wall_cost=base.wall_cost,
-        params_key=base.params_key, plain=robot_map.plain, zones=robot_map.zones,
-    )  # fmt: skip
+    """``base`` for the zoned map: its cells, configuration space and frame (its parameters
+    kept)."""
+    return replace(
+        base,
+        state=state,
+        clean=clean,
+        gates=gates,
+        tunnels=int(np.count_nonzero(state == TUNNEL)),
+        elapsed_ms=(time.perf_counter() - t0) * 1e3,
+        frame=robot_map.frame,
+        cspace=space,
+        plain=robot_map.plain,
+        zones=robot_map.zones,
+    )

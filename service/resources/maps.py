@@ -36,19 +36,9 @@ async def add_map(engine: Engine, body: MapCreate) -> tuple[MapView, bool]:
     engine.remember(map_id, robot_map)
     plan = None
     if body.start is not None and body.goal is not None:
-        request = PlanCreate(
-            map_id=map_id,
-            start=body.start,
-            goal=body.goal,
-            preset=body.preset,
-            params=body.params,
-            allow_narrow=body.allow_narrow,
-            robot_radius=body.robot_radius,
-            unknown=body.unknown,
-            goal_tolerance=body.goal_tolerance,
-            waypoints=body.waypoints,
-            fleet=body.fleet,
-        )
+        # The upload carries every field of a plan's request but the map's id.
+        asked = {name: getattr(body, name) for name in PlanCreate.model_fields if name != "map_id"}
+        request = PlanCreate(map_id=map_id, **asked)
         plan = await plans.create_plan(engine, request)
     return MapView(map_id, robot_map, plan), created
 

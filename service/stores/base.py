@@ -24,6 +24,7 @@ __all__ = [
     "Decide",
     "Event",
     "FleetDecide",
+    "FleetJoin",
     "FleetRecord",
     "Grid",
     "PlanLocks",
@@ -71,6 +72,9 @@ networked store whose write found another replica's step first), so it changes n
 FleetDecide = Callable[[PlanRecord, FleetRecord | None], Awaitable[Update[T]]]
 """A step's decision from the plan's record and, for a fleet robot, its fleet's state (its
 live robots only); it may run again on a newer record or fleet state."""
+FleetJoin = Callable[[FleetRecord | None], FleetRecord]
+"""A plan joining its fleet: the fleet's new state from its current one (None: a new fleet), or
+an error (then nothing is written)."""
 
 
 def live_fleet(fleet: FleetRecord | None, now: float) -> FleetRecord | None:
@@ -254,12 +258,7 @@ class Store(ABC):
 
     @abstractmethod
     async def put_fleet_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        join: Callable[[FleetRecord | None], FleetRecord],
-        *,
-        append: Cells = (),
+        self, plan_id: str, record: PlanRecord, join: FleetJoin, *, append: Cells = ()
     ) -> None:
         """:meth:`put_plan` for a plan of the fleet ``record["fleet"]``: ``join`` makes the
         fleet's new state from its current one (None: a new fleet) or raises (nothing is

@@ -14,6 +14,7 @@ from service.stores.base import (
     Cells,
     Decide,
     FleetDecide,
+    FleetJoin,
     FleetRecord,
     PlanLocks,
     PlanRecord,
@@ -169,12 +170,7 @@ class MemoryStore(Store):
         self._fleets[fleet_key] = {**fleet, "robots": {**now["robots"], plan_id: robot}}
 
     async def put_fleet_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        join: Callable[[FleetRecord | None], FleetRecord],
-        *,
-        append: Cells = (),
+        self, plan_id: str, record: PlanRecord, join: FleetJoin, *, append: Cells = ()
     ) -> None:
         self._expire()
         fleet_key = scoped(record["fleet"])

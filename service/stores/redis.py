@@ -191,14 +191,8 @@ class RedisStore(FleetSteps, Store):
                 if update.record is None and fresh:
                     return update  # a replay of what was just read: nothing to write or check
                 answer = await self._write(key, version, update)
-                if answer[0] == 1:
-                    return update
-                if answer[0] == 0:
-                    self._plans.pop(key, None)
-                    return None
-                if answer[0] == 3:
-                    assert update.record is not None  # only a write checks the map
-                    raise unknown_map(update.record["map_id"])
+                if self._step_ended(key, answer, update.record):
+                    return update if answer[0] == 1 else None
                 cached, fresh = self._parse(key, answer[1]), True
         msg = (
             f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps on it were recorded "

@@ -18,6 +18,7 @@ from service.errors import StoreUnavailable
 from service.stores.base import (
     Cells,
     FleetDecide,
+    FleetJoin,
     FleetRecord,
     PlanLocks,
     PlanRecord,
@@ -196,13 +197,8 @@ class FleetSteps:
                 answer = await self._write(key, version, update)
             else:
                 answer = await self._write_in_fleet(key, version, fleet_key, fleet[0], update)
-            if answer[0] == 1:
-                return update
-            if answer[0] == 0:
-                self._plans.pop(key, None)
-                return None
-            if answer[0] == 3:
-                raise unknown_map(record["map_id"])
+            if self._step_ended(key, answer, record):
+                return update if answer[0] == 1 else None
             if answer[0] == 2:
                 cached, fresh = self._parse(key, answer[1]), True
             else:
@@ -212,6 +208,17 @@ class FleetSteps:
             f"recorded first {FLEET_TRIES} times in a row; retry later"
         )
         raise StoreUnavailable(msg, field="plan_id")
+
+    def _step_ended(self, key: str, answer: list[bytes | int], record: PlanRecord | None) -> bool:
+        """Whether the step script's ``answer`` ends the step: written (1), or the plan gone (0:
+        forgotten here too); the map of ``record`` gone (3) raises. Else another replica's write
+        came first (2: the plan's, 4: the fleet's), to decide again on."""
+        if answer[0] == 3:
+            assert record is not None  # only a write checks the map
+            raise unknown_map(record["map_id"])
+        if answer[0] == 0:
+            self._plans.pop(key, None)
+        return answer[0] in (0, 1)
 
     async def _write_in_fleet(
         self, key: str, version: int, fleet_key: str, fleet_version: int, update: Update[T]
@@ -240,12 +247,7 @@ class FleetSteps:
         return answer
 
     async def put_fleet_plan(
-        self,
-        plan_id: str,
-        record: PlanRecord,
-        join: Callable[[FleetRecord | None], FleetRecord],
-        *,
-        append: Cells = (),
+        self, plan_id: str, record: PlanRecord, join: FleetJoin, *, append: Cells = ()
     ) -> None:
         key, fleet_key = scoped(plan_id), scoped(record["fleet"])
         json = orjson.dumps(record)
