@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import json
 import re
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Generic, Required, Self, TypedDict, TypeVar, Unpack
+from typing import Any, Generic, Self, TypeVar, Unpack
 
 import httpx
 from pydantic import BaseModel
@@ -27,6 +28,16 @@ from schemas import (
     StepPublic,
 )
 from service.client.errors import MapFileError, raise_for
+from service.client.fields import (
+    CellIn,
+    PlanFields,
+    PointIn,
+    RouteFields,
+    SimulateFields,
+    StepFields,
+    UploadMapFields,
+    ZonesFields,
+)
 
 __all__ = [
     "Analysis",
@@ -49,12 +60,6 @@ __all__ = [
     "ZonesFields",
 ]
 
-CellIn = Sequence[int] | Mapping[str, float]
-"""A cell ``[row, col]``, or a point ``{"x": ..., "y": ...}`` in meters (with an optional
-``"yaw"`` in radians) where the API takes one."""
-PointIn = Sequence[float] | Mapping[str, float]
-"""A polygon's point: ``{"x": ..., "y": ...}`` or ``(x, y)``, meters."""
-
 # Results: the response models, under the names this client has always given them.
 Analysis = AnalysisPublic
 Preview = PreviewPublic
@@ -70,70 +75,6 @@ class MapInfo(MapPublic):
 
     created: bool | None = None
     """From ``upload_map``: True for a map the service did not know (``201``), else False."""
-
-
-# The fields a call sends besides its positional arguments (None: not sent, the server's default);
-# a test checks them against the request models of ``schemas``.
-
-
-class PlanFields(TypedDict, total=False):
-    """``plan``'s options, ``schemas.plans.PlanOptions``: the preset, overrides, the robot."""
-
-    preset: str | None
-    params: Mapping[str, Any] | None
-    allow_narrow: bool | None
-    robot_radius: float | None
-    unknown: str | None
-    goal_tolerance: float | None
-
-
-class RouteFields(PlanFields, total=False):
-    """``plan``'s fields besides the ends: the options, the ``waypoints`` (cells or points)
-    the path passes through, in order, and the robot's ``fleet``."""
-
-    waypoints: Sequence[CellIn] | None
-    fleet: str | None
-
-
-class UploadMapFields(RouteFields, total=False):
-    """``upload_map``'s fields: one map, its frame, and the plan's ends, waypoints and
-    options."""
-
-    grid: Sequence[Sequence[int]] | None
-    rows: Sequence[str] | None
-    occupancy_grid: Mapping[str, Any] | None
-    yaml: str | Path | None
-    resolution: float | None
-    origin: Sequence[float] | None
-    start: CellIn | None
-    goal: CellIn | None
-
-
-class ZonesFields(TypedDict, total=False):
-    """``add_zones``'s fields, as ``schemas.ZonesCreate``: ``keepout`` polygons and ``speed``
-    zones (``{"polygon", "max_speed"}``), points ``{"x", "y"}`` or pairs ``(x, y)`` in meters;
-    or a keepout filter mask's ``yaml`` file (its image, which the YAML names, read beside
-    it)."""
-
-    keepout: Sequence[Sequence[PointIn]] | None
-    speed: Sequence[Mapping[str, Any]] | None
-    yaml: str | Path | None
-
-
-class SimulateFields(PlanFields, total=False):
-    """``simulate``'s fields besides the ends, as ``schemas.SimulationCreate``."""
-
-    dynamic_count: Required[int]
-    seed: Required[int]
-    max_steps: int | None
-    obstacle_motion: str | None
-
-
-class StepFields(TypedDict, total=False):
-    """``step``'s fields besides the obstacles: ``seq``, and where the robot really is."""
-
-    seq: int | None
-    position: CellIn | None
 
 
 # Calls, built the same for both clients: a request and how to read its answer.
@@ -305,11 +246,15 @@ def _render(kind: str, id_: str, query: dict[str, Any]) -> _Call[bytes]:
     return _Call("GET", f"/{kind}/{id_}/render.png", _png, {"params": query})
 
 
+def _fleet(name: str, ahead: bool) -> _Call[Fleet]:
+    return _Call("GET", f"/fleets/{name}", _decode(Fleet), {"params": {"ahead": ahead}})
+
+
 T = TypeVar("T", httpx.BaseTransport, httpx.AsyncBaseTransport)
 H = TypeVar("H", httpx.Client, httpx.AsyncClient)
 
 
-class _Client(Generic[T, H]):
+class _Client(ABC, Generic[T, H]):
     """What both clients share: the base URL and the httpx client's options."""
 
     def __init__(
@@ -325,8 +270,8 @@ class _Client(Generic[T, H]):
             base_url=self.base_url, timeout=timeout, headers=headers, transport=transport
         )
 
-    def _open(self, **options: Any) -> H:
-        raise NotImplementedError
+    @abstractmethod
+    def _open(self, **options: Any) -> H: ...
 
 
 class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
@@ -400,9 +345,10 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def delete_plan(self, plan_id: str) -> None:
         self._call(_delete_plan(plan_id))
 
-    def fleet(self, name: str) -> Fleet:
-        """A fleet's robots (plans made with ``fleet=name``), its passages, who holds each."""
-        return self._call(_Call("GET", f"/fleets/{name}", _decode(Fleet)))
+    def fleet(self, name: str, *, ahead: bool = False) -> Fleet:
+        """A fleet's robots (plans made with ``fleet=name``), its passages, who holds each;
+        with ``ahead``, each robot's path ahead too."""
+        return self._call(_fleet(name, ahead))
 
     def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]
@@ -480,8 +426,8 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
     async def delete_plan(self, plan_id: str) -> None:
         await self._call(_delete_plan(plan_id))
 
-    async def fleet(self, name: str) -> Fleet:
-        return await self._call(_Call("GET", f"/fleets/{name}", _decode(Fleet)))
+    async def fleet(self, name: str, *, ahead: bool = False) -> Fleet:
+        return await self._call(_fleet(name, ahead))
 
     async def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import random
 import time
+from abc import ABC, abstractmethod
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable
 from contextlib import AbstractContextManager
@@ -116,7 +117,7 @@ def _plans_of() -> str:
     return f"planner:plans-of:{TENANT.get()}"
 
 
-class FleetSteps:
+class FleetSteps(ABC):
     """The fleet methods of :class:`~service.stores.redis.RedisStore` (its other half: the
     plan's record, its cache and its step script)."""
 
@@ -131,26 +132,26 @@ class FleetSteps:
     _fleet_put: Callable[..., Awaitable[Any]]
     _fleet_delete: Callable[..., Awaitable[Any]]
 
-    async def update_plan(self, plan_id: str, decide: Any) -> Update[Any] | None:
-        raise NotImplementedError
+    @abstractmethod
+    async def update_plan(self, plan_id: str, decide: Any) -> Update[Any] | None: ...
 
-    async def _read(self, key: str) -> _Cached | None:
-        raise NotImplementedError
+    @abstractmethod
+    async def _read(self, key: str) -> _Cached | None: ...
 
-    def _parse(self, key: str, value: object) -> _Cached:
-        raise NotImplementedError
+    @abstractmethod
+    def _parse(self, key: str, value: object) -> _Cached: ...
 
-    async def _write(self, key: str, version: int, update: Update[T]) -> list[bytes | int]:
-        raise NotImplementedError
+    @abstractmethod
+    async def _write(self, key: str, version: int, update: Update[T]) -> list[bytes | int]: ...
 
-    def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached:
-        raise NotImplementedError
+    @abstractmethod
+    def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached: ...
 
-    def _keys(self, key: str, record: PlanRecord) -> list[str]:
-        raise NotImplementedError
+    @abstractmethod
+    def _keys(self, key: str, record: PlanRecord) -> list[str]: ...
 
-    async def _get(self, key: str) -> bytes | None:
-        raise NotImplementedError
+    @abstractmethod
+    async def _get(self, key: str) -> bytes | None: ...
 
     async def step_plan(self, plan_id: str, decide: FleetDecide[T]) -> Update[T] | None:
         key = scoped(plan_id)

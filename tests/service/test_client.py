@@ -478,3 +478,31 @@ def test_both_clients_have_the_same_methods() -> None:
     for name in public:
         ours = inspect.signature(getattr(PlannerClient, name))
         assert ours == inspect.signature(getattr(AsyncPlannerClient, name)), name
+
+
+def test_each_method_takes_its_routes_query_parameters(app: FastAPI) -> None:
+    """A query parameter a route takes is a keyword of its method (``fleet(ahead=)``,
+    ``passages(robot_radius=, max_width=)``, ``path(frame_id=)``)."""
+    spec = app.openapi()
+    for name, (method, path) in ROUTES.items():
+        taken = {
+            p["name"] for p in spec["paths"][path][method].get("parameters", ())
+            if p["in"] == "query"
+        }  # fmt: skip
+        assert taken <= set(inspect.signature(getattr(PlannerClient, name)).parameters), name
+
+
+def test_a_fleet_is_read_with_its_paths_ahead_on_request() -> None:
+    asked: list[httpx.URL] = []
+
+    def answer(request: httpx.Request) -> httpx.Response:
+        asked.append(request.url)
+        return httpx.Response(200, json=_example(schemas.FleetPublic))
+
+    with PlannerClient("http://planner", transport=httpx.MockTransport(answer)) as planner:
+        assert planner.fleet("warehouse-a").fleet == "warehouse-a"
+        planner.fleet("warehouse-a", ahead=True)
+    assert [str(u) for u in asked] == [
+        "http://planner/fleets/warehouse-a?ahead=false",
+        "http://planner/fleets/warehouse-a?ahead=true",
+    ]
