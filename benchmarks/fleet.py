@@ -16,9 +16,8 @@ its buckets), the client's CPU time per step and the servers' (``/proc/PID/stat`
 
 ``--client`` says who sends the steps (httpx uploads the maps and creates the plans either
 way): ``aiohttp``, the default (:class:`AiohttpStepper`: an aiohttp session of kept-alive
-connections, bodies encoded by orjson), or ``httpx``. On two cores shared with the server,
-httpx's own work is most of the latency it sees: about 1.7 to 2.2 ms of client CPU a step,
-aiohttp's 0.23 to 0.25 ms (docs/performance.md#fleets).
+connections, bodies encoded by orjson), or ``httpx``, whose own work on two cores shared with
+the server is most of the latency it sees (docs/performance.md#fleets).
 
 tests/service/test_fleets.py drives the same code at smaller sizes.
 """
@@ -441,7 +440,8 @@ SERVER_PIDS: list[int] = []
 
 @contextmanager
 def servers(store: str, directory: Path) -> Iterator[list[str]]:
-    """One uvicorn server on the memory store, or a redis-server and two replicas on it."""
+    """One service (``python -m service``) on the memory store, or a redis-server and two
+    replicas on it."""
     started: list[subprocess.Popen[bytes]] = []
     SERVER_PIDS.clear()
     try:
@@ -459,10 +459,16 @@ def servers(store: str, directory: Path) -> Iterator[list[str]]:
         urls = []
         for _ in range(count):
             port = _free_port()
-            env = {**os.environ, "PLANNER_STORE_URL": url, "PLANNER_POOL_SIZE": "1"}
-            args = [sys.executable, "-m", "uvicorn", "service.main:app", "--host", "127.0.0.1",
-                    "--port", str(port), "--log-level", "warning"]  # fmt: skip
-            process = subprocess.Popen(args, env=env, cwd=ROOT)
+            # As the container runs it behind its proxy (docker/docker-compose.yml's parser),
+            # its request lines on stdout dropped.
+            env = {
+                **os.environ, "PLANNER_HOST": "127.0.0.1", "PLANNER_PORT": str(port),
+                "PLANNER_STORE_URL": url, "PLANNER_POOL_SIZE": "1",
+                "PLANNER_HTTP_PARSER": "httptools",
+            }  # fmt: skip
+            process = subprocess.Popen(
+                [sys.executable, "-m", "service"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL
+            )
             started.append(process)
             SERVER_PIDS.append(process.pid)
             urls.append(f"http://127.0.0.1:{port}")

@@ -5,6 +5,7 @@ limits from the settings (``PLANNER_HTTP_PARSER``, ``PLANNER_MAX_HEADER_BYTES``,
 
 from __future__ import annotations
 
+import gc
 import resource
 import socket
 
@@ -30,6 +31,11 @@ class _Server(uvicorn.Server):
         bound = [s.getsockname() for server in self.servers for s in server.sockets or ()]
         addresses = [f"http://{a[0]}:{a[1]}" for a in bound if isinstance(a, tuple)]
         fields = {"address": addresses[0] if addresses else None, **app.state.startup}
+        # Start-up's objects (modules, the app, the compiled kernels), collected once and then
+        # left out of every collection while serving (docs/performance.md, "Garbage
+        # collection"): a full collection would walk them all, in some request's answer.
+        gc.collect()
+        gc.freeze()
         LOG.info("listening", extra={"fields": fields})
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import gc
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -75,13 +74,8 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         app.state.started = time.monotonic()
         app.state.engine = engine
         app.state.metrics.engine = engine
-        # What start-up made (modules, the app, the compiled kernels: ~180,000 objects) is
-        # left out of every garbage collection while serving: a full one would walk it all, a
-        # pause of tens of milliseconds in some request's answer (docs/performance.md).
-        gc.freeze()
         yield
     finally:
-        gc.unfreeze()  # collectable again once the app is gone (tests make many)
         REQUEST_LINES.flush()  # the request lines still buffered
         app.state.metrics.engine = None
         pool.close()

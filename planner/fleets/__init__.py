@@ -1,6 +1,6 @@
 """Fleets: robots of one map stepping among each other (docs/fleets.md)."""
 
-from planner.fleets.robots import Robot, covering, disk_offsets, robot_cells
+from planner.fleets.robots import Robot, covering, robot_cells
 from planner.fleets.traffic import Traffic, after_step, traffic_for
 from planner.fleets.waiting import WaitingZones, no_waiting_zones, wait_distance, waiting_zones
 
@@ -10,7 +10,6 @@ __all__ = [
     "WaitingZones",
     "after_step",
     "covering",
-    "disk_offsets",
     "no_waiting_zones",
     "robot_cells",
     "traffic_for",

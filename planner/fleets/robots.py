@@ -6,21 +6,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from functools import lru_cache
 from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["Robot", "covering", "disk_offsets", "robot_cells"]
+__all__ = ["Robot", "covering", "robot_cells"]
 
 Cell = tuple[int, int]
 
 
 class Robot(NamedTuple):
-    """One robot of a fleet as its fleet keeps it (a named tuple: a step reads every robot of
-    its fleet, and makes these the fastest way).
+    """One robot of a fleet as its fleet keeps it (a named tuple: every step rebuilds every
+    robot of its fleet, and tuples are the cheapest to build).
 
     It physically occupies ``cell`` (where it stood when last told) and ``target`` (the cell it
     was told to move to, where the service records it) until its next step; a robot that never
@@ -73,29 +72,6 @@ class Robot(NamedTuple):
         return self._replace(cell=previous, target=position, status=status, **changes)
 
 
-@lru_cache(maxsize=256)
-def _offsets(squared: float) -> npt.NDArray[np.int64]:
-    reach = math.isqrt(math.floor(squared))
-    span = np.arange(-reach, reach + 1, dtype=np.int64)
-    dr, dc = np.meshgrid(span, span, indexing="ij")
-    inside = dr * dr + dc * dc <= squared
-    out = np.stack((dr[inside], dc[inside]), axis=1)
-    out.setflags(write=False)
-    return out
-
-
-def disk_offsets(radius_cells: float) -> npt.NDArray[np.int64]:
-    """The ``(n, 2)`` cell offsets whose centers are within ``radius_cells`` of ``(0, 0)``'s
-    (the boundary included: a robot there would touch), always ``(0, 0)`` itself.
-
-    >>> disk_offsets(1.0).tolist()
-    [[-1, 0], [0, -1], [0, 0], [0, 1], [1, 0]]
-    """
-    if not radius_cells >= 0 or not math.isfinite(radius_cells):
-        raise ValueError(f"radius_cells must be finite and >= 0; got {radius_cells!r}")
-    return _offsets(round(radius_cells * radius_cells + 1e-9, 9))
-
-
 def robot_cells(
     radius: float,
     others: Iterable[Robot],
@@ -117,6 +93,10 @@ def robot_cells(
     centers, squared = [], []
     for other in others:
         reach = (radius + other.radius) / resolution
+        if not reach >= 0 or not math.isfinite(reach):
+            raise ValueError(
+                f"robot radii must be finite and >= 0; got {radius!r}, {other.radius!r}"
+            )
         if margin > 0:
             reach = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
         centers.append((*other.cell, *other.target))

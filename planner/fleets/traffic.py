@@ -99,8 +99,9 @@ def traffic_for(
             for group in {group_at(o.cell), group_at(o.target)}:
                 if group >= 0 and group not in mine:
                     _first(closed_by, group, (o.rank, k))
-            if o.wants is not None and o.wants not in mine and o.rank < me.rank:
-                _first(wanted_by, o.wants, (o.rank, k))
+            wants = o.wants  # a group of these zones (a stored value: checked)
+            if wants is not None and 0 <= wants < groups and wants not in mine and o.rank < me.rank:
+                _first(wanted_by, wants, (o.rank, k))
     on_goal.sort()
     cells = robot_cells(me.radius, nearby, resolution=resolution, shape=shape, margin=margin)
     if on_goal:
@@ -111,7 +112,8 @@ def traffic_for(
         reach = NEAR + margin
         keep = (np.abs(near[:, 0] - r) <= reach) & (np.abs(near[:, 1] - c) <= reach)
         cells = np.concatenate((cells, near[keep]))
-    # A group another robot holds is closed for it; else one a robot ahead waits at, for that.
+    # A group another robot holds is closed for its holder; else, one a robot ahead waits at
+    # for that robot: the holders are merged last, so they win.
     closed = {g: k for g, (_, k) in sorted({**wanted_by, **closed_by}.items())}
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
@@ -120,7 +122,7 @@ def traffic_for(
 
 
 def _first(by: dict[int, tuple[int, str]], group: int, robot: tuple[int, str]) -> None:
-    """Keeps in ``by[group]`` the robot of lowest rank."""
+    """Keeps in ``by[group]`` the robot of lowest rank (``(rank, plan_id)``)."""
     if group not in by or robot < by[group]:
         by[group] = robot
 
@@ -133,12 +135,12 @@ def _holds(goal: tuple[int, int], o: Robot, reach: float, margin: int) -> bool:
     gr, gc = goal
     far = reach + margin + 1  # beyond it on an axis, neither test holds
     eroded = reach
+    if margin > 0:
+        eroded = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
     for r, c in (o.cell, o.target):
         dr, dc = abs(r - gr), abs(c - gc)
         if dr > far or dc > far:
             continue
-        if margin > 0:
-            eroded = 0.0 if reach <= margin else math.hypot(reach - margin, margin)
         if dr * dr + dc * dc <= reach * reach + 1e-9:
             return True
         nr, nc = max(dr - margin, 0), max(dc - margin, 0)

@@ -15,6 +15,7 @@ from numba import njit
 
 from planner.analysis.passages import find_passages
 from planner.errors import InvalidInput, quote
+from planner.fleets.robots import Robot, robot_cells
 from planner.maps.robot_maps import grid_map
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan, clearance_metrics, plan
@@ -265,10 +266,14 @@ def warm_up() -> None:
             _ = p.min_clearance
             run_episode(p, dynamic_count=2, seed=0, max_steps=4)
             run_episode(p, dynamic_count=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
-            session = Session(p)  # the path ahead's kernels too
+            Session(p).step()  # a move, and the path ahead's kernels
+            session = Session(p)
             session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
     # The passages' kernels: two rooms and a door between them.
     rooms = np.zeros((9, 9), dtype=np.int8)
     rooms[:, 4] = 1
     rooms[4, 4] = 0
     find_passages(grid_map(rooms, resolution=0.1), robot_radius=0.05, max_width=0.3)
+    # A fleet robot's step: the other robots' disks.
+    other = Robot(0, (1, 1), (1, 2), 0.1, (0, 0))
+    robot_cells(0.1, [other], resolution=0.1, shape=(4, 4), margin=1)

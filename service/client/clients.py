@@ -247,7 +247,8 @@ def _render(kind: str, id_: str, query: dict[str, Any]) -> _Call[bytes]:
 
 
 def _fleet(name: str, ahead: bool) -> _Call[Fleet]:
-    return _Call("GET", f"/fleets/{name}", _decode(Fleet), {"params": {"ahead": ahead}})
+    query = {"ahead": True} if ahead else {}
+    return _Call("GET", f"/fleets/{name}", _decode(Fleet), {"params": query})
 
 
 T = TypeVar("T", httpx.BaseTransport, httpx.AsyncBaseTransport)

@@ -5,7 +5,6 @@ to it is written at once with the plan that made it (``Store.put_fleet_plan``,
 
 from __future__ import annotations
 
-import asyncio
 import math
 from collections.abc import Callable
 from contextlib import suppress
@@ -217,9 +216,8 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
     poses: dict[str, list[Any]] | None = None
     if ahead:
         poses = {}
-        ids = list(state["robots"])
-        records = await asyncio.gather(*(engine.store.get_plan(plan_id) for plan_id in ids))
-        for plan_id, record in zip(ids, records, strict=True):
+        for plan_id in state["robots"]:
+            record = await engine.store.get_plan(plan_id)
             last = None if record is None else record["state"].get("last_step")
             poses[plan_id] = [] if last is None else list(last.get("poses") or ())
     return FleetView(fleet, state, robot_map.frame, zones, poses, robot_map.shape)

@@ -213,7 +213,8 @@ class FleetSteps(ABC):
     def _step_ended(self, key: str, answer: list[bytes | int], record: PlanRecord | None) -> bool:
         """Whether the step script's ``answer`` ends the step: written (1), or the plan gone (0:
         forgotten here too); the map of ``record`` gone (3) raises. Else another replica's write
-        came first (2: the plan's, 4: the fleet's), to decide again on."""
+        came first (2: the plan's, 4: the fleet's), to decide again on. For a plan's step
+        outside any fleet too (``RedisStore.update_plan``): its script answers the same."""
         if answer[0] == 3:
             assert record is not None  # only a write checks the map
             raise unknown_map(record["map_id"])

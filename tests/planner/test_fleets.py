@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,27 +16,35 @@ from planner.fleets import (
     Robot,
     after_step,
     covering,
-    disk_offsets,
     robot_cells,
     traffic_for,
     wait_distance,
     waiting_zones,
 )
+from planner.fleets.waiting import WaitingZones
+from tests import naive_fleets
+
+WHOLE_CELLS = [(0.15, 0.1, 1), (0.2, 0.1, 0), (0.22, 0.05, 1), (0.325, 0.1, 2), (0.05, 0.1, 1)]
+"""Radii (each robot's, meters), resolutions and margins whose disks end on whole cells."""
 
 
-def _naive_disk(radius: float) -> set[tuple[int, int]]:
-    reach = math.ceil(radius) + 1
-    return {
-        (dr, dc)
-        for dr in range(-reach, reach + 1)
-        for dc in range(-reach, reach + 1)
-        if math.hypot(dr, dc) <= radius + 1e-9
-    }
-
-
-@pytest.mark.parametrize("radius", [0.0, 0.5, 1.0, 1.5, 2.0, 2.2360679775, 3.25, 6.5, 8.8])
-def test_disk_offsets_are_the_cells_within_the_radius(radius: float) -> None:
-    assert set(map(tuple, disk_offsets(radius).tolist())) == _naive_disk(radius)
+@pytest.mark.parametrize(("radius", "resolution", "margin"), [*WHOLE_CELLS, (0.0, 0.1, 0)])
+def test_robot_cells_at_radii_on_whole_cells_match_the_reference(
+    radius: float, resolution: float, margin: int
+) -> None:
+    """Radii whose squares land on whole cells (0.15 + 0.15 m at 0.1 m with a margin of 1:
+    4.999999999999998 cells squared, the cell at 5 kept by the rounding) as the numpy
+    reference gives them; near the edges, cell and target apart."""
+    others = [
+        Robot(0, (1, 1), (2, 2), radius, (0, 0)),
+        Robot(1, (10, 12), (10, 12), radius, (0, 0)),
+        Robot(2, (18, 0), (19, 0), radius, (0, 0)),
+    ]
+    got = robot_cells(radius, others, resolution=resolution, shape=(20, 14), margin=margin)
+    want = naive_fleets.robot_cells(
+        radius, others, resolution=resolution, shape=(20, 14), margin=margin
+    )
+    assert sorted(map(tuple, got.tolist())) == sorted(map(tuple, want.tolist()))
 
 
 def _dilate(cells: set[tuple[int, int]], margin: int) -> set[tuple[int, int]]:
@@ -239,3 +248,41 @@ def test_robots_on_the_goal_are_those_whose_blocked_cells_reach_it(seed: int) ->
         if goal in grown or covering(goal, 0.2, {k: other}, resolution=resolution):
             expected.append(k)
     assert list(traffic.on_goal) == sorted(expected, key=lambda k: robots[k].rank)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_traffic_matches_the_reference_on_random_fleets(seed: int) -> None:
+    """The one-pass ``traffic_for`` against the reference (tests/naive_fleets.py) on random
+    fleets: several passage groups, several holders and waiters, robots on the goal, margins
+    0 to 2, with and without ``within`` and ``here``; the same cells (as a multiset), closed
+    groups (in order, and for whom), zone cells and robots on the goal."""
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        H, W = int(rng.integers(5, 30)), int(rng.integers(5, 30))
+        count = int(rng.integers(0, 4))
+        group = rng.integers(-1, max(count, 1), H * W).astype(np.int32)
+        group[(rng.random(H * W) < 0.6) | (count == 0)] = -1
+        zones = WaitingZones((H, W), group, tuple((g,) for g in range(count)))
+        robots = {}
+        for i, rank in enumerate(rng.permutation(20)[: int(rng.integers(1, 8))]):
+            r, c = int(rng.integers(0, H)), int(rng.integers(0, W))
+            target = (min(max(r + int(rng.integers(-1, 2)), 0), H - 1),
+                      min(max(c + int(rng.integers(-1, 2)), 0), W - 1))  # fmt: skip
+            goal = (int(rng.integers(0, H)), int(rng.integers(0, W)))
+            radius = float(rng.choice([0.05, 0.1, 0.15, 0.2, 0.22, 0.325, rng.uniform(0, 0.4)]))
+            wants = int(rng.integers(0, count)) if count and rng.random() < 0.4 else None
+            robots[f"p{i}"] = Robot(int(rank), (r, c), target, radius, goal, wants=wants)
+        kw: dict[str, Any] = {
+            "resolution": float(rng.choice([0.05, 0.1, 0.25])), "shape": (H, W),
+            "zones": zones, "margin": int(rng.integers(0, 3)),
+            "within": None if rng.random() < 0.5 else int(rng.integers(0, 10)),
+        }  # fmt: skip
+        if rng.random() < 0.5:
+            kw["here"] = (int(rng.integers(0, H)), int(rng.integers(0, W)))
+        for plan_id in robots:
+            got = traffic_for(plan_id, robots, **kw)
+            cells, closed, zone_cells, on_goal = naive_fleets.traffic_for(plan_id, robots, **kw)
+            assert sorted(map(tuple, got.robots.tolist())) == sorted(map(tuple, cells.tolist()))
+            assert list(got.closed.items()) == list(closed.items())
+            assert got.zones.tolist() == zone_cells.tolist()
+            assert got.on_goal == on_goal

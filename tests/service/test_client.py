@@ -457,6 +457,8 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     assert plan_fields == set(schemas.plans.PlanOptions.model_fields)
     upload = set(get_type_hints(UploadMapFields))
     assert upload == set(schemas.MapCreate.model_fields) - {"image"}  # the YAML's image is read
+    # An upload with a start and a goal is a plan's request too (service.resources.maps).
+    assert set(schemas.PlanCreate.model_fields) - {"map_id"} <= set(schemas.MapCreate.model_fields)
     simulate = set(get_type_hints(SimulateFields)) | {"start", "goal"}
     assert simulate == set(schemas.SimulationCreate.model_fields)
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
@@ -503,6 +505,6 @@ def test_a_fleet_is_read_with_its_paths_ahead_on_request() -> None:
         assert planner.fleet("warehouse-a").fleet == "warehouse-a"
         planner.fleet("warehouse-a", ahead=True)
     assert [str(u) for u in asked] == [
-        "http://planner/fleets/warehouse-a?ahead=false",
+        "http://planner/fleets/warehouse-a",
         "http://planner/fleets/warehouse-a?ahead=true",
     ]
