@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from planner.fleets.robots import covering
 from planner.fleets.waiting import WaitingZones
 
 NEAR = 4
@@ -37,16 +38,8 @@ def robot_cells(
     shape: tuple[int, int],
     margin: int = 0,
 ) -> npt.NDArray[np.int64]:
-    """The cells (an ``(n, 2)`` array, inside the map) a robot of ``radius`` meters must not be
-    told to enter because of the ``others``: every cell whose center is within the sum of both
-    radii of another robot's ``cell`` or ``target``, once the step's decision has blocked every
-    cell within Chebyshev ``margin`` of them (its ``dynamic_margin``).
-
-    With a margin, fewer cells are given: a disk of radius ``sqrt((R - m)^2 + m^2)`` (cells;
-    just the center when ``R <= m``), whose cells within Chebyshev ``m`` cover every cell
-    within ``R`` (from a cell at distance ``d <= R``, the move by ``m`` toward the center on
-    each axis lands within that radius), and no more than the margin needs: a robot beside
-    a wall is not boxed in by a disk grown by a margin it already has."""
+    """``planner.fleets.robot_cells``: each robot's two disks as offsets about the origin,
+    shifted, their union by ``numpy.unique``, the cells off the map dropped."""
     H, W = shape
     parts = []
     for other in others:
@@ -77,22 +70,6 @@ def _pair(squared: float, dr: int, dc: int) -> npt.NDArray[np.int64]:
     return out
 
 
-def covering(
-    cell: tuple[int, int], radius: float, others: Mapping[str, Any], *, resolution: float
-) -> list[str]:
-    """The plan_ids of the robots (by rank) standing where a robot of ``radius`` meters at
-    ``cell`` would touch them (within the sum of both radii of their cell or target)."""
-    found: list[tuple[int, str]] = []
-    for plan_id, other in others.items():
-        reach = (radius + other.radius) / resolution
-        if any(
-            (r - cell[0]) ** 2 + (c - cell[1]) ** 2 <= reach * reach + 1e-9
-            for r, c in (other.cell, other.target)
-        ):
-            found.append((other.rank, plan_id))
-    return [plan_id for _, plan_id in sorted(found)]
-
-
 def traffic_for(
     plan_id: str,
     robots: Mapping[str, Any],
@@ -104,20 +81,8 @@ def traffic_for(
     margin: int = 1,
     within: int | None = None,
 ) -> tuple[npt.NDArray[np.int64], dict[int, str], npt.NDArray[np.int64], tuple[str, ...]]:
-    """What the fleet's ``robots`` block for ``plan_id``'s step (the robot at ``here``, else
-    where it was told to be): every other robot's cell and target with both radii, and the
-    zone of every passage group that another robot holds or that a robot of higher priority
-    (lower rank) waits at and ``plan_id`` does not hold.
-
-    A robot standing on this one's goal blocks only the cells this step could reach (its
-    decision's ``margin`` included): the robot still approaches its goal, its searches
-    finding the way there, and it waits beside the other, never inside its radius. (Blocked
-    whole, it would never leave its start: robots whose goals are each other's starts would
-    wait for each other forever.)
-
-    With ``within`` (cells), robots farther than that from this one are left out of its
-    obstacles: they cannot meet it this step, and its searches then plan through them as
-    through any moving obstacle, seeing them when they come near."""
+    """``planner.fleets.traffic_for``'s ``(robots, closed, zones, on_goal)``, group by group:
+    each group's holders and the robots ahead waiting at it, sorted, the first taken."""
     me = robots[plan_id]
     r, c = me.target if here is None else here
     others = {k: v for k, v in robots.items() if k != plan_id}
