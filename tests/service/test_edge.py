@@ -188,6 +188,13 @@ async def test_the_step_is_a_plain_fastapi_route() -> None:
     assert served[-1] is route
 
 
+TIMEOUT = 1.0
+"""Seconds the edge gives a body and a request in these tests: the map's upload and the plan
+before the stalls must fit in it on a loaded machine (0.2 s did not, once in CI)."""
+STALL = 3 * TIMEOUT
+"""How long a body stalls, or a step runs, past the timeout."""
+
+
 async def _timed_answers(
     app: FastAPI, monkeypatch: pytest.MonkeyPatch
 ) -> list[tuple[int, Any, str | None]]:
@@ -202,7 +209,7 @@ async def _timed_answers(
 
             async def stalling() -> AsyncIterator[bytes]:
                 yield b'{"seq": '
-                await asyncio.sleep(1)
+                await asyncio.sleep(STALL)
                 yield b"0}"
 
             out = []
@@ -210,7 +217,7 @@ async def _timed_answers(
             out.append((r.status_code, r.json()["code"], r.headers.get("connection")))
 
             async def slow(*args: Any, **kwargs: Any) -> Any:
-                await asyncio.sleep(1)
+                await asyncio.sleep(STALL)
 
             with monkeypatch.context() as patched:
                 patched.setattr(Engine, "step", slow)
@@ -223,7 +230,7 @@ async def _timed_answers(
 
 async def test_the_edge_times_a_step(monkeypatch: pytest.MonkeyPatch) -> None:
     settings = SMALL.model_copy(
-        update={"body_timeout_seconds": 0.2, "request_timeout_seconds": 0.2}
+        update={"body_timeout_seconds": TIMEOUT, "request_timeout_seconds": TIMEOUT}
     )
     answers = await _timed_answers(create_app(settings), monkeypatch)
     assert answers == [(408, "BODY_TIMEOUT", "close"), (504, "TIMED_OUT", None), (200, 0, None)]

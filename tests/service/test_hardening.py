@@ -197,7 +197,10 @@ async def test_simulation_steps_are_capped_and_a_long_one_is_stopped() -> None:
         }
     )
     async with serving(settings) as client:
-        r = await client.post("/maps", json={"rows": serpentine(301, 300)})
+        for _ in range(20):  # the upload too must fit in 0.3 s, however busy the machine
+            r = await client.post("/maps", json={"rows": serpentine(301, 300)})
+            if r.status_code in (200, 201):
+                break
         map_id = r.json()["map_id"]
         body = {"start": [0, 0], "goal": [300, 299], "max_steps": 500_001, "preset": "shortest"}
         r = await client.post(f"/maps/{map_id}/simulate", json=body)
