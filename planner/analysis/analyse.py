@@ -76,7 +76,7 @@ class Analysis:
             return bool(self.clean.any())
         return self.clean_weight > 0
 
-    @property
+    @cached_property
     def shape(self) -> tuple[int, int]:
         return (int(self.state.shape[0]), int(self.state.shape[1]))
 

@@ -14,7 +14,7 @@ import numpy.typing as npt
 from planner.fleets.robots import Robot, robot_cells
 from planner.fleets.waiting import WaitingZones
 
-__all__ = ["Traffic", "after_step", "traffic_for"]
+__all__ = ["NO_TRAFFIC", "Traffic", "after_step", "traffic_for"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +39,9 @@ class Traffic:
         parts = [given, self.robots] if open_zones else [given, self.robots, self.zones]
         return np.ascontiguousarray(np.concatenate(parts).astype(np.int64, copy=False))
 
+
+NO_TRAFFIC = Traffic(np.empty((0, 2), np.int64), {}, np.empty((0, 2), np.int64))
+"""Nothing to keep clear of: a robot on its goal, which stays there whatever the others do."""
 
 NEAR = 4
 """Cells (Chebyshev) around the robot within which a robot standing on its goal blocks it: more
@@ -72,9 +75,12 @@ def traffic_for(
     through any moving obstacle, seeing them when they come near."""
     me = robots[plan_id]
     r, c = me.target if here is None else here
+    gr, gc = me.goal
     groups = zones.count if zones is not None else 0
-    group_at = zones.group_at if zones is not None else None
-    mine = set() if group_at is None else {group_at(me.cell), group_at(me.target)}
+    # Each robot's groups read from the zones' flat array (every step reads them all).
+    group_of = zones.group.item if zones is not None and groups else None
+    width = zones.shape[1] if zones is not None else 0
+    mine = set() if group_of is None else {group_of(x * width + y) for x, y in (me.cell, me.target)}
     on_goal: list[tuple[int, str]] = []
     nearby: list[Robot] = []
     closed_by: dict[int, tuple[int, str]] = {}  # group -> (rank, plan_id) of its holder
@@ -83,22 +89,25 @@ def traffic_for(
         if k == plan_id:
             continue
         reach = (me.radius + o.radius) / resolution
-        if _holds(me.goal, o, reach, margin):
+        (cr, cc), (tr, tc) = o.cell, o.target
+        far = reach + margin + 1  # beyond it from the goal on an axis, it cannot hold it
+        if (
+            (abs(cr - gr) <= far and abs(cc - gc) <= far)
+            or (abs(tr - gr) <= far and abs(tc - gc) <= far)
+        ) and _holds(me.goal, o, reach, margin):
             on_goal.append((o.rank, k))
-        elif (
-            within is None
-            or min(
-                max(abs(o.cell[0] - r), abs(o.cell[1] - c)),
-                max(abs(o.target[0] - r), abs(o.target[1] - c)),
-            )
-            <= within + reach
+        elif within is None or (
+            min(max(abs(cr - r), abs(cc - c)), max(abs(tr - r), abs(tc - c))) <= within + reach
         ):
             nearby.append(o)
-        if group_at is not None and groups:
+        if group_of is not None:
             # A robot holds the groups whose zones hold its cell or its target.
-            for group in {group_at(o.cell), group_at(o.target)}:
-                if group >= 0 and group not in mine:
-                    _first(closed_by, group, (o.rank, k))
+            held = group_of(cr * width + cc)
+            if held >= 0 and held not in mine:
+                _first(closed_by, held, (o.rank, k))
+            held_too = group_of(tr * width + tc)
+            if held_too >= 0 and held_too != held and held_too not in mine:
+                _first(closed_by, held_too, (o.rank, k))
             wants = o.wants  # a group of these zones (a stored value: checked)
             if wants is not None and 0 <= wants < groups and wants not in mine and o.rank < me.rank:
                 _first(wanted_by, wants, (o.rank, k))
@@ -151,14 +160,12 @@ def _holds(goal: tuple[int, int], o: Robot, reach: float, margin: int) -> bool:
 
 def after_step(
     me: Robot,
-    others: Mapping[str, Robot],
     *,
     previous: tuple[int, int],
     position: tuple[int, int],
     status: str,
     traffic: Traffic,
     zones: WaitingZones | None,
-    resolution: float,
     would_enter: int | None = None,
 ) -> Robot:
     """The robot as its fleet records it after a step that told it to go from ``previous`` to

@@ -24,6 +24,7 @@ from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, route
 from planner.stepping.ahead import path_ahead
 from planner.stepping.legs import go_on, last_leg, later_cost, leg_of
+from planner.stepping.obstacles import blocked_cells, obstacle_cells
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
 __all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
@@ -61,6 +62,12 @@ class Session:
         if self._rule.mode == MODE_PAPER:
             w = self._width
             self._visited = {r * w + c for r, c in state.trajectory[state.leg_start :]}
+
+    @property
+    def at_goal(self) -> bool:
+        """Whether the robot stands on its (last) goal: its next step, without a reported
+        position, keeps it there whatever the obstacles (``arrived``, one pose)."""
+        return self.state.position == self.plan.goal and last_leg(self.route, self.state)
 
     @property
     def may_replan(self) -> bool:
@@ -127,7 +134,7 @@ class Session:
                 raise SequenceConflict(msg, field="seq")
         else:
             seq = 0 if st.last_seq is None else st.last_seq + 1
-        obstacles = _obstacles(dynamic_obstacles, self.plan.analysis.shape)
+        obstacles = obstacle_cells(dynamic_obstacles, self.plan.analysis.shape)
         point, yaw = _pose(position)
         if position is not None:
             self._relocate(position)
@@ -272,7 +279,7 @@ class Session:
         rows, cols = np.divmod(way, W)
         # The cells entered, and the two cells beside each diagonal move (never squeezed past).
         passed = np.concatenate((way[1:], rows[:-1] * W + cols[1:], rows[1:] * W + cols[:-1]))
-        return not np.isin(passed, _blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
+        return not np.isin(passed, blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
 
     def _search(
         self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], on_plan: bool
@@ -398,7 +405,7 @@ def detour(
     r, c = as_cell(cell, a.shape, name="cell")
     if a.state[r, c] == BLOCKED_CELL:
         raise InvalidInput(f"cell [{r}, {c}] is on an obstacle", field="cell")
-    obstacles = _obstacles(dynamic_obstacles, a.shape)
+    obstacles = obstacle_cells(dynamic_obstacles, a.shape)
     if margin is None:
         margin = params.dynamic_margin
     low, high = PARAMETER_RANGES["dynamic_margin"]
@@ -420,54 +427,6 @@ def _pose(position: Any) -> tuple[tuple[float, float] | None, float | None]:
     if not isinstance(position, Mapping):
         return None, None
     return point_xy(position, name="position"), end_yaw(position, "position")
-
-
-def _obstacles(cells: Any, shape: tuple[int, int]) -> npt.NDArray[np.int64]:
-    """``cells`` as an ``(n, 2)`` array of cells inside the map, else ``InvalidInput``."""
-    H, W = shape
-    if type(cells) is list:  # the usual input, JSON's lists of ints: checked in Python
-        flat: list[int] = []
-        for cell in cells:
-            if type(cell) is not list or len(cell) != 2:
-                break
-            r, c = cell
-            if type(r) is not int or type(c) is not int or not (0 <= r < H and 0 <= c < W):
-                break
-            flat += cell
-        else:
-            return np.array(flat, dtype=np.int64).reshape(-1, 2)
-    try:
-        obstacles = np.asarray(cells, dtype=np.int64)
-    except (TypeError, ValueError, OverflowError):
-        msg = f"dynamic_obstacles must be a list of [row, col] cells; got {cells!r}"
-        raise InvalidInput(msg, field="dynamic_obstacles") from None
-    if obstacles.size == 0:
-        return np.empty((0, 2), dtype=np.int64)
-    if obstacles.ndim != 2 or obstacles.shape[1] != 2:
-        msg = f"dynamic_obstacles must be a list of [row, col] cells; got shape {obstacles.shape}"
-        raise InvalidInput(msg, field="dynamic_obstacles")
-    outside = (obstacles[:, 0] < 0) | (obstacles[:, 0] >= H)
-    outside |= (obstacles[:, 1] < 0) | (obstacles[:, 1] >= W)
-    if outside.any():
-        i = int(np.flatnonzero(outside)[0])
-        cell = obstacles[i].tolist()
-        msg = f"dynamic_obstacles[{i}] {cell} is outside the {H} x {W} map"
-        raise InvalidInput(msg, field="dynamic_obstacles")
-    return np.ascontiguousarray(obstacles)
-
-
-def _blocked_cells(
-    obstacles: npt.NDArray[np.int64], margin: int, shape: tuple[int, int]
-) -> npt.NDArray[np.int64]:
-    """Flat indices of the cells within Chebyshev ``margin`` of an obstacle, inside the map."""
-    H, W = shape
-    span = np.arange(-margin, margin + 1)
-    dr, dc = np.meshgrid(span, span, indexing="ij")
-    rows = (obstacles[:, 0, None] + dr.ravel()).ravel()
-    cols = (obstacles[:, 1, None] + dc.ravel()).ravel()
-    inside = (rows >= 0) & (rows < H) & (cols >= 0) & (cols < W)
-    out: npt.NDArray[np.int64] = rows[inside] * W + cols[inside]
-    return out
 
 
 def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:

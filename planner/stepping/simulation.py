@@ -268,7 +268,8 @@ def warm_up() -> None:
             run_episode(p, dynamic_count=2, seed=0, max_steps=4, obstacle_motion="simultaneous")
             Session(p).step()  # a move, and the path ahead's kernels
             session = Session(p)
-            session.step([[0, 1], [1, 0], [1, 1]])  # held up: exercises the replan kernel
+            # Held up (the replan kernel), by cells given as an array (as a fleet's are).
+            session.step(np.array([[0, 1], [1, 0], [1, 1]], dtype=np.int64))
     # The passages' kernels: two rooms and a door between them.
     rooms = np.zeros((9, 9), dtype=np.int8)
     rooms[:, 4] = 1

@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 import planner
 from planner import quote
-from planner.fleets import Robot, WaitingZones, after_step, covering, traffic_for
+from planner.fleets import NO_TRAFFIC, Robot, WaitingZones, after_step, covering, traffic_for
 from planner.fleets import waiting_zones as planner_waiting_zones
 from planner.plans.ends import cell_of
 from service.errors import NotFound
@@ -123,10 +123,14 @@ async def step_in_fleet(
 ) -> Moved:
     """The robot's step, keeping clear of its fleet: the other robots (their cells and targets,
     with both radii) and the passages another robot holds are obstacles besides the client's.
-    Next to a passage closed to it, the step is first tried with it open: a robot that would
-    enter waits at it (``wants``), and robots of lower priority let it go first."""
+    A robot told to wait next to a passage closed to it steps again with the passage open (on
+    its state from before): if it would enter, it waits at it (``wants``), and robots of lower
+    priority let it go first."""
     plan = session.plan
     frame = plan.analysis.frame
+    mine = fleet["robots"].get(plan_id)
+    if mine is not None and position is None and session.at_goal:
+        return await _on_goal(engine, plan_id, session, obstacles, fleet, seq=seq)
     robots = {k: Robot.from_dict(v) for k, v in fleet["robots"].items()}
     me = robots.get(plan_id)
     if me is None:  # its fleet expired meanwhile: it joins again, last
@@ -147,25 +151,49 @@ async def step_in_fleet(
         here=here, margin=margin, within=_nearby(plan),
     )  # fmt: skip
     given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
-    tried = None
+    before = None
     near = here or me.target
     if traffic.closed and zones is not None and zones.near(near, list(traffic.closed), margin + 2):
-        trial = planner.Session(session.route, session.state.copy(), poses=False)
+        before = session.state.copy()
+    step = await engine.step(session, traffic.obstacles(given), position=position, seq=seq)
+    would_enter = None
+    if before is not None and zones is not None and step.status == "waiting":
+        # Waiting next to a passage closed to it: the step again with the passages open. Had it
+        # gone on, toward a closed one, it waits at it.
+        trial = planner.Session(session.route, before, poses=False)
         tried = await engine.step(
             trial, traffic.obstacles(given, open_zones=True), position=position, seq=seq
         )
-    step = await engine.step(session, traffic.obstacles(given), position=position, seq=seq)
-    would_enter = None
-    if tried is not None and zones is not None and tried.position != tried.previous:
-        # With the passages open it would have gone on, toward a closed one: it waits at it.
-        for group in traffic.closed:
+        for group in traffic.closed if tried.position != tried.previous else ():
             if zones.near(tried.position, [group], margin):
                 would_enter = group
                 break
-    others = {k: v for k, v in robots.items() if k != plan_id}
     moved = after_step(
-        me, others, previous=step.previous, position=step.position, status=step.status,
-        traffic=traffic, zones=zones, resolution=frame.resolution, would_enter=would_enter,
+        me, previous=step.previous, position=step.position, status=step.status,
+        traffic=traffic, zones=zones, would_enter=would_enter,
+    )  # fmt: skip
+    state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
+    return Moved(step, moved.waiting_for, state)
+
+
+async def _on_goal(
+    engine: Engine,
+    plan_id: str,
+    session: planner.Session,
+    obstacles: list[list[int]] | npt.NDArray[np.int64],
+    fleet: FleetRecord,
+    *,
+    seq: int | None,
+) -> Moved:
+    """The step of a robot on its goal: it stays whatever the others do (its answer reads no
+    obstacle but the client's, checked), so the fleet's traffic is not worked out; the fleet
+    records it there."""
+    me = Robot.from_dict(fleet["robots"][plan_id])
+    zones = await waiting_zones(engine, fleet["map_id"], float(fleet["radius"]))
+    step = await engine.step(session, obstacles, position=None, seq=seq)
+    moved = after_step(
+        me, previous=step.previous, position=step.position, status=step.status,
+        traffic=NO_TRAFFIC, zones=zones,
     )  # fmt: skip
     state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
     return Moved(step, moved.waiting_for, state)

@@ -181,15 +181,15 @@ def test_a_passage_held_by_one_robot_is_closed_to_the_others_but_the_waiter_of_r
     assert traffic.closed == {0: "first"}
     # Waiting at it, the later robot waits for the robot it is closed for.
     after = after_step(
-        robots["later"], {"first": robots["first"]}, previous=right, position=right,
-        status="waiting", traffic=traffic, zones=zones, resolution=0.1, would_enter=0,
+        robots["later"], previous=right, position=right, status="waiting", traffic=traffic,
+        zones=zones, would_enter=0,
     )  # fmt: skip
     assert after.wants == 0
     assert after.waiting_for == "first"
     assert after.holds == ()
     moved = after_step(
-        robots["first"], {}, previous=(21, 40), position=(21, 41), status="moving",
-        traffic=traffic, zones=zones, resolution=0.1,
+        robots["first"], previous=(21, 40), position=(21, 41), status="moving",
+        traffic=traffic, zones=zones,
     )  # fmt: skip
     assert moved.holds == (0,)
     assert moved.wants is None

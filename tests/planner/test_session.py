@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import planner
+from planner.stepping.obstacles import obstacle_cells
 from tests.conftest import grid_from
 
 # Two routes from (3, 0) to (3, 11): the straight one-cell corridor in row 3, and a longer one
@@ -173,6 +174,29 @@ def test_bad_obstacles_are_named() -> None:
     with pytest.raises(planner.InvalidInput, match="list of \\[row, col\\] cells"):
         session.step([["a", "b"]])
     assert session.state.iteration == 0  # nothing was recorded
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_cells_given_as_an_array_are_checked_as_a_list_is(seed: int) -> None:
+    # The array path (a fleet's steps) checks its cells in a kernel: the same first cell named.
+    rng = np.random.default_rng(seed)
+    shape = (int(rng.integers(1, 9)), int(rng.integers(1, 9)))
+    cells = rng.integers(-2, 11, size=(int(rng.integers(0, 12)), 2))
+    outside = [
+        i
+        for i, (r, c) in enumerate(cells.tolist())
+        if not (0 <= r < shape[0] and 0 <= c < shape[1])
+    ]
+    for given in (cells, np.asfortranarray(cells), cells.tolist()):
+        if not outside:
+            got = obstacle_cells(given, shape)
+            assert got.flags.c_contiguous
+            assert got.dtype == np.int64
+            assert got.reshape(-1, 2).tolist() == cells.tolist()
+            continue
+        i = outside[0]
+        with pytest.raises(planner.InvalidInput, match=rf"dynamic_obstacles\[{i}\] "):
+            obstacle_cells(given, shape)
 
 
 def test_state_survives_a_json_round_trip() -> None:

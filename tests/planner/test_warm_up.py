@@ -8,7 +8,11 @@ import sys
 
 from tests.service.conftest import ROOT
 
-STEP_KERNELS = ("planner.poses.ahead._ahead", "planner.fleets.robots._robot_cells")
+STEP_KERNELS = (
+    "planner.poses.ahead._ahead",
+    "planner.fleets.robots._robot_cells",
+    "planner.stepping.obstacles._first_outside",
+)
 """Kernels a step (a lone robot's, a fleet robot's) calls from Python."""
 
 
