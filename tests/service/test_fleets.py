@@ -160,6 +160,31 @@ async def test_a_robot_on_the_goal_makes_the_other_wait_until_it_is_deleted(
     assert gone.json()["code"] == "NOT_FOUND"
 
 
+async def test_a_robot_on_its_goal_answers_as_a_lone_robot_would(
+    client: httpx.AsyncClient,
+) -> None:
+    # Its step skips the fleet's traffic: the answer is a lone robot's, the client's cells are
+    # still checked, and the fleet still records it on its goal.
+    map_id = await _map(client, room())
+    parked = (await _plan(client, map_id, [15, 20], [15, 21], fleet="f")).json()["plan_id"]
+    near = (await _plan(client, map_id, [15, 27], [15, 28], fleet="f")).json()["plan_id"]
+    alone = (await _plan(client, map_id, [15, 20], [15, 21])).json()["plan_id"]
+    for body in ({}, {"dynamic_obstacles": [[15, 21], [14, 22]]}, {"position": [15, 21]}):
+        for plan_id in (parked, near, alone):
+            assert (await client.post(f"/plan/{plan_id}/step", json=body)).status_code == 200
+        got = (await client.post(f"/plan/{parked}/step", json=body)).json()
+        want = (await client.post(f"/plan/{alone}/step", json=body)).json()
+        assert got["status"] == "arrived"
+        assert got == want
+    bad = await client.post(f"/plan/{parked}/step", json={"dynamic_obstacles": [[0, 0], [99, 0]]})
+    assert bad.status_code == 422
+    assert "dynamic_obstacles[1] [99, 0] is outside" in bad.json()["detail"]
+    robots = (await client.get("/fleets/f")).json()["robots"]
+    assert robots[0]["plan_id"] == parked
+    assert robots[0]["position"] == [15, 21]
+    assert robots[0]["status"] == "arrived"
+
+
 async def test_a_robot_that_never_stepped_counts_at_its_start(client: httpx.AsyncClient) -> None:
     map_id = await _map(client, room())
     made = await _plan(client, map_id, [15, 15], [5, 5], fleet="f")  # never steps
