@@ -278,3 +278,15 @@ def warm_up() -> None:
     # A fleet robot's step: the other robots' disks.
     other = Robot(0, (1, 1), (1, 2), 0.1, (0, 0))
     robot_cells(0.1, [other], resolution=0.1, shape=(4, 4), margin=1)
+    # A service's maps are robot maps: their configuration space's arrays are read-only, and
+    # numba compiles apart for those. Steps among cells given as an array (as a fleet's are):
+    # the path ahead meeting a robot, and held up until the robot searches its way round.
+    occ = np.zeros((12, 16), dtype=np.int8)
+    occ[6, :11] = 1
+    on_map = grid_map(occ, resolution=0.1)
+    for whole in (False, True):  # a goal's search, and the whole-map wave it hands over to
+        for patience, cells in ((3, [[3, 6]]), (0, [[3, 2], [4, 2], [2, 2], [4, 1], [2, 1]])):
+            p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1, patience=patience, whole=whole)
+            session = Session(p)
+            for _ in range(3):
+                session.step(np.array(cells, dtype=np.int64))
