@@ -103,6 +103,9 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         await engine.store.put_plan(plan_id, record, append=append)
     else:
         record["fleet"] = body.fleet
+        # Its passages' waiting zones found now, in the pool: the fleet's first step would
+        # otherwise wait for them, and every step of its tick behind it.
+        await fleets.waiting_zones(engine, body.map_id, float(plan.params.robot_radius))
         joined = fleets.join(body.fleet, plan_id, body.map_id, plan)
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
     return PlanView(plan_id, record, plan, state)

@@ -14,6 +14,7 @@ from pydantic import SecretStr
 import planner
 from service.config import Settings
 from service.main import create_app
+from service.resources import fleets
 from tests.scripts import load_benchmark
 
 F = load_benchmark("fleet")
@@ -183,6 +184,27 @@ async def test_a_robot_on_its_goal_answers_as_a_lone_robot_would(
     assert robots[0]["plan_id"] == parked
     assert robots[0]["position"] == [15, 21]
     assert robots[0]["status"] == "arrived"
+
+
+async def test_a_fleet_finds_its_waiting_zones_when_its_plan_is_made(
+    client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Found in the plan's creation: the fleet's first step does not wait for them.
+    found: list[float] = []
+    find = fleets._waiting_zones
+
+    def counted(robot_map: planner.RobotMap, robot_radius: float) -> Any:
+        found.append(robot_radius)
+        return find(robot_map, robot_radius)
+
+    monkeypatch.setattr(fleets, "_waiting_zones", counted)
+    map_id = await _map(client, room())
+    made = await _plan(client, map_id, [15, 3], [15, 20], fleet="f")
+    assert made.status_code == 201, made.text
+    assert found == [0.25]
+    assert (await client.post(f"/plan/{made.json()['plan_id']}/step", json={})).status_code == 200
+    assert (await _plan(client, map_id, [5, 3], [5, 20], fleet="f")).status_code == 201
+    assert found == [0.25]  # then kept in the analysis cache
 
 
 async def test_a_robot_that_never_stepped_counts_at_its_start(client: httpx.AsyncClient) -> None:
