@@ -11,6 +11,7 @@ from fastapi import FastAPI
 from schemas import StepCreate
 from service import errors
 from service.api import routers
+from service.api.routes.plans import add_step_route
 from service.config import Settings
 from service.edge.middleware import Edge
 from service.ops import docs
@@ -107,11 +108,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.metrics = Metrics()
     errors.install(app)
+    step = add_step_route(app)  # the hot route, matched before the routers' ones
+    for router in routers:  # each directly, the plans first
+        app.include_router(router)
     app.add_middleware(
         Edge,
         metrics=app.state.metrics,
         # To label the requests it refuses before routing by the route they asked for.
-        routes=[route for router in routers for route in router.routes],
+        routes=[step, *(route for router in routers for route in router.routes)],
         keys=settings.keys,
         max_bytes=settings.max_body_bytes,
         max_step_bytes=settings.max_step_body_bytes,
@@ -119,8 +123,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         request_timeout=settings.request_timeout_seconds,
         max_requests=settings.max_requests,
     )
-    for router in routers:  # each directly, steps first: one level of route matching
-        app.include_router(router)
     docs.install(app)
     docs.document_models(app, StepCreate)  # the step reads its body itself
     return app

@@ -160,15 +160,14 @@ async def test_the_edge_guards_a_step() -> None:
 
 
 async def test_the_step_is_a_plain_fastapi_route() -> None:
-    """Served by an ``APIRoute`` of the app's router (no road around it), behind the one edge
-    middleware, in an app that is FastAPI itself."""
+    """Served by an ``APIRoute`` of the app's own router (no road around it), behind the one
+    edge middleware, in an app that is FastAPI itself."""
     app = create_app(SMALL)
     assert type(app) is FastAPI
     assert [m.cls.__name__ for m in app.user_middleware] == ["Edge"]  # type: ignore[attr-defined]
-    route = next(
-        r for r in plans.router.routes if getattr(r, "path", None) == "/plan/{plan_id}/step"
-    )
+    route = next(r for r in app.router.routes if getattr(r, "path", None) == "/plan/{plan_id}/step")
     assert isinstance(route, APIRoute)
+    assert not any(getattr(r, "path", None) == route.path for r in plans.router.routes)
     assert route.endpoint is plans.step
     assert route.methods == {"POST"}
     served: list[Any] = []

@@ -9,6 +9,7 @@ __all__ = ["routers"]
 routers: tuple[APIRouter, ...] = tuple(
     module.router for module in (plans, maps, zones, fleets, simulate, viewer, health, metrics)
 )
-"""Every router, in the order their routes are matched: plans first (a step is the hot
-request). The app includes each directly: a router nested in another costs a level of
-matching on every request."""
+"""Every router, in the order their routes are matched: plans first. The app includes each
+directly (a router nested in another costs a level of matching on every request); the step, the
+hot request, is a route of the app itself, matched before them
+(:func:`service.api.routes.plans.add_step_route`)."""

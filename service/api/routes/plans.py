@@ -6,7 +6,7 @@ import time
 from typing import Annotated, Any, Literal
 
 import orjson
-from fastapi import APIRouter, Query, Request, Response, status
+from fastapi import APIRouter, FastAPI, Query, Request, Response, status
 from fastapi.routing import APIRoute
 
 from schemas import (
@@ -33,7 +33,7 @@ from service.resources import plans
 from service.viewer.events import EventBus, RedisBus, channel
 from service.work.engine import Engine
 
-__all__ = ["router"]
+__all__ = ["add_step_route", "router"]
 
 router = APIRouter(tags=["plans"], route_class=OrjsonRoute)
 
@@ -81,18 +81,29 @@ async def step(plan_id: str, request: Request) -> Response:
     return Response(orjson.dumps(answer), media_type="application/json")
 
 
-# A plain APIRoute: the step reads and checks its body itself (json_body, check_query), so
-# OrjsonRoute's second Request and second look at the body would be work done twice.
-router.add_api_route(
-    "/plan/{plan_id}/step",
-    step,
-    methods=["POST"],
-    response_model=StepPublic,
-    summary="Report the dynamic obstacles; get the move to make now",
-    responses=responses(404, 409, 413, 422),
-    openapi_extra=STEP_BODY,
-    route_class_override=APIRoute,
-)
+def add_step_route(app: FastAPI) -> APIRoute:
+    """Add the step to the app's own routes, and return its route.
+
+    A step is the hot request. FastAPI matches the routes of an included router (``router``)
+    through a layer of its own on every request; a route of the app is matched directly. It is a
+    plain ``APIRoute``: the step reads and checks its body itself (``json_body``,
+    ``check_query``), so ``OrjsonRoute``'s second ``Request`` and second look at the body would
+    be work done twice."""
+    app.add_api_route(
+        "/plan/{plan_id}/step",
+        step,
+        methods=["POST"],
+        tags=["plans"],
+        response_model=StepPublic,
+        summary="Report the dynamic obstacles; get the move to make now",
+        responses=responses(404, 409, 413, 422),
+        openapi_extra=STEP_BODY,
+    )
+    route = app.router.routes[-1]
+    assert isinstance(route, APIRoute)
+    return route
+
+
 NO_QUERY: frozenset[str] = frozenset()
 """The step takes no query parameter: any is refused (422), as every route refuses those it
 does not take."""
