@@ -14,7 +14,7 @@ import numpy.typing as npt
 from planner.fleets.robots import Robot, robot_cells
 from planner.fleets.waiting import WaitingZones
 
-__all__ = ["NO_TRAFFIC", "Traffic", "after_step", "traffic_for"]
+__all__ = ["NO_TRAFFIC", "YIELD_STEPS", "Traffic", "after_step", "traffic_for"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,6 +30,10 @@ class Traffic:
     """``(m, 2)`` cells of the closed groups' zones."""
     on_goal: tuple[str, ...] = ()
     """The robots (by rank) whose cells, as this step blocks them, cover the robot's goal."""
+    beside_waiter: bool = False
+    """Whether a robot of lower priority (higher rank) that waited on its last step stands
+    next to this one (within the sum of radii and a margin and two cells): held up by each
+    other, the lower one searches its way round first (:data:`YIELD_STEPS`)."""
 
     def obstacles(
         self, given: npt.NDArray[np.int64], *, open_zones: bool = False
@@ -42,6 +46,12 @@ class Traffic:
 
 NO_TRAFFIC = Traffic(np.empty((0, 2), np.int64), {}, np.empty((0, 2), np.int64))
 """Nothing to keep clear of: a robot on its goal, which stays there whatever the others do."""
+
+YIELD_STEPS = 4
+"""Times its ``patience`` a held-up robot beside a waiting robot of lower priority puts off
+searching its way round: two robots that block each other and search at once go round the same
+way, meet again, and can do so for ever (symmetry); the one of lower priority searches first,
+round the other standing still. Bounded: the other may be unable to move at all."""
 
 NEAR = 4
 """Cells (Chebyshev) around the robot within which a robot standing on its goal blocks it: more
@@ -83,6 +93,7 @@ def traffic_for(
     mine = set() if group_of is None else {group_of(x * width + y) for x, y in (me.cell, me.target)}
     on_goal: list[tuple[int, str]] = []
     nearby: list[Robot] = []
+    beside_waiter = False
     closed_by: dict[int, tuple[int, str]] = {}  # group -> (rank, plan_id) of its holder
     wanted_by: dict[int, tuple[int, str]] = {}  # group -> the first waiting at it ahead of me
     for k, o in robots.items():
@@ -96,10 +107,12 @@ def traffic_for(
             or (abs(tr - gr) <= far and abs(tc - gc) <= far)
         ) and _holds(me.goal, o, reach, margin):
             on_goal.append((o.rank, k))
-        elif within is None or (
-            min(max(abs(cr - r), abs(cc - c)), max(abs(tr - r), abs(tc - c))) <= within + reach
-        ):
-            nearby.append(o)
+        else:
+            apart = min(max(abs(cr - r), abs(cc - c)), max(abs(tr - r), abs(tc - c)))
+            if within is None or apart <= within + reach:
+                nearby.append(o)
+            if o.status == "waiting" and o.rank > me.rank and apart <= reach + margin + 2:
+                beside_waiter = True
         if group_of is not None:
             # A robot holds the groups whose zones hold its cell or its target.
             held = group_of(cr * width + cc)
@@ -127,7 +140,7 @@ def traffic_for(
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
         zone_cells = np.concatenate([zones.group_cells[g] for g in closed])
-    return Traffic(cells, closed, zone_cells, tuple(k for _, k in on_goal))
+    return Traffic(cells, closed, zone_cells, tuple(k for _, k in on_goal), beside_waiter)
 
 
 def _first(by: dict[int, tuple[int, str]], group: int, robot: tuple[int, str]) -> None:

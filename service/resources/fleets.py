@@ -16,7 +16,15 @@ import numpy.typing as npt
 
 import planner
 from planner import quote
-from planner.fleets import NO_TRAFFIC, Robot, WaitingZones, after_step, covering, traffic_for
+from planner.fleets import (
+    NO_TRAFFIC,
+    YIELD_STEPS,
+    Robot,
+    WaitingZones,
+    after_step,
+    covering,
+    traffic_for,
+)
 from planner.fleets import waiting_zones as planner_waiting_zones
 from planner.plans.ends import cell_of
 from service.errors import NotFound
@@ -151,6 +159,10 @@ async def step_in_fleet(
         here=here, margin=margin, within=_nearby(plan),
     )  # fmt: skip
     given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
+    st = session.state
+    if traffic.beside_waiter and st.held_up < YIELD_STEPS * max(plan.params.patience, 1):
+        # Held up beside a waiting robot of lower priority: that one searches first.
+        st.replan_at = max(st.replan_at, st.held_up + 1)
     before = None
     near = here or me.target
     if traffic.closed and zones is not None and zones.near(near, list(traffic.closed), margin + 2):

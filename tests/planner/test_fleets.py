@@ -286,3 +286,17 @@ def test_traffic_matches_the_reference_on_random_fleets(seed: int) -> None:
             assert list(got.closed.items()) == list(closed.items())
             assert got.zones.tolist() == zone_cells.tolist()
             assert got.on_goal == on_goal
+
+
+def test_a_robot_beside_a_waiting_robot_of_lower_priority_lets_it_search_first() -> None:
+    # Ranks 0 (higher priority) and 1, 0.2 m robots on 0.1 m cells: 4 cells apart is within the
+    # sum of radii, the margin and two cells.
+    me = Robot(0, (10, 10), (10, 10), 0.2, (10, 30))
+    beside = {"me": me, "o": Robot(1, (10, 14), (10, 14), 0.2, (10, 0), status="waiting")}
+    kw: dict[str, Any] = {"resolution": 0.1, "shape": (20, 40), "margin": 1}
+    assert traffic_for("me", beside, **kw).beside_waiter
+    assert not traffic_for("o", beside, **kw).beside_waiter  # the other way round: it searches
+    moving = {**beside, "o": beside["o"]._replace(status="moving")}
+    assert not traffic_for("me", moving, **kw).beside_waiter
+    far = {**beside, "o": beside["o"]._replace(cell=(10, 20), target=(10, 20))}
+    assert not traffic_for("me", far, **kw).beside_waiter

@@ -53,10 +53,12 @@ async def _plan(
 async def test_robots_crossing_a_room_never_collide_and_all_arrive(
     client: httpx.AsyncClient,
 ) -> None:
-    # Four robots crossing through the middle at once, two pairs head-on.
+    # Four robots crossing through the middle at once, two pairs head-on. In the tick orders of
+    # seeds 8, 43 and 64 two of them, blocking each other, searched their way round at once, the
+    # same way, met again and did so for ever, until the one of lower priority went first.
     ends = (((15, 3), (15, 28)), ((15, 28), (15, 3)), ((3, 15), (28, 15)), ((28, 15), (3, 15)))
     scenario = F.Scenario("cross", room(), 0.25, ends)
-    for seed in range(2):
+    for seed in (0, 1, 8, 43, 64):
         outcome = await F.run([client], scenario, fleet=f"cross-{seed}", seed=seed)
         assert outcome.errors == []
         assert outcome.collisions == []
