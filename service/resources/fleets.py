@@ -133,7 +133,8 @@ async def step_in_fleet(
     with both radii) and the passages another robot holds are obstacles besides the client's.
     A robot told to wait next to a passage closed to it steps again with the passage open (on
     its state from before): if it would enter, it waits at it (``wants``), and robots of lower
-    priority let it go first."""
+    priority let it go first. Held up beside a waiting robot of lower priority, it puts off
+    searching its way round (``YIELD_STEPS``): that one searches first."""
     plan = session.plan
     frame = plan.analysis.frame
     mine = fleet["robots"].get(plan_id)
