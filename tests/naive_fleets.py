@@ -114,12 +114,25 @@ def traffic_for(
         # A robot holds the groups whose zones hold its cell or its target.
         mine = zones.groups_of(me.cell, me.target)
         held = {k: zones.groups_of(o.cell, o.target) for k, o in others.items()}
+        # A holder leaving a group that waits for me hands it to me, ahead of the waiters.
+        handing = {
+            k: o.leaving
+            for k, o in others.items()
+            if o.waiting_for == plan_id and o.leaving is not None and o.leaving >= 0
+        }
+        handed = set(handing.values())
         for group in range(zones.count):
             if group in mine:
                 continue
-            holders = sorted((others[k].rank, k) for k, gs in held.items() if group in gs)
+            holders = sorted(
+                (others[k].rank, k)
+                for k, gs in held.items()
+                if group in gs and handing.get(k) != group
+            )
             ahead = sorted(
-                (o.rank, k) for k, o in others.items() if o.wants == group and o.rank < me.rank
+                (o.rank, k)
+                for k, o in others.items()
+                if o.wants == group and o.rank < me.rank and group not in handed
             )
             if holders or ahead:
                 closed[group] = (holders or ahead)[0][1]

@@ -40,6 +40,9 @@ class Robot(NamedTuple):
     """The passage groups it holds (docs/fleets.md, "Passages")."""
     wants: int | None = None
     """The passage group it waits at the border of, if any."""
+    leaving: int | None = None
+    """The passage group it is leaving: it came out of the group's neck and is in its zone
+    still (docs/fleets.md, "Passages")."""
     until: float = math.inf
     """When its plan expires (seconds of the epoch): a robot whose plan expired is gone."""
 
@@ -54,6 +57,7 @@ class Robot(NamedTuple):
             "waiting_for": self.waiting_for,
             "holds": list(self.holds),
             "wants": self.wants,
+            "leaving": self.leaving,
             "until": None if math.isinf(self.until) else self.until,
         }
 
@@ -63,7 +67,7 @@ class Robot(NamedTuple):
         until = d.get("until")
         return cls(
             d["rank"], (r, c), (tr, tc), float(d["radius"]), (gr, gc), d.get("status", "ready"),
-            d.get("waiting_for"), tuple(d.get("holds", ())), d.get("wants"),
+            d.get("waiting_for"), tuple(d.get("holds", ())), d.get("wants"), d.get("leaving"),
             math.inf if until is None else float(until),
         )  # fmt: skip
 

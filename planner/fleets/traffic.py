@@ -72,7 +72,10 @@ def traffic_for(
     """What the fleet's ``robots`` block for ``plan_id``'s step (the robot at ``here``, else
     where it was told to be): every other robot's cell and target with both radii, and the
     zone of every passage group that another robot holds or that a robot of higher priority
-    (lower rank) waits at and ``plan_id`` does not hold.
+    (lower rank) waits at and ``plan_id`` does not hold. A holder that has come out of a
+    group's neck (``leaving``) and waits for ``plan_id`` (standing on its goal, say) hands it
+    the group: neither it nor the robots waiting at it close it to ``plan_id``, whose going in
+    frees the holder's way.
 
     A robot standing on this one's goal blocks only the cells this step could reach (its
     decision's ``margin`` included): the robot still approaches its goal, its searches
@@ -96,6 +99,7 @@ def traffic_for(
     beside_waiter = False
     closed_by: dict[int, tuple[int, str]] = {}  # group -> (rank, plan_id) of its holder
     wanted_by: dict[int, tuple[int, str]] = {}  # group -> the first waiting at it ahead of me
+    handed: set[int] = set()  # groups whose holder, leaving, waits for me
     for k, o in robots.items():
         if k == plan_id:
             continue
@@ -116,9 +120,14 @@ def traffic_for(
         if group_of is not None:
             # A robot holds the groups whose zones hold its cell or its target.
             held = group_of(cr * width + cc)
+            held_too = group_of(tr * width + tc)
+            if o.waiting_for == plan_id and o.leaving is not None and o.leaving >= 0:
+                # Come out of the group's neck and waiting for me: I take its turn.
+                handed.add(o.leaving)
+                held = -1 if held == o.leaving else held
+                held_too = -1 if held_too == o.leaving else held_too
             if held >= 0 and held not in mine:
                 _first(closed_by, held, (o.rank, k))
-            held_too = group_of(tr * width + tc)
             if held_too >= 0 and held_too != held and held_too not in mine:
                 _first(closed_by, held_too, (o.rank, k))
             wants = o.wants  # a group of these zones (a stored value: checked)
@@ -136,6 +145,8 @@ def traffic_for(
         cells = np.concatenate((cells, near[keep]))
     # A group another robot holds is closed for its holder; else, one a robot ahead waits at
     # for that robot: the holders are merged last, so they win.
+    for g in handed:  # a holder's turn: ahead of the robots waiting at it
+        wanted_by.pop(g, None)
     closed = {g: k for g, (_, k) in sorted({**wanted_by, **closed_by}.items())}
     zone_cells = np.empty((0, 2), np.int64)
     if zones is not None and closed:
@@ -182,12 +193,25 @@ def after_step(
     would_enter: int | None = None,
 ) -> Robot:
     """The robot as its fleet records it after a step that told it to go from ``previous`` to
-    ``position`` with ``status``: it holds every passage group whose zone holds either cell;
-    waiting, it waits at the closed group it ``would_enter`` (the group's holder is whom it
-    waits for), else for the robot standing on its goal, if any."""
+    ``position`` with ``status``: it holds every passage group whose zone holds either cell; it
+    is *leaving* the group whose zone holds ``position`` out of its neck when ``previous`` was
+    in the neck, or was where it was leaving the group from before; waiting, it waits at the
+    closed group it ``would_enter`` (the group's holder is whom it waits for), else for the
+    robot standing on its goal, if any."""
     holds: tuple[int, ...] = ()
+    leaving = None
     if zones is not None and zones.count:
         holds = tuple(sorted(zones.groups_of(previous, position)))
+        group = zones.group_at(position)
+        if (
+            group >= 0
+            and not zones.in_neck(position)
+            and (
+                (me.leaving == group and me.target == previous)
+                or (zones.in_neck(previous) and zones.group_at(previous) == group)
+            )
+        ):
+            leaving = group
     waiting = status == "waiting"
     wants = would_enter if waiting and would_enter is not None else None
     waiting_for = None
@@ -195,4 +219,7 @@ def after_step(
         waiting_for = traffic.closed.get(wants)
     elif waiting and traffic.on_goal:
         waiting_for = traffic.on_goal[0]
-    return me.moved(previous, position, status, holds=holds, wants=wants, waiting_for=waiting_for)
+    return me.moved(
+        previous, position, status, holds=holds, wants=wants, waiting_for=waiting_for,
+        leaving=leaving,
+    )  # fmt: skip

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import edt
@@ -57,11 +57,18 @@ class WaitingZones:
     """The passages by id (``planner.find_passages``'s)."""
     group_cells: tuple[npt.NDArray[np.int64], ...] = ()
     """Each group's ``(n, 2)`` zone cells (made from ``group`` when not given)."""
+    neck: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    """Flat: whether a cell is in a passage's neck (made from ``found`` when not given)."""
 
     def __post_init__(self) -> None:
         if len(self.group_cells) != len(self.passages):
             cells = tuple(self.cells_of([g]) for g in range(len(self.passages)))
             object.__setattr__(self, "group_cells", cells)
+        if self.neck.size != self.group.size:
+            neck = np.zeros(self.group.size, dtype=bool)
+            for p in self.found:
+                neck[np.asarray(p.cells, dtype=np.int64)] = True
+            object.__setattr__(self, "neck", neck & (self.group >= 0))
 
     @property
     def count(self) -> int:
@@ -70,7 +77,7 @@ class WaitingZones:
     @property
     def nbytes(self) -> int:
         """Bytes held (for a cache that counts them)."""
-        cells = sum(int(p.cells.nbytes) for p in self.found)
+        cells = sum(int(p.cells.nbytes) for p in self.found) + int(self.neck.nbytes)
         return int(self.group.nbytes) + cells + sum(int(c.nbytes) for c in self.group_cells)
 
     def groups_of(self, *cells: tuple[int, int]) -> set[int]:
@@ -80,6 +87,10 @@ class WaitingZones:
     def group_at(self, cell: tuple[int, int]) -> int:
         """The group whose zone holds ``cell``, or -1."""
         return int(self.group.item(cell[0] * self.shape[1] + cell[1]))
+
+    def in_neck(self, cell: tuple[int, int]) -> bool:
+        """Whether ``cell`` is in a passage's neck."""
+        return bool(self.neck.item(cell[0] * self.shape[1] + cell[1]))
 
     def near(self, cell: tuple[int, int], groups: Sequence[int], reach: int) -> bool:
         """Whether a cell within Chebyshev ``reach`` of ``cell`` is in one of ``groups``."""

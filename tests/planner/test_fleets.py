@@ -13,6 +13,7 @@ import pytest
 
 import planner
 from planner.fleets import (
+    NO_TRAFFIC,
     Robot,
     after_step,
     covering,
@@ -195,6 +196,83 @@ def test_a_passage_held_by_one_robot_is_closed_to_the_others_but_the_waiter_of_r
     assert moved.wants is None
 
 
+def test_a_holder_leaving_the_passage_that_waits_for_a_robot_on_its_goal_hands_it_over() -> None:
+    # The holder has come out of the corridor into the right room (still in the zone) and waits
+    # for the robot standing on its goal, which waits for the passage behind a waiter ranked
+    # first: that robot takes the holder's turn, ahead of it; the others still wait.
+    m = _corridor()
+    radius = 0.325
+    space = planner.configuration_space(m, robot_radius=radius)
+    zones = waiting_zones(
+        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
+    )
+    out, goal = (21, 78), (21, 88)
+    assert zones.group_at(out) == 0
+    assert zones.group_at(goal) == -1
+    holder = Robot(2, out, out, radius, goal, status="waiting", waiting_for="on goal", leaving=0)
+    robots = {
+        "holder": holder,
+        "on goal": Robot(3, goal, goal, radius, (21, 5), status="waiting", wants=0),
+        "first": Robot(0, (30, 90), (30, 90), radius, (21, 5), status="waiting", wants=0),
+        "left": Robot(1, (21, 10), (21, 10), radius, (21, 95), status="waiting", wants=0),
+    }
+    kw: dict[str, Any] = {"resolution": 0.1, "shape": m.shape, "zones": zones}
+    assert traffic_for("on goal", robots, **kw).closed == {}
+    assert traffic_for("first", robots, **kw).closed == {0: "holder"}
+    assert traffic_for("left", robots, **kw).closed == {0: "holder"}
+    # Not yet through the neck (it would go in next), it keeps the passage from everyone.
+    coming = {**robots, "holder": holder._replace(leaving=None)}
+    assert traffic_for("on goal", coming, **kw).closed == {0: "holder"}
+    # Another robot holding it too keeps it closed.
+    also = Robot(4, (21, 45), (21, 45), radius, (21, 95))
+    assert traffic_for("on goal", {**robots, "also": also}, **kw).closed == {0: "also"}
+
+
+def test_a_robot_is_leaving_a_passage_from_its_neck_until_it_is_out_of_its_zone() -> None:
+    m = _corridor()
+    radius = 0.325
+    space = planner.configuration_space(m, robot_radius=radius)
+    zones = waiting_zones(
+        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
+    )
+    row = 21
+    zone = [c for c in range(m.shape[1]) if zones.group_at((row, c)) == 0]
+    neck = [c for c in range(m.shape[1]) if zones.in_neck((row, c))]
+    assert zone[0] < neck[0] < neck[-1] < zone[-1]
+    robot = Robot(0, (row, 5), (row, 5), radius, (row, 95))
+    leaving = {}
+    for c in range(6, 96):
+        robot = after_step(
+            robot, previous=robot.target, position=(row, c), status="moving", traffic=NO_TRAFFIC,
+            zones=zones,
+        )  # fmt: skip
+        leaving[c] = robot.leaving
+    # Into the zone and through the neck: not leaving; out of the neck, leaving until out of the
+    # zone.
+    assert {c for c, g in leaving.items() if g is not None} == set(
+        range(neck[-1] + 1, zone[-1] + 1)
+    )
+    assert set(leaving.values()) == {None, 0}
+    # Back into the neck: not leaving; reported elsewhere in the zone: not leaving.
+    out = Robot(0, (row, neck[-1] + 2), (row, neck[-1] + 2), radius, (row, 95), leaving=0)
+    back = after_step(
+        out, previous=out.target, position=(row, neck[-1]), status="moving", traffic=NO_TRAFFIC,
+        zones=zones,
+    )  # fmt: skip
+    assert back.leaving is None
+    elsewhere = after_step(
+        out, previous=(row, zone[0]), position=(row, zone[0] + 1), status="moving",
+        traffic=NO_TRAFFIC, zones=zones,
+    )  # fmt: skip
+    assert elsewhere.leaving is None
+    # Standing where it was, it is leaving still.
+    stays = after_step(
+        out, previous=out.target, position=out.target, status="waiting", traffic=NO_TRAFFIC,
+        zones=zones,
+    )  # fmt: skip
+    assert stays.leaving == 0
+
+
 def test_passages_whose_zones_meet_are_one_group() -> None:
     # Two doors 0.6 m apart in one wall: a robot between them would block both.
     occ = np.full((42, 62), 100, dtype=np.int8)
@@ -253,9 +331,10 @@ def test_robots_on_the_goal_are_those_whose_blocked_cells_reach_it(seed: int) ->
 @pytest.mark.parametrize("seed", range(4))
 def test_traffic_matches_the_reference_on_random_fleets(seed: int) -> None:
     """The one-pass ``traffic_for`` against the reference (tests/naive_fleets.py) on random
-    fleets: several passage groups, several holders and waiters, robots on the goal, margins
-    0 to 2, with and without ``within`` and ``here``; the same cells (as a multiset), closed
-    groups (in order, and for whom), zone cells and robots on the goal."""
+    fleets: several passage groups, several holders and waiters, holders leaving and waiting for
+    the robot, robots on the goal, margins 0 to 2, with and without ``within``
+    and ``here``; the same cells (as a multiset), closed groups (in order, and for whom), zone
+    cells and robots on the goal."""
     rng = np.random.default_rng(seed)
     for _ in range(60):
         H, W = int(rng.integers(5, 30)), int(rng.integers(5, 30))
@@ -264,14 +343,20 @@ def test_traffic_matches_the_reference_on_random_fleets(seed: int) -> None:
         group[(rng.random(H * W) < 0.6) | (count == 0)] = -1
         zones = WaitingZones((H, W), group, tuple((g,) for g in range(count)))
         robots = {}
-        for i, rank in enumerate(rng.permutation(20)[: int(rng.integers(1, 8))]):
+        size = int(rng.integers(1, 8))
+        for i, rank in enumerate(rng.permutation(20)[:size]):
             r, c = int(rng.integers(0, H)), int(rng.integers(0, W))
             target = (min(max(r + int(rng.integers(-1, 2)), 0), H - 1),
                       min(max(c + int(rng.integers(-1, 2)), 0), W - 1))  # fmt: skip
             goal = (int(rng.integers(0, H)), int(rng.integers(0, W)))
             radius = float(rng.choice([0.05, 0.1, 0.15, 0.2, 0.22, 0.325, rng.uniform(0, 0.4)]))
             wants = int(rng.integers(0, count)) if count and rng.random() < 0.4 else None
-            robots[f"p{i}"] = Robot(int(rank), (r, c), target, radius, goal, wants=wants)
+            waiting_for = f"p{rng.integers(0, size)}" if rng.random() < 0.4 else None
+            leaving = zones.group_at(target) if rng.random() < 0.5 else None
+            robots[f"p{i}"] = Robot(
+                int(rank), (r, c), target, radius, goal, waiting_for=waiting_for, wants=wants,
+                leaving=None if leaving == -1 else leaving,
+            )  # fmt: skip
         kw: dict[str, Any] = {
             "resolution": float(rng.choice([0.05, 0.1, 0.25])), "shape": (H, W),
             "zones": zones, "margin": int(rng.integers(0, 3)),

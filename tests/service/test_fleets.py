@@ -65,13 +65,14 @@ async def test_robots_crossing_a_room_never_collide_and_all_arrive(
         assert outcome.arrived == 4, outcome
 
 
-@pytest.mark.parametrize(("per_side", "seeds"), [(1, (0, 1, 2)), (2, (0, 1))])
+@pytest.mark.parametrize(("per_side", "seeds"), [(1, (0, 1, 2)), (2, (0, 1, 24))])
 async def test_robots_swapping_through_a_one_lane_corridor_take_turns(
     client: httpx.AsyncClient, per_side: int, seeds: tuple[int, ...]
 ) -> None:
     """Without passages taken one at a time, two robots meet head-on in the corridor and wait
     for each other forever: here every robot arrives in budget, no two collide, and none waits
-    in the corridor while another is in it."""
+    in the corridor while another is in it. In seed 24 the robot coming out finds its goal
+    taken by a robot queued for the passage, which goes in on its turn."""
     for seed in seeds:
         scenario = F.corridor_scenario(per_side, seed)
         outcome = await F.run([client], scenario, fleet=f"corridor-{seed}", seed=seed)
