@@ -34,18 +34,12 @@ import orjson
 from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from common import ROOT, free_port
 from streams import CIRCLE, SIDE, open_stream
 
-ROOT = Path(__file__).resolve().parents[1]
 STALL_TARGET = 0.5
 RSS_TARGET_MB = 300.0
 JSON = {"content-type": "application/json"}
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def rss_mb(pid: int) -> float:

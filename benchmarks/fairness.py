@@ -15,28 +15,20 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
-import socket
 import statistics
 import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 from typing import Any
 
 import httpx
 import numpy as np
 import orjson
+from common import ROOT, free_port
 
-ROOT = Path(__file__).resolve().parents[1]
 QUIET, NOISY = "quiet-key", "noisy-key"
 JSON = {"content-type": "application/json"}
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def random_rows(size: int, seed: int) -> list[str]:

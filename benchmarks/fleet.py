@@ -19,7 +19,8 @@ way): ``aiohttp``, the default (:class:`AiohttpStepper`: an aiohttp session of k
 connections, bodies encoded by orjson), or ``httpx``, whose own work on two cores shared with
 the server is most of the latency it sees (docs/performance.md#fleets).
 
-tests/service/test_fleets.py drives the same code at smaller sizes.
+The scenarios are benchmarks/fleet_scenarios.py's; tests/service/test_fleets.py drives the same
+code at smaller sizes.
 """
 
 from __future__ import annotations
@@ -30,168 +31,28 @@ import gc
 import itertools
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import edt
 import httpx
 import numpy as np
-import numpy.typing as npt
 import orjson
 import uvloop
+from common import Process, free_port, ros_maps, service
+from fleet_scenarios import Scenario, corridor_scenario, map_body, random_scenario
 
 import planner
-import planner.fleets
 from service.ops.metrics import BUCKETS
 
 if TYPE_CHECKING:
     import aiohttp
-
-ROOT = Path(__file__).resolve().parents[1]
-CORRIDOR_RADIUS = 0.325
-"""The robots of the corridor scenarios (meters): a 0.8 m lane holds one of them at a time."""
-ROS_RADIUS = 0.22
-
-
-def corridor_map(
-    *, resolution: float = 0.1, lane_m: float = 0.8, length_m: float = 2.0, room_m: float = 4.0
-) -> planner.RobotMap:
-    """Two square rooms of ``room_m`` joined by a straight one-lane corridor ``lane_m`` wide and
-    ``length_m`` long, in the middle of their facing walls; walls one cell thick around."""
-    room = round(room_m / resolution)
-    lane = round(lane_m / resolution)
-    length = round(length_m / resolution)
-    h, w = room + 2, 2 * room + length + 4
-    occ = np.full((h, w), 100, dtype=np.int8)
-    occ[1 : 1 + room, 1 : 1 + room] = 0
-    occ[1 : 1 + room, w - 1 - room : w - 1] = 0
-    top = 1 + (room - lane) // 2
-    occ[top : top + lane, 1 + room : w - 1 - room] = 0
-    return planner.RobotMap(occ, planner.MapFrame((h, w), resolution, (0.0, 0.0, 0.0)))
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """Robots (start, goal cells) of one radius on one map."""
-
-    name: str
-    robot_map: planner.RobotMap
-    radius: float
-    robots: tuple[tuple[tuple[int, int], tuple[int, int]], ...]
-
-
-def _spread(
-    cells: npt.NDArray[np.int64], count: int, apart: float, rng: np.random.Generator
-) -> list[tuple[int, int]]:
-    """``count`` of ``cells`` (rows of ``(r, c)``) at least ``apart`` cells from each other."""
-    chosen: list[tuple[int, int]] = []
-    for i in rng.permutation(len(cells)):
-        r, c = int(cells[i, 0]), int(cells[i, 1])
-        if all((r - a) ** 2 + (c - b) ** 2 > apart * apart for a, b in chosen):
-            chosen.append((r, c))
-            if len(chosen) == count:
-                return chosen
-    raise ValueError(f"cannot place {count} robots {apart:.1f} cells apart")
-
-
-def corridor_scenario(
-    per_side: int, seed: int, *, resolution: float = 0.1, room_m: float = 5.0
-) -> Scenario:
-    """``per_side`` robots in each room, each going to the other room, starts and goals away
-    from the corridor's mouths (farther than the waiting zone and a robot's diameter)."""
-    m = corridor_map(resolution=resolution, room_m=room_m)
-    rng = np.random.default_rng(seed)
-    space = planner.configuration_space(m, robot_radius=CORRIDOR_RADIUS)
-    h, w = m.shape
-    room = h - 2
-    cells = np.argwhere(space.traversable == 1)
-    reach = planner.fleets.wait_distance(CORRIDOR_RADIUS) + 2 * CORRIDOR_RADIUS + 0.2
-    far = round(reach / resolution)
-    left = cells[cells[:, 1] <= room - far]
-    right = cells[cells[:, 1] >= w - 1 - room + far]
-    apart = 2 * CORRIDOR_RADIUS / resolution + 2
-    ls, rs = _spread(left, 2 * per_side, apart, rng), _spread(right, 2 * per_side, apart, rng)
-    robots = [(ls[i], rs[per_side + i]) for i in range(per_side)]
-    robots += [(rs[i], ls[per_side + i]) for i in range(per_side)]
-    robots = [robots[i] for i in rng.permutation(len(robots))]
-    return Scenario(f"corridor x{2 * per_side}", m, CORRIDOR_RADIUS, tuple(robots))
-
-
-def random_scenario(
-    robot_map: planner.RobotMap, count: int, seed: int, *, radius: float = ROS_RADIUS
-) -> Scenario:
-    """``count`` robots with random starts and goals on the map's largest traversable region,
-    all of them far apart (more than the sum of radii and a margin), none of them parked in a
-    passage's waiting zone or a robot's diameter from it (a robot parked there would hold the
-    passage for good)."""
-    space = planner.configuration_space(robot_map, robot_radius=radius)
-    region = _largest_region(space.traversable)
-    zones = planner.fleets.waiting_zones(
-        space.traversable, planner.find_passages(robot_map, radius),
-        resolution=robot_map.resolution, robot_radius=radius,
-    )  # fmt: skip
-    if zones.count:
-        inside = np.ascontiguousarray(zones.group.reshape(robot_map.shape) >= 0)
-        away = edt.edt(~inside, black_border=False) * robot_map.resolution > 2 * radius + 0.1
-        region &= away
-    rng = np.random.default_rng(seed)
-    apart = (2 * radius + 0.3) / robot_map.resolution
-    ends = _spread(np.argwhere(region), 2 * count, apart, rng)
-    robots = tuple((ends[i], ends[count + i]) for i in range(count))
-    return Scenario(f"random x{count}", robot_map, radius, robots)
-
-
-def _largest_region(traversable: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
-    """The largest 4-connected region of traversable cells (a flood fill, numpy only)."""
-    free = traversable.astype(bool)
-    left = free.copy()
-    best = np.zeros_like(free)
-    while left.any():
-        r, c = np.argwhere(left)[0]
-        region = np.zeros_like(free)
-        region[r, c] = True
-        while True:
-            grown = region.copy()
-            grown[1:] |= region[:-1]
-            grown[:-1] |= region[1:]
-            grown[:, 1:] |= region[:, :-1]
-            grown[:, :-1] |= region[:, 1:]
-            grown &= free
-            if (grown == region).all():
-                break
-            region = grown
-        left &= ~region
-        if region.sum() > best.sum():
-            best = region
-    return best
-
-
-def map_body(robot_map: planner.RobotMap) -> dict[str, Any]:
-    """The map as a rosbridge ``nav_msgs/OccupancyGrid`` (row 0 at the origin)."""
-    h, w = robot_map.shape
-    ox, oy, yaw = robot_map.origin
-    return {
-        "occupancy_grid": {
-            "info": {
-                "resolution": robot_map.resolution,
-                "width": w,
-                "height": h,
-                "origin": {
-                    "position": {"x": ox, "y": oy, "z": 0.0},
-                    "orientation": {"x": 0.0, "y": 0.0, "z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
-                },
-            },
-            "data": np.flipud(robot_map.occupancy).ravel().tolist(),
-        }
-    }
 
 
 @dataclass
@@ -368,30 +229,6 @@ def _percentile(values: list[float], q: float) -> float:
 # -- servers ---------------------------------------------------------------------------------
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _wait(url: str, process: subprocess.Popen[bytes]) -> None:
-    deadline = time.monotonic() + 120
-    while True:
-        assert process.poll() is None, "the server stopped"
-        assert time.monotonic() < deadline, "the server did not start"
-        try:
-            httpx.get(f"{url}/healthz", timeout=2)
-            return
-        except httpx.TransportError:
-            time.sleep(0.1)
-
-
-def cpu_seconds(pid: int) -> float:
-    """A process's CPU time so far, user and system (``/proc/PID/stat``, Linux)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 STEP_ROUTE = ("POST", "/plan/{plan_id}/step", "200")
 
 
@@ -435,55 +272,39 @@ def bucket_percentile(counts: Sequence[float], q: float) -> float:
     return lower * 1000
 
 
-SERVER_PIDS: list[int] = []
-"""The pids of the uvicorn servers :func:`servers` started (for their CPU time)."""
-
-
 @contextmanager
-def servers(store: str, directory: Path) -> Iterator[list[str]]:
+def servers(store: str, directory: Path) -> Iterator[list[Process]]:
     """One service (``python -m service``) on the memory store, or a redis-server and two
-    replicas on it."""
-    started: list[subprocess.Popen[bytes]] = []
-    SERVER_PIDS.clear()
-    try:
-        url = "memory://"
-        count = 1
+    replicas on it; each as the container runs it behind its proxy (docker/docker-compose.yml's
+    HTTP parser)."""
+    with ExitStack() as stack:
+        url, count = "memory://", 1
         if store == "redis":
             binary = shutil.which("redis-server")
             assert binary, "redis-server is not on PATH"
-            port = _free_port()
+            port = free_port()
             args = [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "",
                     "--appendonly", "no", "--dir", str(directory)]  # fmt: skip
-            started.append(subprocess.Popen(args, stdout=subprocess.DEVNULL))
+            redis = subprocess.Popen(args, stdout=subprocess.DEVNULL)
+            stack.callback(redis.wait, 30)
+            stack.callback(redis.kill)
             time.sleep(0.3)
             url, count = f"redis://127.0.0.1:{port}/0", 2
-        urls = []
-        for _ in range(count):
-            port = _free_port()
-            # As the container runs it behind its proxy (docker/docker-compose.yml's parser),
-            # its request lines on stdout dropped.
-            env = {
-                **os.environ, "PLANNER_HOST": "127.0.0.1", "PLANNER_PORT": str(port),
-                "PLANNER_STORE_URL": url, "PLANNER_POOL_SIZE": "1",
-                "PLANNER_HTTP_PARSER": "httptools",
-            }  # fmt: skip
-            process = subprocess.Popen(
-                [sys.executable, "-m", "service"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL
-            )
-            started.append(process)
-            SERVER_PIDS.append(process.pid)
-            urls.append(f"http://127.0.0.1:{port}")
-            _wait(urls[-1], process)
-        yield urls
-    finally:
-        for process in started:
-            process.kill()
-            process.wait(timeout=30)
+        env = {
+            "PLANNER_STORE_URL": url,
+            "PLANNER_POOL_SIZE": "1",
+            "PLANNER_HTTP_PARSER": "httptools",
+        }
+        replicas = [stack.enter_context(service(env)) for _ in range(count)]
+        for replica in replicas:
+            replica.wait("/healthz", timeout=120)
+        yield replicas
 
 
 async def _bench(
-    urls: list[str], scenarios: list[tuple[Scenario, int]], *, client: str = "aiohttp"
+    replicas: list[Process], scenarios: list[tuple[Scenario, int]], *, client: str = "aiohttp"
 ) -> list[Outcome]:
+    urls = [replica.url for replica in replicas]
     limits = httpx.Limits(max_connections=64)
     clients = [httpx.AsyncClient(base_url=u, timeout=60, limits=limits) for u in urls]
     steppers = [AiohttpStepper(u) for u in urls] if client == "aiohttp" else None
@@ -495,9 +316,9 @@ async def _bench(
         out = []
         for n, (scenario, seed) in enumerate(scenarios):
             before = [await step_buckets(c) for c in clients]
-            cpu = sum(cpu_seconds(pid) for pid in SERVER_PIDS)
+            cpu = sum(replica.cpu_seconds() for replica in replicas)
             outcome = await run(clients, scenario, fleet=f"bench-{n}", seed=seed, steppers=steppers)
-            outcome.server_cpu_s = sum(cpu_seconds(pid) for pid in SERVER_PIDS) - cpu
+            outcome.server_cpu_s = sum(replica.cpu_seconds() for replica in replicas) - cpu
             after = [await step_buckets(c) for c in clients]
             outcome.server_buckets = [
                 sum(a[k] - b[k] for a, b in zip(after, before, strict=True))
@@ -592,7 +413,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     if args.engine:
-        depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
+        depot = planner.read_ros_map(ros_maps() / "depot.yaml")
         found = asyncio.run(_engine_steps(random_scenario(depot, args.robots, 0), 100))
         print("| step (in-process) | steps | p50 ms | p99 ms | mean ms |")
         print("|---|---|---|---|---|")
@@ -600,7 +421,7 @@ def main() -> None:
             print(f"| depot x{args.robots}, {name} | {len(times)} | {_percentile(times, 50):.3f} "
                   f"| {_percentile(times, 99):.3f} | {np.mean(times):.3f} |")  # fmt: skip
         return
-    depot = planner.read_ros_map(Path("/work/shared/maps/ros/depot.yaml"))
+    depot = planner.read_ros_map(ros_maps() / "depot.yaml")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     print(HEADER)
     for store in args.store:
@@ -616,10 +437,10 @@ def main() -> None:
         sets = {
             every[k][0]: [(every[k][1](s), s) for s in range(every[k][2])] for k in args.scenarios
         }
-        with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as urls:
+        with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as replicas:
             for (name, scenarios), client in itertools.product(sets.items(), args.client):
                 # On uvloop, as the servers run: less of the client's CPU in each round trip.
-                outcomes = uvloop.run(_bench(urls, scenarios, client=client))
+                outcomes = uvloop.run(_bench(replicas, scenarios, client=client))
                 print(_report(store, name, outcomes, client), flush=True)
                 print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:

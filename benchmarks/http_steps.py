@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
@@ -29,10 +28,10 @@ from typing import Any
 
 import httpx
 import numpy as np
+from common import ROOT, Process, free_port, service
 
 from service.config import Settings
 
-ROOT = Path(__file__).resolve().parent.parent
 LUA = ROOT / "benchmarks" / "http_steps.lua"
 SIZE = 1024
 CASES = (  # (name, connections, plans, wrk mode)
@@ -40,56 +39,6 @@ CASES = (  # (name, connections, plans, wrk mode)
     ("c=16, 16 plans", 16, 16, "plan"),
     ("c=16, one plan", 16, 1, "shared"),
 )
-TICK = os.sysconf("SC_CLK_TCK")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class Process:
-    """A child process serving on a free 127.0.0.1 port, stopped on exit."""
-
-    def __init__(self, argv: list[str], port: int, env: dict[str, str] | None = None) -> None:
-        self.port = port
-        self.url = f"http://127.0.0.1:{port}"
-        self.process = subprocess.Popen(
-            argv,
-            cwd=ROOT,
-            env={**os.environ, **(env or {})},
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-
-    def wait(self, path: str, timeout: float = 300) -> None:
-        deadline = time.monotonic() + timeout
-        while True:
-            try:
-                httpx.get(self.url + path, timeout=5)
-                return
-            except httpx.TransportError:
-                if self.process.poll() is not None or time.monotonic() > deadline:
-                    raise RuntimeError(f"{self.url} did not start") from None
-                time.sleep(0.05)
-
-    def cpu_seconds(self) -> float:
-        fields = Path(f"/proc/{self.process.pid}/stat").read_text().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / TICK
-
-    def __enter__(self) -> Process:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.process.terminate()
-        self.process.wait(timeout=30)
-
-
-def service(env: dict[str, str]) -> Process:
-    port = free_port()
-    env = {"PLANNER_HOST": "127.0.0.1", "PLANNER_PORT": str(port), **env}
-    return Process([sys.executable, "-m", "service"], port, env)
 
 
 def echo() -> Process:

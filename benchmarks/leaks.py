@@ -9,7 +9,6 @@ Starts ``uvicorn service.main:app`` on a free port with a 4 MiB map store and pr
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
 import sys
 import time
@@ -17,20 +16,19 @@ from pathlib import Path
 
 import httpx
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+from common import ROOT, free_port
 
 
 def rss_mib(pid: int) -> float:
     status = Path(f"/proc/{pid}/status").read_text()
     kib = next(line.split()[1] for line in status.splitlines() if line.startswith("VmRSS"))
     return int(kib) / 1024
+
+
+def _gauges(c: httpx.Client, *names: str) -> str:
+    """``name value`` of those gauges, as ``GET /metrics`` gives them."""
+    lines = c.get("/metrics").text.splitlines()
+    return ", ".join(line for line in lines if line.split(" ", 1)[0] in names)
 
 
 def main() -> None:
@@ -63,7 +61,7 @@ def main() -> None:
                 codes[code] = codes.get(code, 0) + 1
             print(
                 f"60 new 1024^2 maps, 4 MiB store: RSS {before:.1f} -> {rss_mib(pid):.1f} MiB "
-                f"(answers {codes}; {c.get('/healthz').json()['cache']})"
+                f"(answers {codes}; {_gauges(c, 'planner_maps', 'planner_cache_bytes')})"
             )
             before = rss_mib(pid)
             body = b'{"dynamic_obstacles": [' + b"[1, 1], " * 8_400_000 + b"[1, 1]]}"

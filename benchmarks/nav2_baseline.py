@@ -27,13 +27,13 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from common import ROOT, ros_maps
 from numba import njit
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-from planner import CSpace, configuration_space  # noqa: E402
+import planner
+from planner import CSpace, configuration_space
 
 RESULTS = ROOT / "benchmarks" / "RESULTS.md"
 FIGURE = ROOT / "docs" / "figures" / "depot-wide-vs-nav2.png"
@@ -45,15 +45,6 @@ INFLATION = 0.55
 SCALING = 3.0
 DR = np.array([-1, -1, 0, 1, 1, 1, 0, -1], dtype=np.int64)
 DC = np.array([0, 1, 1, 1, 0, -1, -1, -1], dtype=np.int64)
-
-
-def ros_maps() -> Path:
-    """The shared ROS maps: beside the repository or beside the folder holding it."""
-    for base in (ROOT.parent, ROOT.parent.parent):
-        candidate = base / "shared" / "maps" / "ros"
-        if candidate.is_dir():
-            return candidate
-    raise SystemExit(f"ROS maps not found in {ROOT.parent}/shared or {ROOT.parent.parent}/shared")
 
 
 def inflation_cost(cs: CSpace) -> npt.NDArray[np.float64]:

@@ -16,21 +16,18 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import httpx
 import numpy as np
+from common import ROOT, ros_maps
 from skimage.morphology import medial_axis
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-from planner.analysis.medial import medial_axis as planner_medial_axis  # noqa: E402
-from service.config import Settings  # noqa: E402
-from service.main import create_app  # noqa: E402
-
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
+import planner
+from planner.analysis.medial import medial_axis as planner_medial_axis
+from service.config import Settings
+from service.main import create_app
 
 
 def cpu() -> str:
@@ -121,9 +118,7 @@ def main() -> None:
     parser.add_argument("--radius", type=float, default=0.22, help="the robot's radius, meters")
     parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
-    folder = next((f for f in MAPS if f.is_dir()), None)
-    if folder is None:
-        sys.exit(f"the shared ROS maps are not under {[str(f) for f in MAPS]}")
+    folder = ros_maps()
     robot_map = planner.read_ros_map(folder / f"{args.map}.yaml")
     planner.warm_up()
     found = planner.find_passages(robot_map, args.radius)

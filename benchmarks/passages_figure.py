@@ -9,14 +9,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from common import ROOT, ros_maps
+
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
+import planner
 
 
 def main() -> None:
@@ -26,9 +24,7 @@ def main() -> None:
     parser.add_argument("--max-width", type=float, default=1.0, help="narrow below this, meters")
     parser.add_argument("--cell", type=int, default=2, help="pixels per map cell")
     args = parser.parse_args()
-    folder = next((f for f in MAPS if f.is_dir()), None)
-    if folder is None:
-        sys.exit(f"the shared ROS maps are not under {[str(f) for f in MAPS]}")
+    folder = ros_maps()
     robot_map = planner.read_ros_map(folder / f"{args.map}.yaml")
     found = planner.find_passages(robot_map, args.radius, args.max_width)
     analysis = planner.analyse_map(robot_map, planner.resolve_params(robot_radius=args.radius))

@@ -25,15 +25,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from common import ROOT, ros_maps
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-from planner.poses import smooth_path  # noqa: E402
-from tests import naive_poses  # noqa: E402
+import planner
+from planner.poses import smooth_path
+from tests import naive_poses
 
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
 REPEAT = 3  # each plan and each smoothing timed this many times: the median counts
 
 
@@ -225,10 +224,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pairs", type=int, default=24, help="start/goal pairs a map (>= 20)")
     parser.add_argument("--seed", type=int, default=22)
     args = parser.parse_args(argv)
-    folder = next((m for m in MAPS if m.is_dir()), None)
-    if folder is None:
-        print(f"no ROS maps under {MAPS}", file=sys.stderr)
-        return 1
+    folder = ros_maps()
     results = []
     for i, path in enumerate(sorted(folder.glob("*.yaml"))):
         results.append(run_map(path, args.pairs, args.seed + i))

@@ -10,17 +10,15 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
+from common import ROOT, ros_maps
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-from planner.render import COLOURS, draw, draw_poses  # noqa: E402
+import planner
+from planner.render import COLOURS, draw, draw_poses
 
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
 RADIUS = 0.22
 
 
@@ -31,9 +29,7 @@ def main() -> None:
     parser.add_argument("--pairs", type=int, default=3)
     parser.add_argument("--cell", type=int, default=3, help="pixels per map cell")
     args = parser.parse_args()
-    folder = next((f for f in MAPS if f.is_dir()), None)
-    if folder is None:
-        sys.exit(f"the shared ROS maps are not under {[str(f) for f in MAPS]}")
+    folder = ros_maps()
     robot_map = planner.read_ros_map(folder / f"{args.map}.yaml")
     params = planner.resolve_params("wide", robot_radius=RADIUS)
     analysis = planner.analyse_map(robot_map, params)

@@ -12,24 +12,18 @@ from __future__ import annotations
 import argparse
 import asyncio
 import shutil
-import socket
 import subprocess
 import tempfile
 import time
 
 import uvloop
+from common import free_port
 
 from service.stores import PlanRecord, RedisStore
 from service.stores.base import Update
 
 PAD = "x" * 600
 """A record of a step's usual size (~0.7 KB of JSON)."""
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 async def decide(record: PlanRecord) -> Update[int]:

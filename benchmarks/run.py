@@ -33,6 +33,7 @@ import httpx
 import numpy as np
 import scale
 import summary
+from common import Process, free_port
 
 import planner
 
@@ -241,10 +242,10 @@ def bench_http_steps(seconds: int, repeats: int) -> tuple[list[dict[str, Any]], 
         if redis is None:
             problems.append("`redis-server` is not installed: the Redis store was not measured")
             return results, problems
-        port = http_steps.free_port()
+        port = free_port()
         argv = [redis, "--port", str(port), "--bind", "127.0.0.1", "--save", ""]
         argv += ["--appendonly", "no"]
-        with http_steps.Process(argv, port):
+        with Process(argv, port):
             time.sleep(0.5)
             env = {"PLANNER_STORE_URL": f"redis://127.0.0.1:{port}/0"}
             try:

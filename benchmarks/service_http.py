@@ -6,25 +6,17 @@ Starts ``uvicorn service.main:app`` on a free port itself. Run:
 
 from __future__ import annotations
 
-import socket
 import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import httpx
 import numpy as np
+from common import ROOT, free_port
 
-ROOT = Path(__file__).resolve().parents[1]
 STEPS = 1000
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def timed(client: httpx.Client, method: str, url: str, body: Any) -> tuple[float, Any]:

@@ -15,17 +15,15 @@ import argparse
 import statistics
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+from common import ROOT, ros_maps
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
+import planner
 
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
 NAMES = ("depot", "tb3_sandbox", "smoothers_world")
 
 
@@ -66,9 +64,7 @@ def main() -> None:
     parser.add_argument("--horizon", type=float, default=2.0)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
-    folder = next((m for m in MAPS if m.is_dir()), None)
-    if folder is None:
-        sys.exit(f"no shared ROS maps under {[str(m) for m in MAPS]}")
+    folder = ros_maps()
     print("| map | cells | resolution | steps | µs a step without poses (median / p99) "
           "| with poses | added (median) | poses a step (median) |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|")

@@ -31,7 +31,8 @@ import httpx
 import redis
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from leaks import free_port, rss_mib
+from common import free_port
+from leaks import rss_mib
 
 ROOT = Path(__file__).resolve().parents[1]
 SIDE = 400

@@ -32,21 +32,19 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 import httpx
 import numpy as np
+from common import ROOT, ros_maps
 from PIL import Image
 
-ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
-from service.config import Settings  # noqa: E402
-from service.main import create_app  # noqa: E402
+import planner
+from service.config import Settings
+from service.main import create_app
 
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
 RADIUS = 0.22
 RACKS = [(29.0, 7.0), (31.0, 7.0), (31.0, 9.0), (29.0, 9.0)]  # among the racks, 2 m square
 HALL = [(13.0, 3.0), (17.0, 3.0), (17.0, 12.0), (13.0, 12.0)]  # the open hall, 4 x 9 m
@@ -60,13 +58,6 @@ def cpu() -> str:
         return platform.processor() or "unknown CPU"
     fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
     return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
-
-
-def folder() -> Path:
-    for path in MAPS:
-        if (path / "depot.yaml").is_file():
-            return path
-    raise SystemExit(f"the shared ROS maps are not under {MAPS}")
 
 
 def png(occupancy: np.ndarray) -> bytes:
@@ -207,7 +198,7 @@ def analyses(repeat: int) -> list[dict[str, Any]]:
 
 
 def maps() -> list[tuple[str, planner.RobotMap]]:
-    depot = planner.read_ros_map(folder() / "depot.yaml")
+    depot = planner.read_ros_map(ros_maps() / "depot.yaml")
     return [("depot", depot), ("depot tiled 2 x 3", tiled(depot, 2, 3))]
 
 

@@ -8,21 +8,20 @@ through the speed zone, as the service draws it (``GET /plan/{plan_id}/render.pn
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from common import ROOT, ros_maps
+
 sys.path.insert(0, str(ROOT))
 
-import planner  # noqa: E402
+import planner
 
-MAPS = [ROOT.parent / "shared" / "maps" / "ros", ROOT.parents[1] / "shared" / "maps" / "ros"]
 KEEPOUT = [(13.0, 3.0), (17.0, 3.0), (17.0, 12.0), (13.0, 12.0)]
 SPEED = [(2.0, 5.5), (9.0, 5.5), (9.0, 9.5), (2.0, 9.5)]
 OUT = ROOT / "docs" / "figures" / "zones-depot.png"
 
 
 def main() -> None:
-    folder = next(path for path in MAPS if (path / "depot.yaml").is_file())
+    folder = ros_maps()
     depot = planner.read_ros_map(folder / "depot.yaml")
     zoned = planner.zone_map(depot, keepout=[KEEPOUT], speed=[{"polygon": SPEED, "max_speed": 0.3}])
     plan = planner.plan(zoned, {"x": 3.0, "y": 7.5}, {"x": 27.0, "y": 7.5}, robot_radius=0.22)

@@ -14,6 +14,8 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 def load_benchmark(name: str) -> Any:
     """``benchmarks/{name}.py`` as the module ``{name}``, the name it has when run from
     ``benchmarks/`` (numba caches its kernels under it)."""
+    if str(BENCHMARKS) not in sys.path:  # their shared helpers (benchmarks/common.py)
+        sys.path.append(str(BENCHMARKS))
     spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
     assert spec is not None
     assert spec.loader is not None

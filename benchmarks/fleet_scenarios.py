@@ -1,0 +1,138 @@
+"""The fleet benchmark's scenarios (benchmarks/fleet.py): a map with a one-lane corridor between
+two rooms and robots swapping rooms through it, random robots on a shared ROS map, and a map as
+the body of ``POST /maps``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import edt
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+
+import planner
+import planner.fleets
+
+CORRIDOR_RADIUS = 0.325
+"""The robots of the corridor scenarios (meters): a 0.8 m lane holds one of them at a time."""
+ROS_RADIUS = 0.22
+
+
+def corridor_map(
+    *, resolution: float = 0.1, lane_m: float = 0.8, length_m: float = 2.0, room_m: float = 4.0
+) -> planner.RobotMap:
+    """Two square rooms of ``room_m`` joined by a straight one-lane corridor ``lane_m`` wide and
+    ``length_m`` long, in the middle of their facing walls; walls one cell thick around."""
+    room = round(room_m / resolution)
+    lane = round(lane_m / resolution)
+    length = round(length_m / resolution)
+    h, w = room + 2, 2 * room + length + 4
+    occ = np.full((h, w), 100, dtype=np.int8)
+    occ[1 : 1 + room, 1 : 1 + room] = 0
+    occ[1 : 1 + room, w - 1 - room : w - 1] = 0
+    top = 1 + (room - lane) // 2
+    occ[top : top + lane, 1 + room : w - 1 - room] = 0
+    return planner.RobotMap(occ, planner.MapFrame((h, w), resolution, (0.0, 0.0, 0.0)))
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Robots (start, goal cells) of one radius on one map."""
+
+    name: str
+    robot_map: planner.RobotMap
+    radius: float
+    robots: tuple[tuple[tuple[int, int], tuple[int, int]], ...]
+
+
+def _spread(
+    cells: npt.NDArray[np.int64], count: int, apart: float, rng: np.random.Generator
+) -> list[tuple[int, int]]:
+    """``count`` of ``cells`` (rows of ``(r, c)``) at least ``apart`` cells from each other."""
+    chosen: list[tuple[int, int]] = []
+    for i in rng.permutation(len(cells)):
+        r, c = int(cells[i, 0]), int(cells[i, 1])
+        if all((r - a) ** 2 + (c - b) ** 2 > apart * apart for a, b in chosen):
+            chosen.append((r, c))
+            if len(chosen) == count:
+                return chosen
+    raise ValueError(f"cannot place {count} robots {apart:.1f} cells apart")
+
+
+def corridor_scenario(
+    per_side: int, seed: int, *, resolution: float = 0.1, room_m: float = 5.0
+) -> Scenario:
+    """``per_side`` robots in each room, each going to the other room, starts and goals away
+    from the corridor's mouths (farther than the waiting zone and a robot's diameter)."""
+    m = corridor_map(resolution=resolution, room_m=room_m)
+    rng = np.random.default_rng(seed)
+    space = planner.configuration_space(m, robot_radius=CORRIDOR_RADIUS)
+    h, w = m.shape
+    room = h - 2
+    cells = np.argwhere(space.traversable == 1)
+    reach = planner.fleets.wait_distance(CORRIDOR_RADIUS) + 2 * CORRIDOR_RADIUS + 0.2
+    far = round(reach / resolution)
+    left = cells[cells[:, 1] <= room - far]
+    right = cells[cells[:, 1] >= w - 1 - room + far]
+    apart = 2 * CORRIDOR_RADIUS / resolution + 2
+    ls, rs = _spread(left, 2 * per_side, apart, rng), _spread(right, 2 * per_side, apart, rng)
+    robots = [(ls[i], rs[per_side + i]) for i in range(per_side)]
+    robots += [(rs[i], ls[per_side + i]) for i in range(per_side)]
+    robots = [robots[i] for i in rng.permutation(len(robots))]
+    return Scenario(f"corridor x{2 * per_side}", m, CORRIDOR_RADIUS, tuple(robots))
+
+
+def random_scenario(
+    robot_map: planner.RobotMap, count: int, seed: int, *, radius: float = ROS_RADIUS
+) -> Scenario:
+    """``count`` robots with random starts and goals on the map's largest traversable region,
+    all of them far apart (more than the sum of radii and a margin), none of them parked in a
+    passage's waiting zone or a robot's diameter from it (a robot parked there would hold the
+    passage for good)."""
+    space = planner.configuration_space(robot_map, robot_radius=radius)
+    region = _largest_region(space.traversable)
+    zones = planner.fleets.waiting_zones(
+        space.traversable, planner.find_passages(robot_map, radius),
+        resolution=robot_map.resolution, robot_radius=radius,
+    )  # fmt: skip
+    if zones.count:
+        inside = np.ascontiguousarray(zones.group.reshape(robot_map.shape) >= 0)
+        away = edt.edt(~inside, black_border=False) * robot_map.resolution > 2 * radius + 0.1
+        region &= away
+    rng = np.random.default_rng(seed)
+    apart = (2 * radius + 0.3) / robot_map.resolution
+    ends = _spread(np.argwhere(region), 2 * count, apart, rng)
+    robots = tuple((ends[i], ends[count + i]) for i in range(count))
+    return Scenario(f"random x{count}", robot_map, radius, robots)
+
+
+def _largest_region(traversable: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
+    """The largest 4-connected region of traversable cells (the first of the largest)."""
+    labels, count = ndimage.label(traversable.astype(bool))
+    if not count:
+        return np.zeros(traversable.shape, dtype=bool)
+    largest = 1 + int(np.argmax(np.bincount(labels.ravel())[1:]))
+    out: npt.NDArray[np.bool_] = labels == largest
+    return out
+
+
+def map_body(robot_map: planner.RobotMap) -> dict[str, Any]:
+    """The map as a rosbridge ``nav_msgs/OccupancyGrid`` (row 0 at the origin)."""
+    h, w = robot_map.shape
+    ox, oy, yaw = robot_map.origin
+    return {
+        "occupancy_grid": {
+            "info": {
+                "resolution": robot_map.resolution,
+                "width": w,
+                "height": h,
+                "origin": {
+                    "position": {"x": ox, "y": oy, "z": 0.0},
+                    "orientation": {"x": 0.0, "y": 0.0, "z": np.sin(yaw / 2), "w": np.cos(yaw / 2)},
+                },
+            },
+            "data": np.flipud(robot_map.occupancy).ravel().tolist(),
+        }
+    }
