@@ -129,6 +129,19 @@ def _corridor() -> planner.RobotMap:
     return planner.RobotMap(occ, planner.MapFrame(occ.shape, 0.1, (0.0, 0.0, 0.0)))
 
 
+RADIUS = 0.325
+"""The corridor's robots (meters): its 0.8 m lane holds one at a time."""
+
+
+def _corridor_zones() -> tuple[planner.RobotMap, WaitingZones]:
+    """:func:`_corridor` and its passage's waiting zone for robots of :data:`RADIUS`."""
+    m = _corridor()
+    space = planner.configuration_space(m, robot_radius=RADIUS)
+    passages = planner.find_passages(m, RADIUS)
+    zones = waiting_zones(space.traversable, passages, resolution=0.1, robot_radius=RADIUS)
+    return m, zones
+
+
 def test_a_corridors_zone_reaches_the_waiting_distance_into_each_room_and_no_farther() -> None:
     m = _corridor()
     radius = 0.325
@@ -158,17 +171,12 @@ def test_a_corridors_zone_reaches_the_waiting_distance_into_each_room_and_no_far
 
 
 def test_a_passage_held_by_one_robot_is_closed_to_the_others_but_the_waiter_of_rank_first() -> None:
-    m = _corridor()
-    radius = 0.325
-    space = planner.configuration_space(m, robot_radius=radius)
-    zones = waiting_zones(
-        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
-    )
+    m, zones = _corridor_zones()
     inside, left, right = (21, 50), (21, 10), (21, 95)
     robots = {
-        "holder": Robot(5, inside, inside, radius, (21, 95)),
-        "first": Robot(1, left, left, radius, (21, 90), wants=0),
-        "later": Robot(2, right, right, radius, (21, 5)),
+        "holder": Robot(5, inside, inside, RADIUS, (21, 95)),
+        "first": Robot(1, left, left, RADIUS, (21, 90), wants=0),
+        "later": Robot(2, right, right, RADIUS, (21, 5)),
     }
     for k in ("first", "later"):
         traffic = traffic_for(k, robots, resolution=0.1, shape=m.shape, zones=zones)
@@ -200,21 +208,16 @@ def test_a_holder_leaving_the_passage_that_waits_for_a_robot_on_its_goal_hands_i
     # The holder has come out of the corridor into the right room (still in the zone) and waits
     # for the robot standing on its goal, which waits for the passage behind a waiter ranked
     # first: that robot takes the holder's turn, ahead of it; the others still wait.
-    m = _corridor()
-    radius = 0.325
-    space = planner.configuration_space(m, robot_radius=radius)
-    zones = waiting_zones(
-        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
-    )
+    m, zones = _corridor_zones()
     out, goal = (21, 78), (21, 88)
     assert zones.group_at(out) == 0
     assert zones.group_at(goal) == -1
-    holder = Robot(2, out, out, radius, goal, status="waiting", waiting_for="on goal", leaving=0)
+    holder = Robot(2, out, out, RADIUS, goal, status="waiting", waiting_for="on goal", leaving=0)
     robots = {
         "holder": holder,
-        "on goal": Robot(3, goal, goal, radius, (21, 5), status="waiting", wants=0),
-        "first": Robot(0, (30, 90), (30, 90), radius, (21, 5), status="waiting", wants=0),
-        "left": Robot(1, (21, 10), (21, 10), radius, (21, 95), status="waiting", wants=0),
+        "on goal": Robot(3, goal, goal, RADIUS, (21, 5), status="waiting", wants=0),
+        "first": Robot(0, (30, 90), (30, 90), RADIUS, (21, 5), status="waiting", wants=0),
+        "left": Robot(1, (21, 10), (21, 10), RADIUS, (21, 95), status="waiting", wants=0),
     }
     kw: dict[str, Any] = {"resolution": 0.1, "shape": m.shape, "zones": zones}
     assert traffic_for("on goal", robots, **kw).closed == {}
@@ -224,22 +227,17 @@ def test_a_holder_leaving_the_passage_that_waits_for_a_robot_on_its_goal_hands_i
     coming = {**robots, "holder": holder._replace(leaving=None)}
     assert traffic_for("on goal", coming, **kw).closed == {0: "holder"}
     # Another robot holding it too keeps it closed.
-    also = Robot(4, (21, 45), (21, 45), radius, (21, 95))
+    also = Robot(4, (21, 45), (21, 45), RADIUS, (21, 95))
     assert traffic_for("on goal", {**robots, "also": also}, **kw).closed == {0: "also"}
 
 
 def test_a_robot_is_leaving_a_passage_from_its_neck_until_it_is_out_of_its_zone() -> None:
-    m = _corridor()
-    radius = 0.325
-    space = planner.configuration_space(m, robot_radius=radius)
-    zones = waiting_zones(
-        space.traversable, planner.find_passages(m, radius), resolution=0.1, robot_radius=radius
-    )
+    m, zones = _corridor_zones()
     row = 21
     zone = [c for c in range(m.shape[1]) if zones.group_at((row, c)) == 0]
     neck = [c for c in range(m.shape[1]) if zones.in_neck((row, c))]
     assert zone[0] < neck[0] < neck[-1] < zone[-1]
-    robot = Robot(0, (row, 5), (row, 5), radius, (row, 95))
+    robot = Robot(0, (row, 5), (row, 5), RADIUS, (row, 95))
     leaving = {}
     for c in range(6, 96):
         robot = after_step(
@@ -254,7 +252,7 @@ def test_a_robot_is_leaving_a_passage_from_its_neck_until_it_is_out_of_its_zone(
     )
     assert set(leaving.values()) == {None, 0}
     # Back into the neck: not leaving; reported elsewhere in the zone: not leaving.
-    out = Robot(0, (row, neck[-1] + 2), (row, neck[-1] + 2), radius, (row, 95), leaving=0)
+    out = Robot(0, (row, neck[-1] + 2), (row, neck[-1] + 2), RADIUS, (row, 95), leaving=0)
     back = after_step(
         out, previous=out.target, position=(row, neck[-1]), status="moving", traffic=NO_TRAFFIC,
         zones=zones,
