@@ -289,7 +289,11 @@ class RedisBus(EventBus):
                 self._pubsub = self._redis.pubsub()
             pubsub = self._pubsub
             if self._reader is None:
-                await pubsub.connect()  # type: ignore[no-untyped-call]
+                try:
+                    await pubsub.connect()  # type: ignore[no-untyped-call]
+                except BaseException:
+                    self._pubsub = None  # the next stream starts afresh
+                    raise
                 self._reader = asyncio.get_running_loop().create_task(self._read(pubsub))
             return pubsub
 
@@ -320,8 +324,11 @@ class RedisBus(EventBus):
 
     def _unsubscribe(self, plan_id: str) -> None:
         name = channel(plan_id)
-        if self._confirmed.pop(name, None) is None or self._pubsub is None:
+        confirmed = self._confirmed.pop(name, None)
+        if confirmed is None or self._pubsub is None:
             return
+        if confirmed.done() and confirmed.exception() is not None:
+            return  # never subscribed: an UNSUBSCRIBE sent later could undo the next SUBSCRIBE
         task = asyncio.get_running_loop().create_task(self._send_unsubscribe(self._pubsub, name))
         _PENDING.add(task)
         task.add_done_callback(_PENDING.discard)
