@@ -85,6 +85,9 @@ class Params:
     walking about at a step of 0.2 s)."""
     horizon_m: float = 2.0
     """Meters of the path ahead that a step answers at least (its ``poses``), or to the goal."""
+    deviation_m: float = 0.5
+    """A fleet robot reported farther than this from its told moves is off its plan: the fleet
+    is solved again from where it is."""
     nominal_speed: float = 0.5
     """The robot's speed in m/s outside speed zones: a plan's ``duration_s`` drives its poses at
     it, capped by each speed zone's ``max_speed``."""
@@ -109,6 +112,7 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "dynamic_margin_m": (0.0, 5.0),
     "horizon_m": (0.0, 100.0),
     "nominal_speed": (0.0, 100.0),
+    "deviation_m": (0.0, 100.0),
 }
 
 _PAPER = Params(

@@ -5,7 +5,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 
 from schemas.errors import ErrorPublic
 from schemas.fleet_names import PlanCreate
-from schemas.fleets import FleetPublic, FleetRobotPublic, HeldPassagePublic
+from schemas.fleets import FleetPublic, FleetRobotPublic, FleetSolvePublic
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.passages import NarrowestPublic, PassagePublic, PassagesPublic
@@ -58,8 +58,8 @@ __all__ = [
     "ErrorPublic",
     "FleetPublic",
     "FleetRobotPublic",
+    "FleetSolvePublic",
     "HealthPublic",
-    "HeldPassagePublic",
     "KeepoutMaskPublic",
     "LivePublic",
     "MapCreate",

@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.passages import PassagePublic
 from schemas.plans import XY, Cell, Pose, Status
 
-__all__ = ["FleetPublic", "FleetRobotPublic", "HeldPassagePublic"]
+__all__ = ["FleetPublic", "FleetRobotPublic", "FleetSolvePublic"]
 
 
 class FleetRobotPublic(BaseModel):
-    """A robot of a fleet: where it was last told to be, and what it waits for."""
+    """A robot of a fleet: where it was last told to be, its route left, and what it waits for."""
 
     plan_id: str
     position: Cell = Field(description="The cell it was last told to move to (or its start).")
@@ -19,14 +20,23 @@ class FleetRobotPublic(BaseModel):
     status: Status
     waiting_for: str | None = Field(
         default=None,
-        description="Waiting: the `plan_id` of the robot it waits for (standing on its goal, or "
-        "holding a passage it needs).",
+        description="Waiting: the `plan_id` of the robot whose move it waits for (null when no "
+        "robot holds it up: the client's obstacles, or a fleet whose last solve failed).",
     )
     previous: Cell = Field(description="The cell it stood on when last told (until its next step).")
-    goal: Cell
+    goal: Cell = Field(description="Its plan's goal.")
+    goal_node: Cell = Field(description="The roadmap node its goal joins: where it stops.")
     radius: float = Field(ge=0, description="The robot's radius, meters.")
-    holds: list[int] = Field(
-        default_factory=list, description="The ids of the passages it holds (`passages`)."
+    remaining: list[Cell] = Field(
+        default_factory=list, description="The roadmap nodes it still has to visit, in order."
+    )
+    remaining_xy: list[XY] = Field(default_factory=list, description="The same in meters.")
+    moves_done: int = Field(ge=0, description="Moves of the joint plan it has done.")
+    moves_total: int = Field(ge=0, description="Moves of the joint plan it has in all.")
+    parked: bool = Field(
+        default=False,
+        description="Silent longer than `PLANNER_FLEET_LEASE_SECONDS`: the others are planned "
+        "around it where it last was, until it steps again.",
     )
     poses: list[Pose] | None = Field(
         default=None,
@@ -34,18 +44,24 @@ class FleetRobotPublic(BaseModel):
     )
 
 
-class HeldPassagePublic(PassagePublic):
-    """A narrow passage of the fleet's map (for the fleet's radius), and who holds it."""
+class FleetSolvePublic(BaseModel):
+    """The fleet's last solve of its joint plan."""
 
-    held_by: list[str] = Field(
-        default_factory=list,
-        description="The `plan_id`s of the robots holding it (of its group: passages whose "
-        "waiting zones meet are held as one).",
+    status: Literal["pending", "solved", "timeout", "unsolvable", "unreachable"] = Field(
+        description="`solved`; `timeout` or `unsolvable` (the previous plan is kept, robots "
+        "outside it wait); `unreachable` (a robot has no roadmap node in reach); `pending` "
+        "(not solved yet: at the next step)."
     )
+    agents: int = Field(default=0, ge=0, description="Robots planned together.")
+    solve_ms: float = Field(default=0.0, ge=0)
+    sum_of_costs: int = Field(default=0, ge=0, description="Moves and waits until each rests.")
+    lower_bound: int = Field(default=0, ge=0, description="The sum of each robot's own shortest.")
+    makespan: int = Field(default=0, ge=0)
+    at: float | None = Field(default=None, description="When (seconds since the epoch).")
 
 
 class FleetPublic(BaseModel):
-    """The robots of a fleet, on its map."""
+    """The robots of a fleet, on its map, and its joint plan's last solve."""
 
     model_config = ConfigDict(
         json_schema_extra={
@@ -54,6 +70,7 @@ class FleetPublic(BaseModel):
                     "fleet": "warehouse-a",
                     "map_id": "2f68cb9d10f4ad46475d5a3851711826daff07c5d2a4479cee604bc39e2872ca",
                     "robot_radius": 0.0,
+                    "roadmap": {"nodes": 28, "edges": 45},
                     "robots": [
                         {
                             "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
@@ -63,11 +80,23 @@ class FleetPublic(BaseModel):
                             "waiting_for": "0b7d1e4a9c2f4e3b8a6d5c4b3a291807",
                             "previous": [1, 1],
                             "goal": [4, 5],
+                            "goal_node": [4, 5],
                             "radius": 0.0,
-                            "holds": [],
+                            "remaining": [[1, 2], [2, 2]],
+                            "remaining_xy": [[2.5, 3.5], [2.5, 2.5]],
+                            "moves_done": 1,
+                            "moves_total": 8,
                         }
                     ],
-                    "passages": [],
+                    "solve": {
+                        "status": "solved",
+                        "agents": 2,
+                        "solve_ms": 1.2,
+                        "sum_of_costs": 16,
+                        "lower_bound": 15,
+                        "makespan": 9,
+                        "at": 1765000000.0,
+                    },
                 }
             ]
         }
@@ -76,7 +105,8 @@ class FleetPublic(BaseModel):
     fleet: str
     map_id: str
     robot_radius: float = Field(
-        ge=0, description="The radius its passages are found for (its first robot's), meters."
+        ge=0, description="The radius its roadmap keeps robots apart for (its first robot's)."
     )
+    roadmap: dict[str, int] = Field(description="The roadmap's `nodes` and `edges`.")
     robots: list[FleetRobotPublic]
-    passages: list[HeldPassagePublic] = Field(default_factory=list)
+    solve: FleetSolvePublic

@@ -184,7 +184,7 @@ Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
 PRESET_NAMES: tuple[str, ...] = get_args(Preset)
 """The planner's presets, in its order (schemas never import the planner: a test compares)."""
 
-Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
+Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked", "yielding"]
 
 PARAMS_DESCRIPTION = (
     "Overrides of single planner parameters, each checked by the planner (an unknown name or a "
@@ -192,7 +192,8 @@ PARAMS_DESCRIPTION = (
     "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
     "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
     "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
-    "the preview's `duration_s`)."
+    "the preview's `duration_s`), `deviation_m` (meters: how far a fleet robot may be reported "
+    "from its told moves before the fleet is solved again)."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -230,6 +231,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "dynamic_margin": 1,
         "dynamic_margin_m": None,
         "horizon_m": 2.0,
+        "deviation_m": 0.5,
         "nominal_speed": 0.5,
     },
     "status": "ready",

@@ -47,6 +47,22 @@ class Settings(BaseSettings):
     plan_ttl_seconds: float = Field(
         default=3600.0, gt=0, description="A plan untouched this long is forgotten."
     )
+    fleet_lease_seconds: float = Field(
+        default=30.0,
+        gt=0,
+        description="A fleet robot that has not stepped this long is taken as standing where it "
+        "last was: the fleet is solved again around it (it rejoins when it steps again).",
+    )
+    fleet_solve_seconds: float = Field(
+        default=2.0,
+        gt=0,
+        le=60,
+        description="The time budget of one solve of a fleet's joint plan (MAPF); a solve that "
+        "fails within it keeps the previous plan.",
+    )
+    max_fleet_robots: int = Field(
+        default=500, ge=1, description="Most robots (live plans) in one fleet."
+    )
     pool_size: int = Field(
         default_factory=available_cpus,
         ge=1,

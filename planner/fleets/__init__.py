@@ -1,20 +1,16 @@
-"""Fleets: robots of one map stepping among each other (docs/fleets.md)."""
+"""Fleets (docs/fleets.md): robots of one map planned together. Three stages: the roadmap over
+the map's configuration space, the MAPF solver (LaCAM with PIBT) on it, and the execution of its
+joint plan by an action dependency graph."""
 
-from planner.fleets.robots import Robot, covering, robot_cells
-from planner.fleets.traffic import NO_TRAFFIC, YIELD_STEPS, Traffic, after_step, traffic_for
-from planner.fleets.waiting import WaitingZones, no_waiting_zones, wait_distance, waiting_zones
+from planner.fleets.execution import Move, Schedule, schedule, segment_distances, timed_moves
+from planner.fleets.graph import Graph, grid_graph
 
 __all__ = [
-    "NO_TRAFFIC",
-    "YIELD_STEPS",
-    "Robot",
-    "Traffic",
-    "WaitingZones",
-    "after_step",
-    "covering",
-    "no_waiting_zones",
-    "robot_cells",
-    "traffic_for",
-    "wait_distance",
-    "waiting_zones",
+    "Graph",
+    "Move",
+    "Schedule",
+    "grid_graph",
+    "schedule",
+    "segment_distances",
+    "timed_moves",
 ]

@@ -15,7 +15,7 @@ from numba import njit
 
 from planner.analysis.passages import find_passages
 from planner.errors import InvalidInput, quote
-from planner.fleets.robots import Robot, robot_cells
+from planner.fleets import build_roadmap, solve
 from planner.maps.robot_maps import grid_map
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan, clearance_metrics, plan
@@ -275,9 +275,9 @@ def warm_up() -> None:
     rooms[:, 4] = 1
     rooms[4, 4] = 0
     find_passages(grid_map(rooms, resolution=0.1), robot_radius=0.05, max_width=0.3)
-    # A fleet robot's step: the other robots' disks.
-    other = Robot(0, (1, 1), (1, 2), 0.1, (0, 0))
-    robot_cells(0.1, [other], resolution=0.1, shape=(4, 4), margin=1)
+    # A fleet: its roadmap, and a joint plan on it.
+    fleet_map = build_roadmap(plan(rooms == 0, (0, 0), (8, 8), preset="shortest").analysis, radius=0.0)
+    solve(fleet_map, [0, 1], [1, 0], time_limit_s=1.0)
     # A service's maps are robot maps: their configuration space's arrays are read-only, and
     # numba compiles apart for those. Steps among cells given as an array (as a fleet's are):
     # the path ahead meeting a robot, and held up until the robot searches its way round.

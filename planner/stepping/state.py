@@ -11,7 +11,7 @@ __all__ = ["MOVES", "Pose", "SessionState", "Status", "Step"]
 #: Move names by kernel move index; ``WAIT`` stays put.
 MOVES = ("N", "NE", "E", "SE", "S", "SW", "W", "NW")
 
-Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked"]
+Status = Literal["ready", "moving", "waiting", "replanned", "arrived", "blocked", "yielding"]
 
 Pose = tuple[float, float, float]
 """``(x, y, yaw)``: meters in the map frame, radians."""

@@ -8,7 +8,6 @@ from typing import Any
 import numpy as np
 
 import planner
-import planner.fleets
 from planner import clearance_metrics
 from schemas import (
     FleetPublic,
@@ -21,6 +20,7 @@ from schemas import (
     StepPublic,
     ZonesPublic,
 )
+from service.resources.fleet_solve import node_cell
 from service.resources.fleets import FleetView
 from service.resources.maps import MapView
 from service.resources.passages import PassageSet
@@ -150,60 +150,43 @@ def step_answer(view: StepView) -> dict[str, Any]:
 
 
 def fleet_public(view: FleetView) -> FleetPublic:
-    """The fleet's robots by priority (the order they joined), and its passages."""
-    robots = sorted(view.state["robots"].items(), key=lambda item: item[1]["rank"])
-    zones = view.zones
-    held: dict[int, list[str]] = {}
+    """The fleet's robots by priority (the order they joined), and its last solve."""
+    state, graph = view.state, view.fleet_map.graph
+    extras = state.get("extras", [])
+    robots = sorted(state["robots"].items(), key=lambda item: item[1]["rank"])
+    out = []
     for plan_id, robot in robots:
-        for group in robot.get("holds", ()):
-            held.setdefault(group, []).append(plan_id)
-    passages = []
-    if zones is not None:
-        for group, members in enumerate(zones.passages):
-            for p in members:
-                found = zones.found[p]
-                passages.append(
-                    {
-                        "id": found.id, "x": found.x, "y": found.y, "width_m": found.width_m,
-                        "length_m": found.length_m, "held_by": held.get(group, []),
-                    }
-                )  # fmt: skip
+        remaining = [node_cell(m[1], robot, extras, graph) for m in robot["moves"][robot["done"] :]]
+        goal_node = [int(v) for v in graph.cells[robot["goal_node"]]]
+        entry = {
+            "plan_id": plan_id,
+            "position": robot["cell"],
+            "position_xy": center(view.frame, *robot["cell"]),
+            "status": robot["status"],
+            "waiting_for": robot.get("waiting_for"),
+            "previous": robot["previous"],
+            "goal": robot["goal"],
+            "goal_node": goal_node,
+            "radius": robot["radius"],
+            "remaining": remaining,
+            "remaining_xy": [center(view.frame, r, c) for r, c in remaining],
+            "moves_done": min(robot["done"], len(robot["moves"])),
+            "moves_total": len(robot["moves"]),
+            "parked": bool(robot.get("parked")),
+        }
+        if view.poses is not None:
+            entry["poses"] = [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in view.poses.get(plan_id, ())]
+        out.append(entry)
     return FleetPublic.model_validate(
         {
             "fleet": view.fleet,
-            "map_id": view.state["map_id"],
-            "robot_radius": view.state["radius"],
-            "robots": [
-                {
-                    "plan_id": plan_id,
-                    "position": robot["target"],
-                    "position_xy": center(view.frame, *robot["target"]),
-                    "status": robot["status"],
-                    "waiting_for": robot.get("waiting_for"),
-                    "previous": robot["cell"],
-                    "goal": robot["goal"],
-                    "radius": robot["radius"],
-                    "holds": [p for g in robot.get("holds", ()) for p in _members(zones, g)],
-                    **(
-                        {}
-                        if view.poses is None
-                        else {
-                            "poses": [
-                                {"x": x, "y": y, "yaw": yaw}
-                                for x, y, yaw in view.poses.get(plan_id, ())
-                            ]
-                        }
-                    ),
-                }
-                for plan_id, robot in robots
-            ],
-            "passages": sorted(passages, key=lambda p: p["id"]),
+            "map_id": state["map_id"],
+            "robot_radius": state["radius"],
+            "roadmap": {"nodes": graph.nodes, "edges": graph.edges},
+            "robots": out,
+            "solve": state.get("solve") or {"status": "pending"},
         }
     )
-
-
-def _members(zones: planner.fleets.WaitingZones | None, group: int) -> tuple[int, ...]:
-    return () if zones is None or group >= zones.count else zones.passages[group]
 
 
 def _step_poses(poses: Any, zones: planner.Zones | None) -> list[dict[str, float]]:

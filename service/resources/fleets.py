@@ -1,60 +1,45 @@
-"""Fleets (docs/fleets.md): a plan joining its fleet, a fleet robot's step among the others, and
-the fleet as it stands. The fleet's state lives in the store beside its plans, and every change
-to it is written at once with the plan that made it (``Store.put_fleet_plan``,
-``Store.step_plan``): a step is load state (the plan's and the fleet's), decide, save both."""
+"""Fleets (docs/fleets.md): robots of one map planned together on a roadmap and executed in
+order. A plan joins its fleet (which marks it to be solved again); a fleet robot's step loads
+the fleet, records the robot's progress, solves the fleet again if it changed, and answers the
+moves whose predecessors are done. The fleet's state lives in the store beside its plans and is
+written at once with the stepping robot's plan (``Store.put_fleet_plan``, ``Store.step_plan``).
+"""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
-from contextlib import suppress
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 import planner
 from planner import quote
-from planner.fleets import (
-    NO_TRAFFIC,
-    YIELD_STEPS,
-    Robot,
-    WaitingZones,
-    after_step,
-    covering,
-    traffic_for,
-)
-from planner.fleets import waiting_zones as planner_waiting_zones
+from planner.fleets import Schedule, attach, build_roadmap, schedule, segment_distances
 from planner.plans.ends import cell_of
 from service.errors import NotFound
+from service.resources.fleet_moves import advance
+from service.resources.fleet_solve import FleetMap, chain, node_cell, resolve
 from service.stores.base import FleetRecord
 from service.tenants import scoped
 from service.work.engine import Engine
 
 __all__ = [
-    "FleetView",
-    "Moved",
-    "empty",
-    "get_fleet",
-    "join",
-    "moved_away",
-    "step_in_fleet",
-    "waiting_zones",
+    "FleetView", "Moved", "empty", "fleet_map", "get_fleet", "join", "moved_away", "step_in_fleet",
 ]
 
 
 @dataclass(frozen=True, slots=True)
 class FleetView:
-    """A fleet's state, its map's frame and its passages (with their groups)."""
+    """A fleet's state, its map's frame and its roadmap."""
 
     fleet: str
     state: FleetRecord
     frame: planner.MapFrame
-    zones: WaitingZones | None
+    fleet_map: FleetMap
+    shape: tuple[int, int] = (0, 0)
     poses: dict[str, list[Any]] | None = None
     """With ``ahead``: each robot's path ahead (its last step's poses, ``(x, y, yaw)``)."""
-    shape: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,9 +51,136 @@ class Moved:
     fleet: FleetRecord
 
 
-def empty(map_id: str, radius: float) -> FleetRecord:
-    """A fleet with no robot yet, on ``map_id``, its passages for robots of ``radius``."""
-    return {"map_id": map_id, "radius": float(radius), "next": 0, "robots": {}}
+def empty(map_id: str, plan: planner.Plan) -> FleetRecord:
+    """A fleet with no robot yet, on ``map_id``, for robots up to ``plan``'s radius, its roadmap's
+    costs those of ``plan``'s preset."""
+    return {
+        "map_id": map_id,
+        "radius": float(plan.params.robot_radius),
+        "params": plan.params.as_dict(),
+        "next": 0,
+        "robots": {},
+        "dirty": True,
+    }
+
+
+async def fleet_map(engine: Engine, fleet: FleetRecord) -> FleetMap:
+    """The fleet's roadmap (built once per map, radius and preset, in the pool, cached with the
+    analyses) and the analysis it stands on."""
+    params = planner.Params(**{**fleet["params"], "robot_radius": float(fleet["radius"])})
+    analysis, _ = await engine.analysis(fleet["map_id"], params)
+    wide = params.clean_weight > 0 or params.wall_cost != "cells"
+
+    async def compute() -> _Sized:
+        graph = await engine.pool.run(build_roadmap, analysis, radius=params.robot_radius, wide=wide)
+        return _Sized(FleetMap(graph, analysis), int(graph.cells.nbytes * 4))
+
+    key = ("roadmap", scoped(fleet["map_id"]), analysis.params_key, params.robot_radius, wide)
+    found, _ = await engine.cache.get_or_compute(key, compute)
+    assert isinstance(found.value, FleetMap)
+    return found.value
+
+
+@dataclass(frozen=True, slots=True)
+class _Sized:
+    """A cached value and the bytes it is charged (the cache's ``Sized``)."""
+
+    value: Any
+    nbytes: int
+
+
+def join(
+    fleet: str, plan_id: str, map_id: str, plan: planner.Plan, fmap: FleetMap | None
+) -> Any:
+    """The fleet's new state with the plan's robot in it (marked to be solved again), from its
+    state now (None: a new fleet). ``InvalidInput`` when the fleet is on another map
+    (``FLEET_MAP_MISMATCH``), the robot is larger than the fleet's roadmap allows
+    (``FLEET_RADIUS``), another robot stands within both radii of its start or its way onto the
+    roadmap (``FLEET_START_TAKEN``), or its goal is another robot's (``FLEET_GOAL_TAKEN``)."""
+    radius = float(plan.params.robot_radius)
+
+    def apply(state: FleetRecord | None) -> FleetRecord:
+        if state is None or not state["robots"]:
+            state = empty(map_id, plan)
+        elif state["map_id"] != map_id:
+            msg = (
+                f"FLEET_MAP_MISMATCH: map_id {quote(map_id)} is not the map of fleet "
+                f"{quote(fleet)} ({quote(state['map_id'])})"
+            )
+            raise planner.InvalidInput(msg, field="map_id", code="FLEET_MAP_MISMATCH")
+        if radius > float(state["radius"]) + 1e-9:
+            msg = (
+                f"FLEET_RADIUS: robot_radius {radius} is larger than the radius fleet "
+                f"{quote(fleet)} was planned for ({state['radius']}, its first robot's): "
+                "create the largest robot first, or use another fleet"
+            )
+            raise planner.InvalidInput(msg, field="params.robot_radius", code="FLEET_RADIUS")
+        if fmap is None:
+            raise AssertionError("a fleet's roadmap is found before a robot joins")
+        robot = _new_robot(state, plan, fmap)
+        _check_free(fleet, state, robot, fmap)
+        return {
+            **state,
+            "next": state["next"] + 1,
+            "dirty": True,
+            "robots": {**state["robots"], plan_id: robot},
+        }
+
+    return apply
+
+
+def _new_robot(state: FleetRecord, plan: planner.Plan, fmap: FleetMap) -> dict[str, Any]:
+    graph = fmap.graph
+    start, goal = [int(v) for v in plan.start], [int(v) for v in plan.goal]
+    at = int(graph.node_of([start])[0])
+    goal_node = attach(graph, fmap.analysis, goal, exclude=set())
+    if goal_node < 0:
+        msg = f"goal {goal} has no node of the fleet's roadmap in reach by a straight move"
+        raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
+    return {
+        "rank": int(state["next"]),
+        "radius": float(plan.params.robot_radius),
+        "cell": start,
+        "previous": start,
+        "goal": goal,
+        "goal_node": goal_node,
+        "node": at,
+        "moves": [],
+        "done": 0,
+        "told": 0,
+        "status": "ready",
+        "waiting_for": None,
+        "seen": time.time(),
+    }
+
+
+def _check_free(fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: FleetMap) -> None:
+    """``FLEET_GOAL_TAKEN`` when another robot's goal is the same roadmap node or within both
+    radii; ``FLEET_START_TAKEN`` when another robot may be within both radii of the start."""
+    res = fmap.graph.resolution
+    extras = state.get("extras", [])
+    goal = np.array(robot["goal"], dtype=np.float64)
+    start = np.array(robot["cell"], dtype=np.float64)
+    for plan_id, other in state["robots"].items():
+        reach = (robot["radius"] + float(other["radius"])) / res
+        if other["goal_node"] == robot["goal_node"] or (
+            np.linalg.norm(np.array(other["goal"], dtype=np.float64) - goal) < reach
+        ):
+            msg = (
+                f"FLEET_GOAL_TAKEN: goal {robot['goal']} is robot {quote(plan_id)}'s goal in "
+                f"fleet {quote(fleet)} (its roadmap node, or within both radii): choose another"
+            )
+            raise planner.InvalidInput(msg, field="goal", code="FLEET_GOAL_TAKEN")
+        cells = np.array(
+            [node_cell(n, other, extras, fmap.graph) for n in chain(other)], dtype=np.float64
+        )
+        if np.min(np.linalg.norm(cells - start, axis=1)) < max(reach, 1e-9):
+            msg = (
+                f"start {robot['cell']} is taken: robot {quote(plan_id)} of fleet "
+                f"{quote(fleet)} stands there (within the sum of both radii); delete its plan "
+                "first"
+            )
+            raise planner.InvalidInput(msg, field="start", code="FLEET_START_TAKEN")
 
 
 def moved_away(plan_id: str, fleet: str, map_id: str) -> planner.InvalidInput:
@@ -82,167 +194,125 @@ def moved_away(plan_id: str, fleet: str, map_id: str) -> planner.InvalidInput:
     return planner.InvalidInput(msg, field="fleet", code="FLEET_MAP_MISMATCH")
 
 
-def join(
-    fleet: str, plan_id: str, map_id: str, plan: planner.Plan
-) -> Callable[[FleetRecord | None], FleetRecord]:
-    """The fleet's new state with the plan's robot in it, from its state now (None: a new fleet
-    on the plan's map, its radius the robot's). ``InvalidInput`` when the fleet is on another
-    map (``FLEET_MAP_MISMATCH``) or another robot stands where the robot starts."""
-    radius = float(plan.params.robot_radius)
-    resolution = plan.analysis.frame.resolution
-
-    def apply(state: FleetRecord | None) -> FleetRecord:
-        if state is None or not state["robots"]:
-            state = empty(map_id, radius)
-        elif state["map_id"] != map_id:
-            msg = (
-                f"FLEET_MAP_MISMATCH: map_id {quote(map_id)} is not the map of fleet "
-                f"{quote(fleet)} ({quote(state['map_id'])})"
-            )
-            raise planner.InvalidInput(msg, field="map_id", code="FLEET_MAP_MISMATCH")
-        robots = {k: Robot.from_dict(v) for k, v in state["robots"].items()}
-        taken = covering(plan.start, radius, robots, resolution=resolution)
-        if taken:
-            msg = (
-                f"start {list(plan.start)} is taken: robot {quote(taken[0])} of fleet "
-                f"{quote(fleet)} "
-                "stands there (within the sum of both radii); delete its plan first"
-            )
-            raise planner.InvalidInput(msg, field="start", code="FLEET_START_TAKEN")
-        robot = Robot(state["next"], plan.start, plan.start, radius, plan.goal)
-        return {
-            **state,
-            "next": state["next"] + 1,
-            "robots": {**state["robots"], plan_id: robot.as_dict()},
-        }
-
-    return apply
-
-
 async def step_in_fleet(
     engine: Engine,
     plan_id: str,
     session: planner.Session,
-    obstacles: list[list[int]] | npt.NDArray[np.int64],
+    obstacles: Any,
     fleet: FleetRecord,
     *,
     position: Any,
     seq: int | None,
 ) -> Moved:
-    """The robot's step, keeping clear of its fleet: the other robots (their cells and targets,
-    with both radii) and the passages another robot holds are obstacles besides the client's.
-    A robot told to wait next to a passage closed to it steps again with the passage open (on
-    its state from before): if it would enter, it waits at it (``wants``), and robots of lower
-    priority let it go first. Held up beside a waiting robot of lower priority, it puts off
-    searching its way round (``YIELD_STEPS``): that one searches first."""
-    plan = session.plan
-    frame = plan.analysis.frame
-    mine = fleet["robots"].get(plan_id)
-    if mine is not None and position is None and session.at_goal:
-        return await _on_goal(engine, plan_id, session, obstacles, fleet, seq=seq)
-    robots = {k: Robot.from_dict(v) for k, v in fleet["robots"].items()}
-    me = robots.get(plan_id)
-    if me is None:  # its fleet expired meanwhile: it joins again, last
-        cell = session.state.position
-        me = Robot(
-            int(fleet.get("next", 0)), cell, cell, float(plan.params.robot_radius), plan.goal
-        )
-        robots[plan_id] = me
-        fleet = {**fleet, "next": int(fleet.get("next", 0)) + 1}
-    zones = await waiting_zones(engine, fleet["map_id"], float(fleet["radius"]))
-    margin = plan.params.dynamic_margin
-    here = None
-    if position is not None:
-        with suppress(planner.InvalidInput):  # else the step refuses it
-            here = cell_of(plan.analysis, position, "position")
-    traffic = traffic_for(
-        plan_id, robots, resolution=frame.resolution, shape=plan.analysis.shape, zones=zones,
-        here=here, margin=margin, within=_nearby(plan),
+    """Load (the fleet as read), decide (progress, leases, a new joint plan if the fleet
+    changed, the moves now allowed), and hand back the fleet's new state to save."""
+    plan, st = session.plan, session.state
+    if seq is not None and st.last_seq is not None and seq != st.last_seq + 1:
+        msg = f"seq {seq} does not follow the last step's seq {st.last_seq}"
+        raise planner.SequenceConflict(msg, field="seq")
+    fmap = await fleet_map(engine, fleet)
+    now = time.time()
+    state: FleetRecord = {**fleet, "robots": {k: dict(v) for k, v in fleet["robots"].items()}}
+    robots = state["robots"]
+    if plan_id not in robots:  # its fleet expired meanwhile: it joins again, last
+        robot = _new_robot(state, plan, fmap)
+        robot["cell"] = list(st.position)
+        robot["node"] = int(fmap.graph.node_of([st.position])[0])
+        robots[plan_id] = robot
+        state["next"] = int(state["next"]) + 1
+        state["dirty"] = True
+    me = robots[plan_id]
+    here = None if position is None else cell_of(plan.analysis, position, "position")
+    if _progress(me, here, fmap, state, plan):
+        state["dirty"] = True
+    if me.get("parked"):
+        me["parked"] = False
+        state["dirty"] = True
+    me["seen"] = now
+    lease = engine.settings.fleet_lease_seconds
+    for k, other in robots.items():
+        if k != plan_id and not other.get("parked") and now - float(other.get("seen", now)) > lease:
+            other["parked"] = True
+            state["dirty"] = True
+    blocked = {n: t for n, t in state.get("blocked", {}).items() if t > now}
+    state["blocked"] = blocked
+    if state.get("dirty") and _may_solve(state, now, engine.settings.fleet_solve_seconds):
+        state = await engine.pool.run(
+            resolve, state, fmap, time_limit_s=engine.settings.fleet_solve_seconds,
+            seed=int(state["next"]),
+        )  # fmt: skip
+        robots = state["robots"]
+    plan_of = await _schedule(engine, state, fmap)
+    step, waiting_for = advance(
+        plan_id, state, plan_of, fmap, session, obstacles, position=position, here=here, seq=seq,
+        now=now, lease=lease,
     )  # fmt: skip
-    given = np.asarray(obstacles, dtype=np.int64).reshape(-1, 2)
-    st = session.state
-    if traffic.beside_waiter and st.held_up < YIELD_STEPS * max(plan.params.patience, 1):
-        # Held up beside a waiting robot of lower priority: that one searches first.
-        st.replan_at = max(st.replan_at, st.held_up + 1)
-    before = None
-    near = here or me.target
-    if traffic.closed and zones is not None and zones.near(near, list(traffic.closed), margin + 2):
-        before = session.state.copy()
-    step = await engine.step(session, traffic.obstacles(given), position=position, seq=seq)
-    would_enter = None
-    if before is not None and zones is not None and step.status == "waiting":
-        # Waiting next to a passage closed to it: the step again with the passages open. Had it
-        # gone on, toward a closed one, it waits at it.
-        trial = planner.Session(session.route, before, poses=False)
-        tried = await engine.step(
-            trial, traffic.obstacles(given, open_zones=True), position=position, seq=seq
-        )
-        for group in traffic.closed if tried.position != tried.previous else ():
-            if zones.near(tried.position, [group], margin):
-                would_enter = group
-                break
-    moved = after_step(
-        me, previous=step.previous, position=step.position, status=step.status,
-        traffic=traffic, zones=zones, would_enter=would_enter,
-    )  # fmt: skip
-    state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
-    return Moved(step, moved.waiting_for, state)
+    return Moved(step, waiting_for, state)
 
 
-async def _on_goal(
-    engine: Engine,
-    plan_id: str,
-    session: planner.Session,
-    obstacles: list[list[int]] | npt.NDArray[np.int64],
-    fleet: FleetRecord,
-    *,
-    seq: int | None,
-) -> Moved:
-    """The step of a robot on its goal: it stays whatever the others do (its answer reads no
-    obstacle but the client's, checked), so the fleet's traffic is not worked out; the fleet
-    records it there."""
-    me = Robot.from_dict(fleet["robots"][plan_id])
-    zones = await waiting_zones(engine, fleet["map_id"], float(fleet["radius"]))
-    step = await engine.step(session, obstacles, position=None, seq=seq)
-    moved = after_step(
-        me, previous=step.previous, position=step.position, status=step.status,
-        traffic=NO_TRAFFIC, zones=zones,
-    )  # fmt: skip
-    state = {**fleet, "robots": {**fleet["robots"], plan_id: moved.as_dict()}}
-    return Moved(step, moved.waiting_for, state)
+def _may_solve(state: FleetRecord, now: float, budget: float) -> bool:
+    """A fleet whose last solve failed is tried again only after a while (its budget, at least
+    a second): every step would otherwise wait for the solver to fail again."""
+    failed = state.get("failed_at")
+    return failed is None or now - float(failed) >= max(1.0, 2.0 * budget)
 
 
-async def waiting_zones(engine: Engine, map_id: str, robot_radius: float) -> WaitingZones:
-    """The passages' waiting zones of a fleet's map for its robots' radius: found once per map
-    and radius, in the pool, and kept in the analysis cache."""
-
-    async def compute() -> WaitingZones:
-        robot_map = await engine.robot_map(map_id)
-        return await engine.pool.run(_waiting_zones, robot_map, robot_radius)
-
-    key = ("waiting zones", scoped(map_id), float(robot_radius))
-    zones, _ = await engine.cache.get_or_compute(key, compute)
-    assert isinstance(zones, WaitingZones)
-    return zones
-
-
-def _waiting_zones(robot_map: planner.RobotMap, robot_radius: float) -> WaitingZones:
-    space = planner.configuration_space(robot_map, robot_radius=robot_radius)
-    passages = planner.find_passages(robot_map, robot_radius)
-    return planner_waiting_zones(
-        space.traversable, passages, resolution=robot_map.resolution, robot_radius=robot_radius
+def _progress(
+    me: dict[str, Any],
+    here: tuple[int, int] | None,
+    fmap: FleetMap,
+    state: FleetRecord,
+    plan: planner.Plan,
+) -> bool:
+    """Record the moves the robot did: all it was told when it reports nothing, else as far
+    along its told moves as it is (within ``deviation_m``). True when it is off its plan (it is
+    then recorded where it is, off the roadmap, and the fleet must be solved again)."""
+    if here is None:
+        me["done"] = max(me["done"], me["told"])
+        return False
+    nodes = chain(me)
+    cells = np.array(
+        [node_cell(n, me, state.get("extras", []), fmap.graph) for n in nodes], dtype=np.float64
     )
+    point = np.array(here, dtype=np.float64)
+    distances = np.linalg.norm(cells - point, axis=1)
+    tolerance = max(1.0, float(plan.params.deviation_m) / fmap.graph.resolution)
+    if distances.min() <= tolerance:
+        me["done"] = me["done"] + int(np.nonzero(distances <= tolerance)[0].max())
+        return False
+    if len(cells) > 1:
+        along = segment_distances(point, point, cells[:-1], cells[1:])
+        if along.min() <= tolerance:
+            me["done"] = me["done"] + int(np.argmin(along))
+            return False
+    me.update(cell=list(here), node=int(fmap.graph.node_of([here])[0]), moves=[], done=0, told=0)
+    return True
 
 
-NEARBY_M = 3.0
-"""Meters (and the plan's ``horizon_m``, if longer) within which a step sees the fleet's other
-robots as obstacles; farther ones cannot meet it this step."""
+async def _schedule(engine: Engine, state: FleetRecord, fmap: FleetMap) -> Schedule | None:
+    """The joint plan's dependency graph, made once per solve on each replica."""
+    if "solve_id" not in state:
+        return None
+    robots = state["robots"]
+
+    async def compute() -> _Sized:
+        return _Sized(_rebuild(state, fmap), 64 * sum(len(r["moves"]) + 1 for r in robots.values()))
+
+    key = ("fleet schedule", state["solve_id"])
+    found, _ = await engine.cache.get_or_compute(key, compute)
+    assert isinstance(found.value, Schedule)
+    return found.value
 
 
-def _nearby(plan: planner.Plan) -> int:
-    """:data:`NEARBY_M` (or the path ahead's ``horizon_m``, and a meter) in cells."""
-    meters = max(NEARBY_M, float(plan.params.horizon_m) + 1.0)
-    return math.ceil(meters / plan.analysis.frame.resolution)
+def _rebuild(state: FleetRecord, fmap: FleetMap) -> Schedule:
+    """The schedule of the fleet's last solve from its robots' moves (as stored)."""
+    robots = state["robots"]
+    graph = fmap.graph
+    extras = np.array(state.get("extras", []), dtype=np.float64).reshape(-1, 2)
+    points = np.concatenate([graph.cells.astype(np.float64), extras])
+    moves = [robots[k]["moves"] if k in robots else [] for k in state.get("agents", [])]
+    reach = 2.0 * float(state["radius"]) / graph.resolution
+    return schedule(moves, points, roadmap_nodes=graph.nodes, reach=reach)
 
 
 async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> FleetView:
@@ -253,7 +323,7 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
         msg = f"fleet: no fleet {quote(fleet)} (no plan of it is alive)"
         raise NotFound(msg, field="fleet")
     robot_map = await engine.robot_map(state["map_id"])
-    zones = await waiting_zones(engine, state["map_id"], float(state["radius"]))
+    fmap = await fleet_map(engine, state)
     poses: dict[str, list[Any]] | None = None
     if ahead:
         poses = {}
@@ -261,4 +331,5 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
             record = await engine.store.get_plan(plan_id)
             last = None if record is None else record["state"].get("last_step")
             poses[plan_id] = [] if last is None else list(last.get("poses") or ())
-    return FleetView(fleet, state, robot_map.frame, zones, poses, robot_map.shape)
+    return FleetView(fleet, state, robot_map.frame, fmap, robot_map.shape, poses)
+

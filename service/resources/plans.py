@@ -103,10 +103,12 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         await engine.store.put_plan(plan_id, record, append=append)
     else:
         record["fleet"] = body.fleet
-        # Its passages' waiting zones found now, in the pool: the fleet's first step would
-        # otherwise wait for them, and every step of its tick behind it.
-        await fleets.waiting_zones(engine, body.map_id, float(plan.params.robot_radius))
-        joined = fleets.join(body.fleet, plan_id, body.map_id, plan)
+        # The fleet's roadmap found now, in the pool (a new fleet's for this robot): its goal
+        # joins a node, and the fleet's first step does not wait for it.
+        now = await engine.store.get_fleet(body.fleet)
+        same = now is not None and now["robots"] and now["map_id"] == body.map_id
+        fmap = await fleets.fleet_map(engine, now if same else fleets.empty(body.map_id, plan))
+        joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap)
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
     return PlanView(plan_id, record, plan, state)
 
@@ -169,7 +171,7 @@ async def step(
         waiting_for, new_fleet = None, None
         if "fleet" in record and fleet is None:
             # Its fleet's state expired: it starts again (the write is fenced on its absence).
-            fleet = fleets.empty(record["map_id"], plan.params.robot_radius)
+            fleet = fleets.empty(record["map_id"], plan)
         elif fleet is not None and fleet["map_id"] != record["map_id"]:
             # The name is another map's fleet now: never written over. A replica's stale copy
             # is read again by the store, which then decides again on the fleet as it is.

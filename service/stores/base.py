@@ -44,8 +44,9 @@ __all__ = [
 Grid = npt.NDArray[np.uint8]
 PlanRecord = dict[str, Any]
 FleetRecord = dict[str, Any]
-"""A fleet's shared state (docs/fleets.md): ``{"map_id", "radius", "next", "robots": {plan_id:
-robot}}``, each robot as :meth:`planner.fleets.Robot.as_dict` writes it."""
+"""A fleet's shared state (docs/fleets.md): ``{"map_id", "radius", "params", "next", "dirty",
+"solve", "robots": {plan_id: robot}, ...}``, each robot its goal, progress and moves, as
+:mod:`service.resources.fleets` writes them."""
 Cells = Sequence[Sequence[int]]
 Event = tuple[str, bytes]
 """A message for the live viewer: its pub/sub channel and its bytes."""
@@ -86,7 +87,8 @@ def live_fleet(fleet: FleetRecord | None, now: float) -> FleetRecord | None:
     gone = [k for k, robot in robots.items() if (robot.get("until") or math.inf) <= now]
     if not gone:
         return fleet
-    return {**fleet, "robots": {k: v for k, v in robots.items() if k not in gone}}
+    robots = {k: v for k, v in robots.items() if k not in gone}
+    return {**fleet, "robots": robots, "dirty": True}
 
 
 def stamp_robot(fleet: FleetRecord, plan_id: str, until: float) -> FleetRecord:

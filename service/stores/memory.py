@@ -160,14 +160,16 @@ class MemoryStore(Store):
             return update
 
     def _step_fleet(self, fleet_key: str, key: str, fleet: FleetRecord) -> None:
-        """Write the stepping robot's entry of ``fleet`` into the fleet as it is now: a robot
-        deleted or expired while the step decided stays gone."""
+        """Write the fleet as the step decided it (under the fleet's lock, on the state the
+        previous step wrote); a robot deleted or expired while the step decided stays gone."""
         plan_id = key.rpartition(".")[2]
-        robot = fleet["robots"].get(plan_id)
         now = self._fleets.get(fleet_key)
-        if robot is None or now is None:
+        if plan_id not in fleet["robots"] or now is None:
             return
-        self._fleets[fleet_key] = {**fleet, "robots": {**now["robots"], plan_id: robot}}
+        robots = {k: v for k, v in fleet["robots"].items() if k in now["robots"] or k == plan_id}
+        if len(robots) < len(fleet["robots"]):
+            fleet = {**fleet, "dirty": True}
+        self._fleets[fleet_key] = {**fleet, "robots": robots}
 
     async def put_fleet_plan(
         self, plan_id: str, record: PlanRecord, join: FleetJoin, *, append: Cells = ()
@@ -294,7 +296,8 @@ class MemoryStore(Store):
             self._forget(key)
 
     def _leave(self, key: str, fleet: str) -> None:
-        """The plan's robot leaves its fleet (the fleet goes with its last robot)."""
+        """The plan's robot leaves its fleet (the fleet goes with its last robot; the others
+        are solved again at their next step)."""
         tenant, _, plan_id = key.rpartition(".")
         fleet_key = f"{tenant}.{fleet}" if tenant else fleet
         now = self._fleets.get(fleet_key)
@@ -302,7 +305,7 @@ class MemoryStore(Store):
             return
         robots = {k: v for k, v in now["robots"].items() if k != plan_id}
         if robots:
-            self._fleets[fleet_key] = {**now, "robots": robots}
+            self._fleets[fleet_key] = {**now, "robots": robots, "dirty": True}
         else:
             del self._fleets[fleet_key]
 

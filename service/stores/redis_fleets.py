@@ -318,7 +318,7 @@ class FleetSteps(ABC):
                 version, state = fleet
                 robots = {} if state is None else dict(state["robots"])
                 robots.pop(plan_id, None)
-                live = live_fleet({**(state or {}), "robots": robots}, time.time())
+                live = live_fleet({**(state or {}), "robots": robots, "dirty": True}, time.time())
                 new = b""
                 if state is not None and live is not None and live["robots"]:
                     new = b"%d %b" % (random.getrandbits(62) + 1, orjson.dumps(live))

@@ -37,10 +37,11 @@ async def get_fleet(
         bool, Query(description="Also each robot's path ahead (its last step's `poses`).")
     ] = False,
 ) -> FleetPublic:
-    """Every robot of the fleet (the API key's own), by priority: its `plan_id`, the cell it was
-    last told to move to (`position`, `position_xy`), its `status` and, waiting, the robot it
-    `waiting_for`; and the map's narrow passages for the fleet's radius with the robots holding
-    each. `404` when no plan of the fleet is alive."""
+    """Every robot of the fleet (the API key's own), in the order they joined: its `plan_id`,
+    the cell it was last told to move to (`position`, `position_xy`), its `status` and, waiting,
+    the robot it is `waiting_for`, the roadmap nodes it still has to visit (`remaining`) and its
+    moves done of the joint plan; and the joint plan's last `solve`. `404` when no plan of the
+    fleet is alive."""
     return present.fleet_public(await fleets.get_fleet(engine, fleet, ahead=ahead))
 
 
@@ -53,8 +54,8 @@ async def get_fleet(
 async def view(fleet: FleetPath, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the fleet's map, every robot (`.robot`, its cell in `data-cell`, its
     `data-status` and `data-waiting-for`), its heading (`.heading`, `data-yaw`), its path ahead
-    (`.ahead`) and goal, and the map's passages (`.passage`, `data-held-by`: the robots holding
-    it), read from `/fleets/{fleet}?ahead=true` a few times a second (from any replica).
+    (`.ahead`), its route left (`.route`) and goal, read from `/fleets/{fleet}?ahead=true` a
+    few times a second (from any replica).
     Everything it loads comes from the service."""
     view_ = await fleets.get_fleet(engine, fleet, ahead=True)
     height, width = view_.shape

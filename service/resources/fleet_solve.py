@@ -1,0 +1,159 @@
+"""A fleet solved again from where its robots are (docs/fleets.md): the joint plan's inputs
+from the fleet's record, the planner's MAPF solver on the roadmap, and each robot's moves in
+the record. Runs in the worker pool: the record in, the new record out, nothing else touched."""
+
+from __future__ import annotations
+
+import secrets
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import planner
+from planner.fleets import Graph, attach, solve, timed_moves
+from service.stores.base import FleetRecord
+
+__all__ = ["FleetMap", "chain", "node_cell", "resolve"]
+
+
+@dataclass(frozen=True, slots=True)
+class FleetMap:
+    """A fleet's roadmap and the analysis it was built on (for its robots' largest radius)."""
+
+    graph: Graph
+    analysis: planner.Analysis
+
+
+def chain(robot: dict[str, Any]) -> list[int]:
+    """The nodes a robot may be on now: the source of its first move not done, then every move
+    it was told since (one node when it stands still)."""
+    moves, done, told = robot["moves"], robot["done"], robot["told"]
+    if not moves:
+        return [robot["node"]]
+    if done >= len(moves):
+        return [moves[-1][1]]
+    return [moves[done][0]] + [moves[k][1] for k in range(done, told)]
+
+
+def resolve(
+    fleet: FleetRecord, fleet_map: FleetMap, *, time_limit_s: float, seed: int
+) -> FleetRecord:
+    """The fleet with a new joint plan for its robots that step (the parked ones stand where
+    they are, as obstacles), or, when the solver fails within its budget, its old plan kept
+    with the failure in ``solve``."""
+    graph, analysis = fleet_map.graph, fleet_map.analysis
+    robots = fleet["robots"]
+    extras: list[list[int]] = []
+    order = sorted(robots, key=lambda k: robots[k]["rank"])
+    agents = [k for k in order if not robots[k].get("parked")]
+    blocked = np.zeros(graph.nodes, dtype=bool)
+    for node in fleet.get("blocked", {}):
+        if int(node) < graph.nodes:
+            blocked[int(node)] = True
+    old_extras = fleet.get("extras", [])
+    reach = 2.0 * float(fleet["radius"]) / graph.resolution
+    for k in order:
+        if robots[k].get("parked"):
+            for node in chain(robots[k]):
+                if 0 <= node < graph.nodes:
+                    blocked[node] = True
+                else:  # standing off the roadmap: the nodes near it are its too
+                    cell = np.array(node_cell(node, robots[k], old_extras, graph), dtype=np.float64)
+                    near = np.linalg.norm(graph.cells - cell, axis=1) < 2.0 * reach
+                    blocked |= near
+    pending: list[list[int]] = []
+    starts: list[int] = []
+    taken = set()
+    for k in agents:
+        nodes = chain(robots[k])
+        # Places off the roadmap get node numbers after the roadmap's (the schedule's points).
+        nodes = [_renumber(n, robots[k], old_extras, graph, extras) for n in nodes]
+        last = nodes[-1]
+        if last >= graph.nodes:
+            joined = attach(graph, analysis, extras[last - graph.nodes], exclude=taken)
+            if joined < 0:
+                return _failed(fleet, "unreachable", f"robot {k} has no roadmap node in reach")
+            nodes.append(joined)
+            last = joined
+        taken.add(last)
+        starts.append(last)
+        pending.append(nodes)
+    goals = [int(robots[k]["goal_node"]) for k in agents]
+    for node in starts:
+        blocked[node] = False
+    started = time.perf_counter()
+    solution = solve(
+        graph, starts, goals, time_limit_s=time_limit_s, seed=seed, blocked=blocked
+    )
+    figures = {
+        "status": solution.status,
+        "agents": len(agents),
+        "solve_ms": round((time.perf_counter() - started) * 1000.0, 3),
+        "sum_of_costs": int(solution.sum_of_costs),
+        "lower_bound": int(solution.lower_bound),
+        "makespan": int(solution.makespan),
+        "at": time.time(),
+    }
+    if solution.status != "solved":
+        return {**_failed(fleet, solution.status, ""), "solve": figures}
+    timed = timed_moves(solution.paths, pending)
+    new = {}
+    for k in order:
+        robot = dict(robots[k])
+        if k in agents:
+            j = agents.index(k)
+            moves = [list(m) for m in timed[j]]
+            robot["moves"] = moves
+            robot["told"] = sum(1 for m in moves if m[2] < 0)
+            robot["done"] = 0
+            robot["node"] = int(solution.paths[0, j])
+            robot["agent"] = j
+        else:
+            robot["agent"] = -1
+        new[k] = robot
+    return {
+        **fleet,
+        "robots": new,
+        "agents": agents,
+        "extras": extras,
+        "dirty": False,
+        "failed_at": None,
+        "solve_id": secrets.token_hex(8),
+        "solve": figures,
+    }
+
+
+def node_cell(
+    node: int, robot: dict[str, Any], old_extras: list[list[int]], graph: Graph
+) -> list[int]:
+    """The cell of a chain's node: a roadmap node's, a place off the roadmap of the last solve
+    (``old_extras``), or (-1) the robot's own ``cell``: where it was reported or started."""
+    if 0 <= node < graph.nodes:
+        return [int(v) for v in graph.cells[node]]
+    if node >= graph.nodes:
+        return [int(v) for v in old_extras[node - graph.nodes]]
+    return [int(v) for v in robot["cell"]]
+
+
+def _renumber(
+    node: int,
+    robot: dict[str, Any],
+    old_extras: list[list[int]],
+    graph: Graph,
+    extras: list[list[int]],
+) -> int:
+    """A node of the robot's chain in the new solve's numbering: roadmap nodes keep theirs;
+    a place off the roadmap is added to ``extras``."""
+    if 0 <= node < graph.nodes:
+        return node
+    extras.append(node_cell(node, robot, old_extras, graph))
+    return graph.nodes + len(extras) - 1
+
+
+def _failed(fleet: FleetRecord, status: str, why: str) -> FleetRecord:
+    solve_ = {**fleet.get("solve", {}), "status": status, "at": time.time()}
+    if why:
+        solve_["detail"] = why
+    return {**fleet, "dirty": False, "failed_at": time.time(), "solve": solve_}
