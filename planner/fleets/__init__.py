@@ -1,20 +1,7 @@
-"""Fleets: robots of one map stepping among each other (docs/fleets.md)."""
+"""Fleets: robots of one map planned together (docs/api.md, "Fleets"): the graph they move on,
+and offline multi-agent path finding on it (LaCAM with PIBT)."""
 
-from planner.fleets.robots import Robot, covering, robot_cells
-from planner.fleets.traffic import NO_TRAFFIC, YIELD_STEPS, Traffic, after_step, traffic_for
-from planner.fleets.waiting import WaitingZones, no_waiting_zones, wait_distance, waiting_zones
+from planner.fleets.graph import Graph, grid_graph
+from planner.fleets.mapf import Solution, solve
 
-__all__ = [
-    "NO_TRAFFIC",
-    "YIELD_STEPS",
-    "Robot",
-    "Traffic",
-    "WaitingZones",
-    "after_step",
-    "covering",
-    "no_waiting_zones",
-    "robot_cells",
-    "traffic_for",
-    "wait_distance",
-    "waiting_zones",
-]
+__all__ = ["Graph", "Solution", "grid_graph", "solve"]
