@@ -1,0 +1,418 @@
+"""The fleet roadmap (docs/fleets.md, "The roadmap"): a graph over a map's configuration space
+whose nodes are at least ``2 * radius`` apart, and whose straight edges keep that distance from
+every node but their ends and from every edge they share no node with, so that robots on
+disjoint elements never touch. One-lane chains run along the middle of narrow passages; a
+triangular lattice fills open floor.
+
+>>> import planner
+>>> m = planner.grid_map([[0] * 40] * 12, resolution=0.05)
+>>> a = planner.analyse_map(m, planner.resolve_params("wide", robot_radius=0.1, unknown="free"))
+>>> g = build_roadmap(a, radius=0.1)
+>>> g.nodes, g.edges, attach(g, a, [0, 0])
+(10, 17, 0)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import edt
+import numpy as np
+import numpy.typing as npt
+from numba import njit
+
+from planner.analysis.analyse import Analysis
+from planner.analysis.cells import BLOCKED_CELL
+from planner.analysis.medial import medial_axis
+from planner.errors import InvalidInput, quote
+from planner.fleets.graph import Graph, grid_graph
+from planner.fleets.segments import point_segment_sq, segment_free, segment_segment_sq
+
+__all__ = ["attach", "attach_all", "build_roadmap", "spacing"]
+
+#: Most edges a node keeps (a node's neighbours are ``2 * radius`` apart: a handful fit).
+MAX_DEGREE = 16
+#: Cells added to the separation for nodes snapped to cell centers.
+SNAP_MARGIN = 1.5
+#: Candidate edges reach this many lattice spacings (to join chains to the lattice).
+REACH = 2.2
+#: A start or goal joins a node within this many lattice spacings.
+ATTACH_REACH = 2.0
+# Squared distances must beat the separation by this much: float rounding never lets an edge
+# in that exact arithmetic would find too close.
+_SLACK = 1e-6
+
+
+def spacing(radius_cells: float) -> float:
+    """The triangular lattice's spacing for a separation of ``2 * radius_cells`` cells: its
+    rows are the separation plus a snapping margin apart (``sqrt(3) / 2`` of the spacing)."""
+    return 2.0 * (2.0 * radius_cells + SNAP_MARGIN) / math.sqrt(3.0)
+
+
+def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Graph:
+    """The roadmap of ``analysis`` (the map's analysis for a robot of ``radius`` meters, so
+    that its blocked cells are the configuration-space obstacles) for robots of at most
+    ``radius`` meters. Nodes are cells the robot's center may occupy, at least ``2 * radius``
+    apart; edges are straight moves whose every cell (supercover) is free, each at least
+    ``2 * radius`` from every node but its ends and from every edge it shares no node with.
+
+    Costs: the length in cells, plus with ``wide`` the ``clean`` penalty of each cell the move
+    enters (its 8-connected line), as the single-robot ``wide`` preset pays it. When
+    ``2 * radius`` is at most a cell, the roadmap is the free cells, 4-connected
+    (:func:`~planner.fleets.graph.grid_graph`).
+    """
+    if not isinstance(analysis, Analysis):
+        msg = f"analysis: an Analysis expected; {type(analysis).__name__} given"
+        raise TypeError(msg)
+    r = _radius(radius)
+    cs = analysis.cspace
+    if cs is not None and cs.robot_radius < r:
+        msg = (
+            f"radius {r:g} m is more than the analysis's robot radius {cs.robot_radius:g} m: "
+            "analyse the map for the fleet's largest robot"
+        )
+        raise InvalidInput(msg, field="radius")
+    resolution = float(analysis.frame.resolution)
+    free = np.ascontiguousarray(analysis.state != BLOCKED_CELL)
+    clean = np.ascontiguousarray(analysis.clean, dtype=np.float64) if wide else None
+    separation = 2.0 * r / resolution
+    if separation <= 1.0:
+        g = grid_graph(free, resolution=resolution)
+        nodes, edges = g.cells, _pairs(g)
+    else:
+        nodes = _nodes(free, separation)
+        edges = _edges(free, nodes, separation)
+    return _graph(nodes, edges, clean, free.shape, r, resolution)
+
+
+def _radius(radius: Any) -> float:
+    if isinstance(radius, bool) or not isinstance(radius, int | float):
+        raise InvalidInput(f"radius must be a number of meters; got {quote(radius)}", "radius")
+    if not (math.isfinite(radius) and radius >= 0):
+        raise InvalidInput(f"radius must be >= 0 meters; got {quote(radius)}", "radius")
+    return float(radius)
+
+
+def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int64]:
+    """Chain nodes along the medial axis where the free space is narrower than two lattice
+    spacings, then lattice nodes, each kept only if no node is nearer than the separation."""
+    clear = edt.edt(free, black_border=True).astype(np.float64)
+    step = spacing(separation / 2.0)
+    trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), int(math.ceil(step)))
+    skeleton = trunk & (clear < step)
+    minimum = separation + 0.5
+    nodes: npt.NDArray[np.int64] = _place(
+        free, np.ascontiguousarray(skeleton), minimum, step * math.sqrt(3.0) / 2.0, step
+    )
+    return nodes
+
+
+def _edges(
+    free: npt.NDArray[np.bool_], nodes: npt.NDArray[np.int64], separation: float
+) -> npt.NDArray[np.int64]:
+    """The accepted edges ``(m, 2)``, candidates shortest first."""
+    reach = REACH * spacing(separation / 2.0)
+    pairs: npt.NDArray[np.int64] = _candidates(nodes, free.shape[0], free.shape[1], reach)
+    d = nodes[pairs[:, 1]] - nodes[pairs[:, 0]]
+    order = np.lexsort((pairs[:, 1], pairs[:, 0], (d * d).sum(axis=1)))
+    pairs = np.ascontiguousarray(pairs[order])
+    keep = _accept(free, nodes, pairs, separation * separation + _SLACK, reach)
+    out: npt.NDArray[np.int64] = pairs[keep]
+    return out
+
+
+def _pairs(g: Graph) -> npt.NDArray[np.int64]:
+    source = np.repeat(np.arange(g.nodes), np.diff(g.indptr))
+    keep = source < g.indices
+    return np.stack([source[keep], g.indices[keep]], axis=1).astype(np.int64)
+
+
+def _graph(
+    nodes: npt.NDArray[np.int64],
+    edges: npt.NDArray[np.int64],
+    clean: npt.NDArray[np.float64] | None,
+    shape: tuple[int, int],
+    radius: float,
+    resolution: float,
+) -> Graph:
+    """The CSR graph of undirected ``edges``, each stored both ways with its own cost."""
+    source = np.concatenate([edges[:, 0], edges[:, 1]])
+    target = np.concatenate([edges[:, 1], edges[:, 0]])
+    order = np.lexsort((target, source))
+    source, target = source[order], target[order]
+    d = (nodes[target] - nodes[source]).astype(np.float64)
+    costs = np.hypot(d[:, 0], d[:, 1])
+    if clean is not None:
+        costs += _penalties(
+            clean, nodes, np.ascontiguousarray(source), np.ascontiguousarray(target)
+        )
+    indptr = np.zeros(len(nodes) + 1, dtype=np.int64)
+    np.cumsum(np.bincount(source, minlength=len(nodes)), out=indptr[1:])
+    return Graph(
+        np.ascontiguousarray(nodes, dtype=np.int64), indptr, target.astype(np.int64), costs,
+        (int(shape[0]), int(shape[1])), radius=radius, resolution=resolution,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _penalties(
+    clean: npt.NDArray[np.float64],
+    nodes: npt.NDArray[np.int64],
+    source: npt.NDArray[np.int64],
+    target: npt.NDArray[np.int64],
+) -> npt.NDArray[np.float64]:
+    """For each move, the ``clean`` of the cells its 8-connected line enters (the start's
+    excluded, the end's included)."""
+    out = np.zeros(source.size, dtype=np.float64)
+    for e in range(source.size):
+        r0, c0 = nodes[source[e], 0], nodes[source[e], 1]
+        dr, dc = nodes[target[e], 0] - r0, nodes[target[e], 1] - c0
+        n = max(abs(dr), abs(dc))
+        total = 0.0
+        for k in range(1, n + 1):
+            total += clean[r0 + round(dr * k / n), c0 + round(dc * k / n)]
+        out[e] = total
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _prune(skeleton: npt.NDArray[np.bool_], rounds: int) -> npt.NDArray[np.bool_]:
+    """The skeleton without its spurs: ``rounds`` times, every end cell (one 8-neighbour) goes
+    at once. Spurs shorter than that (into corners, off a wall's ragged edge) vanish; loops
+    stay whole, and a dead end loses ``rounds`` cells, which a start there reaches straight."""
+    H, W = skeleton.shape
+    out = skeleton.copy()
+    cells = np.flatnonzero(skeleton.ravel())
+    ends = np.empty(cells.size, dtype=np.int64)
+    for _ in range(rounds):
+        n = 0
+        for k in cells:
+            r, c = k // W, k % W
+            if not out[r, c]:
+                continue
+            around = 0
+            for i in range(max(0, r - 1), min(H, r + 2)):
+                for j in range(max(0, c - 1), min(W, c + 2)):
+                    around += out[i, j]
+            if around <= 2:  # itself and at most one neighbour
+                ends[n] = k
+                n += 1
+        if n == 0:
+            break
+        for k in ends[:n]:
+            out[k // W, k % W] = False
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _buckets(
+    nodes: npt.NDArray[np.int64], size: float, H: int, W: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, int]:
+    """Nodes in square buckets of ``size`` cells: ``head[bucket]`` its first node, ``after``
+    the next node of the same bucket (-1 ends), and the buckets' grid shape."""
+    bh, bw = int(H / size) + 1, int(W / size) + 1
+    head = np.full(bh * bw, -1, dtype=np.int64)
+    after = np.full(nodes.shape[0], -1, dtype=np.int64)
+    for k in range(nodes.shape[0]):
+        b = int(nodes[k, 0] / size) * bw + int(nodes[k, 1] / size)
+        after[k] = head[b]
+        head[b] = k
+    return head, after, bh, bw
+
+
+@njit(cache=True, nogil=True)
+def _near(
+    grid: npt.NDArray[np.int64], size: int, W: int, r: int, c: int, minimum: float
+) -> bool:  # fmt: skip
+    """Whether a node marked in ``grid`` (bucket -> the node's flat cell, ``size`` cells a
+    bucket: one node a bucket, as nodes are farther apart than a bucket's diagonal) is nearer
+    than ``minimum`` to ``(r, c)``."""
+    bh, bw = grid.shape[0], grid.shape[1]
+    reach = int(math.ceil(minimum / size))
+    minimum_sq = minimum * minimum
+    br, bc = r // size, c // size
+    for i in range(max(0, br - reach), min(bh, br + reach + 1)):
+        for j in range(max(0, bc - reach), min(bw, bc + reach + 1)):
+            k = grid[i, j]
+            if k >= 0:
+                dr, dc = k // W - r, k % W - c
+                if dr * dr + dc * dc < minimum_sq:
+                    return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _place(
+    free: npt.NDArray[np.bool_],
+    skeleton: npt.NDArray[np.bool_],
+    minimum: float,
+    row_step: float,
+    col_step: float,
+) -> npt.NDArray[np.int64]:
+    """Nodes ``(n, 2)``: the ``skeleton`` cells walked breadth first (so that a chain is
+    walked along), then the triangular lattice's cells, each kept when free and no kept node
+    is nearer than ``minimum``."""
+    H, W = free.shape
+    size = max(1, int(minimum / math.sqrt(2.0)))  # a bucket's diagonal below the minimum
+    grid = np.full((H // size + 1, W // size + 1), -1, dtype=np.int64)
+    out = np.empty((H * W, 2), dtype=np.int64)
+    n = 0
+    seen = np.zeros((H, W), dtype=np.bool_)
+    queue = np.empty(H * W, dtype=np.int64)
+    for root in range(H * W):
+        if not skeleton[root // W, root % W] or seen[root // W, root % W]:
+            continue
+        seen[root // W, root % W] = True
+        queue[0], head, tail = root, 0, 1
+        while head < tail:
+            r, c = queue[head] // W, queue[head] % W
+            head += 1
+            if not _near(grid, size, W, r, c, minimum):
+                grid[r // size, c // size] = r * W + c
+                out[n, 0], out[n, 1] = r, c
+                n += 1
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    r2, c2 = r + dr, c + dc
+                    if 0 <= r2 < H and 0 <= c2 < W and skeleton[r2, c2] and not seen[r2, c2]:
+                        seen[r2, c2] = True
+                        queue[tail] = r2 * W + c2
+                        tail += 1
+    rows = int((H - 1) / row_step) + 1
+    for i in range(rows):
+        r = int(round(i * row_step))
+        shift = col_step / 2.0 if i % 2 else 0.0
+        j = 0
+        while True:
+            c = int(round(shift + j * col_step))
+            j += 1
+            if c >= W:
+                break
+            if free[r, c] and not _near(grid, size, W, r, c, minimum):
+                grid[r // size, c // size] = r * W + c
+                out[n, 0], out[n, 1] = r, c
+                n += 1
+    return out[:n].copy()
+
+
+@njit(cache=True, nogil=True)
+def _candidates(
+    nodes: npt.NDArray[np.int64], H: int, W: int, reach: float
+) -> npt.NDArray[np.int64]:  # fmt: skip
+    """Every pair ``[a, b]`` (``a < b``) of nodes at most ``reach`` apart."""
+    head, after, bh, bw = _buckets(nodes, reach, H, W)
+    count = 0
+    for phase in range(2):
+        if phase == 1:
+            out = np.empty((count, 2), dtype=np.int64)
+            count = 0
+        for a in range(nodes.shape[0]):
+            br, bc = int(nodes[a, 0] / reach), int(nodes[a, 1] / reach)
+            for i in range(max(0, br - 1), min(bh, br + 2)):
+                for j in range(max(0, bc - 1), min(bw, bc + 2)):
+                    b = head[i * bw + j]
+                    while b >= 0:
+                        dr, dc = nodes[b, 0] - nodes[a, 0], nodes[b, 1] - nodes[a, 1]
+                        if b > a and dr * dr + dc * dc <= reach * reach:
+                            if phase == 1:
+                                out[count, 0], out[count, 1] = a, b
+                            count += 1
+                        b = after[b]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _accept(
+    free: npt.NDArray[np.bool_],
+    nodes: npt.NDArray[np.int64],
+    pairs: npt.NDArray[np.int64],
+    limit_sq: float,
+    reach: float,
+) -> npt.NDArray[np.bool_]:
+    """Greedily, in the order of ``pairs``: keep an edge whose cells are free, that no node but
+    its ends comes within the separation of, nor any kept edge sharing no node with it
+    (squared distances below ``limit_sq``). An edge in conflict with a kept one has an end
+    within ``reach + separation + reach / 2`` of its midpoint: two buckets of ``reach``."""
+    H, W = free.shape
+    head, after, bh, bw = _buckets(nodes, reach, H, W)
+    degree = np.zeros(nodes.shape[0], dtype=np.int64)
+    adjacent = np.empty((nodes.shape[0], MAX_DEGREE), dtype=np.int64)
+    keep = np.zeros(pairs.shape[0], dtype=np.bool_)
+    for e in range(pairs.shape[0]):
+        a, b = pairs[e, 0], pairs[e, 1]
+        if degree[a] == MAX_DEGREE or degree[b] == MAX_DEGREE:
+            continue
+        ar, ac, br_, bc_ = nodes[a, 0], nodes[a, 1], nodes[b, 0], nodes[b, 1]
+        if not segment_free(free, ar, ac, br_, bc_):
+            continue
+        ok = True
+        mr, mc = int((ar + br_) / 2 / reach), int((ac + bc_) / 2 / reach)
+        for i in range(max(0, mr - 2), min(bh, mr + 3)):
+            for j in range(max(0, mc - 2), min(bw, mc + 3)):
+                k = head[i * bw + j]
+                while k >= 0 and ok:
+                    if k != a and k != b:
+                        kr, kc = nodes[k, 0], nodes[k, 1]
+                        if point_segment_sq(kr, kc, ar, ac, br_, bc_) < limit_sq:
+                            ok = False
+                        for t in range(degree[k]):
+                            m = adjacent[k, t]
+                            if ok and m != a and m != b:
+                                d = segment_segment_sq(
+                                    ar, ac, br_, bc_, kr, kc, nodes[m, 0], nodes[m, 1]
+                                )
+                                if d < limit_sq:
+                                    ok = False
+                    k = after[k]
+        if ok:
+            keep[e] = True
+            adjacent[a, degree[a]] = b
+            adjacent[b, degree[b]] = a
+            degree[a] += 1
+            degree[b] += 1
+    return keep
+
+
+def attach(graph: Graph, analysis: Analysis, cell: Any) -> int:
+    """The node a robot at ``cell`` (``[row, col]``) joins: the nearest node it reaches by a
+    straight move whose every cell is free, within two lattice spacings; -1 if none."""
+    return int(attach_all(graph, analysis, [cell])[0])
+
+
+def attach_all(graph: Graph, analysis: Analysis, cells: Any) -> npt.NDArray[np.int64]:
+    """:func:`attach` for each of ``cells`` (``(k, 2)``)."""
+    if analysis.shape != graph.shape:
+        msg = f"analysis of shape {analysis.shape!r} for a graph of shape {graph.shape!r}"
+        raise InvalidInput(msg, field="analysis")
+    query = np.asarray(cells)
+    if query.ndim != 2 or query.shape[1] != 2 or not np.issubdtype(query.dtype, np.integer):
+        msg = f"cells: a (k, 2) array of [row, col] integers expected; {quote(cells)} given"
+        raise InvalidInput(msg, field="cells")
+    free = np.ascontiguousarray(analysis.state != BLOCKED_CELL)
+    reach = ATTACH_REACH * spacing(graph.radius / graph.resolution)
+    out: npt.NDArray[np.int64] = _attach(
+        free, np.ascontiguousarray(graph.cells), query.astype(np.int64), reach * reach
+    )
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _attach(
+    free: npt.NDArray[np.bool_],
+    nodes: npt.NDArray[np.int64],
+    query: npt.NDArray[np.int64],
+    reach_sq: float,
+) -> npt.NDArray[np.int64]:
+    out = np.full(query.shape[0], -1, dtype=np.int64)
+    for q in range(query.shape[0]):
+        r, c = query[q, 0], query[q, 1]
+        d = (nodes[:, 0] - r) ** 2 + (nodes[:, 1] - c) ** 2
+        order = np.argsort(d, kind="mergesort")
+        for k in order:
+            if d[k] > reach_sq:
+                break
+            if segment_free(free, r, c, nodes[k, 0], nodes[k, 1]):
+                out[q] = k
+                break
+    return out
