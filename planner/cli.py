@@ -1,5 +1,5 @@
 """``python -m planner``: plan, run Moving AI scenarios, simulate, run the paper's experiment,
-render pictures, list a map's narrow passages, or show the bundled demo."""
+render pictures, list a map's narrow passages, solve a MAPF instance, or show the bundled demo."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from planner.analysis.analyse import analyse
+from planner.cli_mapf import add_mapf_command
 from planner.cli_passages import add_command, crossings
 from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import DESCRIPTIONS, environment
@@ -147,6 +148,7 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=0, help="the episode's seed (--animate)")
     r.set_defaults(run=_render)
     add_command(sub)
+    add_mapf_command(sub)
     return parser
 
 

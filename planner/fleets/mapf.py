@@ -98,7 +98,7 @@ def solve(
     )  # fmt: skip
     if found.status != "solved":
         return _unsolved(found.status, k, lower_bound, began, found.expanded, found.configurations)
-    paths = np.stack(found.configs).astype(np.int64).reshape(-1, k)
+    paths = np.stack(found.configs).astype(np.int64)
     away = paths != last
     # an agent's cost: one past the last timestep it is away from its goal
     costs = np.where(away.any(axis=0), len(paths) - np.argmax(away[::-1], axis=0), 0)

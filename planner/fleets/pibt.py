@@ -12,19 +12,16 @@ from planner.fleets.graph import Graph
 
 __all__ = ["Pibt", "tie_breaker"]
 
-_MIX_A = 6364136223846793005
-_MIX_B = 1442695040888963407
-_MASK = 0x7FFFFFFFFFFFFFFF
+_PRIME = 2147483647  # 2**31 - 1: every product below stays under 2**63, so nothing overflows
 
 
 @njit(cache=True, nogil=True)
 def tie_breaker(node: int, salt: int) -> int:
-    """A pseudo-random non-negative integer of ``node`` and ``salt``: PIBT's seeded tie-break
-    between next nodes equally near an agent's goal, the same in numba and in Python."""
-    x = (node * _MIX_A + salt) & _MASK
-    x ^= x >> 29
-    x = (x * _MIX_B) & _MASK
-    return x ^ (x >> 32)
+    """A pseudo-random integer in [0, 2**31) of ``node`` and ``salt`` (0..2**62): PIBT's seeded
+    tie-break between next nodes equally near an agent's goal, the same in numba and Python."""
+    x = (node * 48271 + salt) % _PRIME
+    x = (x * 16807 + (salt >> 31)) % _PRIME
+    return int((x * 1103515245 + 12345) % _PRIME)
 
 
 @njit(cache=True, nogil=True)
