@@ -46,9 +46,16 @@ import numpy as np
 import orjson
 import uvloop
 from common import Process, free_port, ros_maps, service
-from fleet_scenarios import Scenario, corridor_scenario, map_body, random_scenario
+from fleet_scenarios import (
+    Scenario,
+    corridor_scenario,
+    map_body,
+    random_corridor_scenario,
+    random_scenario,
+)
 
 import planner
+from planner.fleets import segment_distances
 from service.ops.metrics import BUCKETS
 
 if TYPE_CHECKING:
@@ -64,7 +71,6 @@ class Outcome:
     ticks: int = 0
     budget: int = 0
     collisions: list[str] = field(default_factory=list)
-    passage_waits: list[str] = field(default_factory=list)
     step_ms: list[float] = field(default_factory=list)
     client_cpu_s: float = 0.0
     """The client process's CPU time (user and system) while the ticks' steps were in flight."""
@@ -79,10 +85,6 @@ class Outcome:
         return self.arrived < self.robots
 
 
-def _passage_cells(robot_map: planner.RobotMap, radius: float) -> list[set[int]]:
-    return [set(p.cells.tolist()) for p in planner.find_passages(robot_map, radius)]
-
-
 async def run(
     clients: Sequence[httpx.AsyncClient],
     scenario: Scenario,
@@ -91,13 +93,17 @@ async def run(
     seed: int,
     max_ticks: int | None = None,
     steppers: Sequence[Any] | None = None,
+    skip: float = 0.0,
+    pause: float = 0.0,
 ) -> Outcome:
-    """Upload the map, create the fleet's plans, step every robot once a tick (concurrently, in
-    a random order; a robot's steps alternate between ``clients``, or ``steppers``: clients of
-    the same URLs with httpx's ``post``, such as :class:`AiohttpStepper`) until all arrived or the
-    budget is spent; delete the plans."""
+    """Upload the map, create the fleet's plans, then tick until all arrived or the budget is
+    spent: each tick, the robots step concurrently in a random order (a robot's steps alternate
+    between ``clients``, or ``steppers``: clients of the same URLs with httpx's ``post``, such
+    as :class:`AiohttpStepper`); with ``skip``, each robot sits a tick out with that chance, and
+    with ``pause``, falls silent for 5-30 ticks. A robot drives its last answer's poses until it
+    steps again: after every tick, any two robots' poses must keep the sum of their radii.
+    Delete the plans at the end."""
     m, radius = scenario.robot_map, scenario.radius
-    res, w = m.resolution, m.shape[1]
     answer = await clients[0].post("/maps", json=map_body(m))
     answer.raise_for_status()
     map_id = answer.json()["map_id"]
@@ -112,34 +118,44 @@ async def run(
                 raise RuntimeError(f"plan {body}: {made.status_code} {made.text[:300]}")
             plan_ids.append(made.json()["plan_id"])
             solo += len(made.json()["preview"]["path"]) - 1
-        outcome.budget = 4 * solo + 50 if max_ticks is None else max_ticks
+        outcome.budget = 4 * solo + 200 if max_ticks is None else max_ticks
         rng = np.random.default_rng(seed)
-        passages = _passage_cells(m, radius)
-        where = [tuple(start) for start, _ in scenario.robots]
+        centers = m.frame.centers(np.array([s for s, _ in scenario.robots]))
+        driving = [np.array([xy]) for xy in centers]  # each robot's poses until it steps again
         done = [False] * len(plan_ids)
+        seqs = [0] * len(plan_ids)
+        silent = [0] * len(plan_ids)
         for tick in range(outcome.budget):
-            order = rng.permutation(len(plan_ids))
+            order = [int(i) for i in rng.permutation(len(plan_ids))]
+            stepping = []
+            for i in order:
+                if silent[i]:
+                    silent[i] -= 1
+                elif pause and rng.random() < pause:
+                    silent[i] = int(rng.integers(5, 31))
+                elif not (skip and rng.random() < skip):
+                    stepping.append(i)
             answers: dict[int, dict[str, Any]] = {}
 
             async def step(i: int, tick: int = tick, answers: dict[int, Any] = answers) -> None:
                 client = (steppers or clients)[(tick + i) % len(clients)]
                 t0 = time.perf_counter()
-                got = await client.post(f"/plan/{plan_ids[i]}/step", json={"seq": tick})
+                got = await client.post(f"/plan/{plan_ids[i]}/step", json={"seq": seqs[i]})
                 outcome.step_ms.append((time.perf_counter() - t0) * 1000)
                 if got.status_code != 200:
                     outcome.errors.append(f"tick {tick} robot {i}: {got.status_code} {got.text}")
                     return
+                seqs[i] += 1
                 answers[i] = got.json()
 
             cpu = time.process_time()
-            await asyncio.gather(*(step(int(i)) for i in order))
+            await asyncio.gather(*(step(i) for i in stepping))
             outcome.client_cpu_s += time.process_time() - cpu
-            before = list(where)
             for i, a in answers.items():
-                where[i] = tuple(a["position"])
+                driving[i] = np.array([[p["x"], p["y"]] for p in a["poses"]]).reshape(-1, 2)
                 done[i] = a["status"] == "arrived"
             outcome.ticks = tick + 1
-            _check(outcome, tick, before, where, answers, passages, radius / res, w)
+            _check(outcome, tick, driving, radius)
             if all(done):
                 break
         outcome.arrived = sum(done)
@@ -194,32 +210,21 @@ class AiohttpStepper:
         await self._session.close()
 
 
-def _check(
-    outcome: Outcome,
-    tick: int,
-    before: list[Any],
-    after: list[Any],
-    answers: dict[int, dict[str, Any]],
-    passages: list[set[int]],
-    radius_cells: float,
-    width: int,
-) -> None:
-    n = len(after)
+def _check(outcome: Outcome, tick: int, driving: list[Any], radius: float) -> None:
+    """Count the pairs of robots whose poses (the polylines they drive until their next step)
+    come closer than the sum of their radii."""
+    n = len(driving)
     for i in range(n):
         for j in range(i + 1, n):
-            (a, b), (c, d) = after[i], after[j]
-            if (a, b) == (c, d):
-                outcome.collisions.append(f"tick {tick}: robots {i} and {j} in cell {a, b}")
-            elif before[i] == after[j] and before[j] == after[i] and before[i] != after[i]:
-                outcome.collisions.append(f"tick {tick}: robots {i} and {j} swapped")
-            elif (a - c) ** 2 + (b - d) ** 2 < (2 * radius_cells) ** 2 - 1e-9:
+            if _polylines_apart(driving[i], driving[j]) < 2 * radius - 1e-6:
                 outcome.collisions.append(f"tick {tick}: robots {i} and {j} closer than 2r")
-    for p, cells in enumerate(passages):
-        inside = [i for i in range(n) if after[i][0] * width + after[i][1] in cells]
-        if len(inside) > 1:
-            waiting = [i for i in inside if answers.get(i, {}).get("move") == "WAIT"]
-            if waiting:
-                outcome.passage_waits.append(f"tick {tick}: {waiting} wait in passage {p}")
+
+
+def _polylines_apart(a: Any, b: Any) -> float:
+    """The least distance between two polylines (``(n, 2)`` points; one point: a point)."""
+    a0, a1 = (a[:-1], a[1:]) if len(a) > 1 else (a, a)
+    b0, b1 = (b[:-1], b[1:]) if len(b) > 1 else (b, b)
+    return float(min(segment_distances(p, q, b0, b1).min() for p, q in zip(a0, a1)))
 
 
 def _percentile(values: list[float], q: float) -> float:
@@ -335,11 +340,10 @@ async def _bench(
 
 
 HEADER = (
-    "| store | scenario | client | runs | collisions | deadlocks | arrived | passage waits "
-    "| errors "
+    "| store | scenario | client | runs | collisions | deadlocks | arrived | errors "
     "| client p50 ms | client p99 ms | server p50 ms | server p99 ms | server ≤ 10 ms "
     "| client CPU µs/step | server CPU µs/step |\n"
-    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 )
 """The table :func:`_report` writes a row of."""
 
@@ -356,7 +360,6 @@ def _report(store: str, name: str, outcomes: list[Outcome], client: str) -> str:
         f"| {store} | {name} | {client} | {len(outcomes)} | "
         f"{sum(len(o.collisions) for o in outcomes)} | "
         f"{sum(o.deadlock for o in outcomes)} | {sum(o.arrived for o in outcomes)}/{robots} | "
-        f"{sum(len(o.passage_waits) for o in outcomes)} | "
         f"{sum(len(o.errors) for o in outcomes)} | {_percentile(steps, 50):.2f} | "
         f"{_percentile(steps, 99):.2f} | {bucket_percentile(buckets, 50):.2f} | "
         f"{bucket_percentile(buckets, 99):.2f} | {within:.1%} | {client_cpu:.0f} | "
@@ -444,7 +447,7 @@ def main() -> None:
                 print(_report(store, name, outcomes, client), flush=True)
                 print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:
-                    for line in (o.collisions + o.passage_waits + o.errors)[:3]:
+                    for line in (o.collisions + o.errors)[:3]:
                         print("  ", line, file=sys.stderr)
 
 

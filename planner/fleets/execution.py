@@ -91,7 +91,7 @@ def schedule(
     ``points`` (``(n, 2)``, cells; nodes from ``roadmap_nodes`` on are places off the roadmap).
     ``reach`` (cells) is the distance two robots must keep: an off-roadmap move is waited for by
     the later moves of others that come closer."""
-    timed = [[(int(u), int(v), int(t)) for u, v, t in own] for own in timed]
+    timed = [[(int(u), int(v), int(t)) for u, v, t in own] for own in moves]
     # Moves out of each roadmap node, by start time; moves off the roadmap, as segments.
     leaving: dict[int, list[tuple[int, int, int]]] = {}
     off: list[tuple[int, int, int, int]] = []  # robot, move index, source, target

@@ -149,6 +149,27 @@ def _swap_partner(
 
 
 @njit(cache=True, nogil=True)
+def _closes_cycle(
+    i: int, j: int, q_from: np.ndarray, q_to: np.ndarray, now: np.ndarray
+) -> bool:
+    """Whether agent ``i`` moving into agent ``j``'s node closes a rotation: following who moves
+    into whose node from ``j`` leads back to ``i``. A fleet executes its plan by the order of
+    its moves (planner.fleets.execution), and robots rotating at once can never do that."""
+    a = j
+    for _ in range(q_from.shape[0]):
+        t = q_to[a]
+        if t < 0 or t == q_from[a]:
+            return False
+        b = now[t]
+        if b == i:
+            return True
+        if b < 0:
+            return False
+        a = b
+    return False
+
+
+@njit(cache=True, nogil=True)
 def _pibt(
     indptr: np.ndarray,
     indices: np.ndarray,
@@ -182,6 +203,9 @@ def _pibt(
         u = q_to[i]
         if ok and u >= 0 and u != q_from[i] and now[u] >= 0 and q_to[now[u]] == q_from[i]:
             ok = False
+        if ok and u >= 0 and u != q_from[i] and now[u] >= 0 and now[u] != i:
+            if _closes_cycle(i, now[u], q_from, q_to, now):
+                ok = False  # fixed moves that rotate
     width = 1
     for v in q_from:
         width = max(width, indptr[v + 1] - indptr[v] + 1)
@@ -224,6 +248,8 @@ def _pibt(
                     j = now[u]
                     if j >= 0 and j != i and q_to[j] == q_from[i]:
                         continue  # a swap
+                    if j >= 0 and j != i and q_to[j] >= 0 and _closes_cycle(i, j, q_from, q_to, now):
+                        continue  # a rotation
                     nxt[u] = i
                     q_to[i] = u
                     if j < 0 or j == i or q_to[j] >= 0:
@@ -236,7 +262,13 @@ def _pibt(
             depth -= 1
             if result == 1:
                 s = partner[d]
-                if s >= 0 and tried[d] == 1 and q_to[s] < 0 and nxt[q_from[i]] < 0:
+                if (
+                    s >= 0
+                    and tried[d] == 1
+                    and q_to[s] < 0
+                    and nxt[q_from[i]] < 0
+                    and not _closes_cycle(s, i, q_from, q_to, now)
+                ):
                     nxt[q_from[i]] = s  # pull the partner into the node i leaves
                     q_to[s] = q_from[i]
             else:  # no node: stay, and let the agent that pushed try its next

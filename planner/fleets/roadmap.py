@@ -374,13 +374,16 @@ def _accept(
     return keep
 
 
-def attach(graph: Graph, analysis: Analysis, cell: Any) -> int:
+def attach(graph: Graph, analysis: Analysis, cell: Any, *, exclude: Any = ()) -> int:
     """The node a robot at ``cell`` (``[row, col]``) joins: the nearest node it reaches by a
-    straight move whose every cell is free, within two lattice spacings; -1 if none."""
-    return int(attach_all(graph, analysis, [cell])[0])
+    straight move whose every cell is free, within two lattice spacings, and not one of
+    ``exclude`` (nodes other robots join); -1 if none."""
+    return int(attach_all(graph, analysis, [cell], exclude=exclude)[0])
 
 
-def attach_all(graph: Graph, analysis: Analysis, cells: Any) -> npt.NDArray[np.int64]:
+def attach_all(
+    graph: Graph, analysis: Analysis, cells: Any, *, exclude: Any = ()
+) -> npt.NDArray[np.int64]:
     """:func:`attach` for each of ``cells`` (``(k, 2)``)."""
     if analysis.shape != graph.shape:
         msg = f"analysis of shape {analysis.shape!r} for a graph of shape {graph.shape!r}"
@@ -391,8 +394,10 @@ def attach_all(graph: Graph, analysis: Analysis, cells: Any) -> npt.NDArray[np.i
         raise InvalidInput(msg, field="cells")
     free = np.ascontiguousarray(analysis.state != BLOCKED_CELL)
     reach = ATTACH_REACH * spacing(graph.radius / graph.resolution)
+    taken = np.zeros(graph.nodes, dtype=np.bool_)
+    taken[np.asarray(list(exclude), dtype=np.int64)] = True
     out: npt.NDArray[np.int64] = _attach(
-        free, np.ascontiguousarray(graph.cells), query.astype(np.int64), reach * reach
+        free, np.ascontiguousarray(graph.cells), query.astype(np.int64), reach * reach, taken
     )
     return out
 
@@ -403,6 +408,7 @@ def _attach(
     nodes: npt.NDArray[np.int64],
     query: npt.NDArray[np.int64],
     reach_sq: float,
+    taken: npt.NDArray[np.bool_],
 ) -> npt.NDArray[np.int64]:
     out = np.full(query.shape[0], -1, dtype=np.int64)
     for q in range(query.shape[0]):
@@ -412,6 +418,8 @@ def _attach(
         for k in order:
             if d[k] > reach_sq:
                 break
+            if taken[k]:
+                continue
             if segment_free(free, r, c, nodes[k, 0], nodes[k, 1]):
                 out[q] = k
                 break

@@ -15,7 +15,7 @@ from numba import njit
 
 from planner.analysis.passages import find_passages
 from planner.errors import InvalidInput, quote
-from planner.fleets import build_roadmap, solve
+from planner.fleets import attach, build_roadmap, solve
 from planner.maps.robot_maps import grid_map
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan, clearance_metrics, plan
@@ -275,9 +275,6 @@ def warm_up() -> None:
     rooms[:, 4] = 1
     rooms[4, 4] = 0
     find_passages(grid_map(rooms, resolution=0.1), robot_radius=0.05, max_width=0.3)
-    # A fleet: its roadmap, and a joint plan on it.
-    fleet_map = build_roadmap(plan(rooms == 0, (0, 0), (8, 8), preset="shortest").analysis, radius=0.0)
-    solve(fleet_map, [0, 1], [1, 0], time_limit_s=1.0)
     # A service's maps are robot maps: their configuration space's arrays are read-only, and
     # numba compiles apart for those. Steps among cells given as an array (as a fleet's are):
     # the path ahead meeting a robot, and held up until the robot searches its way round.
@@ -290,3 +287,8 @@ def warm_up() -> None:
             session = Session(p)
             for _ in range(3):
                 session.step(np.array(cells, dtype=np.int64))
+    # A fleet: its roadmap (chains and lattice), a start joining it, and a joint plan on it.
+    p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1)
+    roadmap = build_roadmap(p.analysis, radius=0.1)
+    attach(roadmap, p.analysis, (3, 1), exclude=[0])
+    solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=1.0)
