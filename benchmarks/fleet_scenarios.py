@@ -32,6 +32,7 @@ def corridor_map(
     room = round(room_m / resolution)
     other = room if right_m is None else round(right_m / resolution)
     lane = max(1, round(lane_m / resolution) - 1)
+    lane += 1 - lane % 2  # odd: a cell on the lane's middle
     length = round(length_m / resolution)
     h, w = max(room, other) + 2, room + other + length + 2
     occ = np.full((h, w), 100, dtype=np.int8)
@@ -79,7 +80,7 @@ def random_corridor_scenario(seed: int, *, radius: float = 0.25) -> Scenario:
     """Rooms of random sizes (2.5-5 m) joined by a corridor 1-4 m long and 2r + 0.05 m to 4r
     wide, 1-4 robots a side swapping rooms (as many as the rooms hold apart)."""
     rng = np.random.default_rng(seed)
-    resolution = 0.05
+    resolution = 0.025
     lane = float(rng.uniform(2 * radius + 0.05, 4 * radius))
     m = corridor_map(
         resolution=resolution, lane_m=lane, length_m=float(rng.uniform(1.0, 4.0)),

@@ -104,8 +104,6 @@ def schedule(
     after: list[list[set[tuple[int, int]]]] = [[set() for _ in own] for own in timed]
     for j, own in enumerate(timed):
         for k, (_, v, t) in enumerate(own):
-            if t < 0:
-                continue  # told before the solve: nothing to wait for now
             last: dict[int, int] = {}
             for t2, i, k2 in leaving.get(v, ()):
                 if i != j and t2 <= t and k2 > last.get(i, -1):
@@ -126,23 +124,22 @@ def _wait_for_off_roadmap(
     points: npt.NDArray[np.float64],
     reach: float,
 ) -> None:
-    """Every later move of another robot that comes within ``reach`` of an off-roadmap move
-    (its segment) waits for that move, which always comes first (it is told before the solve)."""
-    owner, index, sources, targets = [], [], [], []
+    """Every later move (by plan time) of another robot that comes within ``reach`` of an
+    off-roadmap move (its segment) waits for that move."""
+    owner, index, sources, targets, times = [], [], [], [], []
     for j, own in enumerate(moves):
         for k, (u, v, t) in enumerate(own):
-            if t >= 0:
-                owner.append(j)
-                index.append(k)
-                sources.append(u)
-                targets.append(v)
-    if not owner:
-        return
+            owner.append(j)
+            index.append(k)
+            sources.append(u)
+            targets.append(v)
+            times.append(t)
     a, b = points[np.asarray(sources)], points[np.asarray(targets)]
-    robots = np.asarray(owner)
+    robots, when = np.asarray(owner), np.asarray(times)
     for i, k2, u, v in off:
         near = segment_distances(points[u], points[v], a, b) < reach
-        for m in np.nonzero(near & (robots != i))[0]:
+        later = when > moves[i][k2][2]
+        for m in np.nonzero(near & later & (robots != i))[0]:
             after[owner[m]][index[m]].add((i, k2))
 
 

@@ -10,9 +10,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 import planner
-from planner.fleets import Graph, attach, solve, timed_moves
+from planner.fleets import Graph, Move, attach, segment_distances, solve, timed_moves
 from service.stores.base import FleetRecord
 
 __all__ = ["FleetMap", "chain", "node_cell", "resolve"]
@@ -63,20 +64,33 @@ def resolve(
                     cell = np.array(node_cell(node, robots[k], old_extras, graph), dtype=np.float64)
                     near = np.linalg.norm(graph.cells - cell, axis=1) < 2.0 * reach
                     blocked |= near
+    def others(k: str) -> list[npt.NDArray[np.float64]]:
+        """The other robots' places: their chains' points, and the moves joining so far."""
+        out = [
+            np.array([node_cell(n, robots[o], old_extras, graph) for n in chain(robots[o])], float)
+            for o in order
+            if o != k
+        ]
+        return out + spurs
+
+    spurs: list[npt.NDArray[np.float64]] = []
     pending: list[list[int]] = []
     starts: list[int] = []
-    taken = set()
+    joins: list[int] = []  # the agents joining the roadmap from a place off it
+    taken = {chain(robots[k])[-1] for k in agents} - {-1}
     for k in agents:
         nodes = chain(robots[k])
         # Places off the roadmap get node numbers after the roadmap's (the schedule's points).
         nodes = [_renumber(n, robots[k], old_extras, graph, extras) for n in nodes]
         last = nodes[-1]
         if last >= graph.nodes:
-            joined = attach(graph, analysis, extras[last - graph.nodes], exclude=taken)
+            joined = _join(fleet_map, extras[last - graph.nodes], taken, others(k), reach)
             if joined < 0:
                 return _failed(fleet, "unreachable", f"robot {k} has no roadmap node in reach")
             nodes.append(joined)
+            spurs.append(np.array([extras[last - graph.nodes], graph.cells[joined]], float))
             last = joined
+            joins.append(len(starts))
         taken.add(last)
         starts.append(last)
         pending.append(nodes)
@@ -98,7 +112,7 @@ def resolve(
     }
     if solution.status != "solved":
         return {**_failed(fleet, solution.status, ""), "solve": figures}
-    timed = timed_moves(solution.paths, pending)
+    timed = _joins_last(timed_moves(solution.paths, pending), joins)
     new = {}
     for k in order:
         robot = dict(robots[k])
@@ -106,7 +120,7 @@ def resolve(
             j = agents.index(k)
             moves = [list(m) for m in timed[j]]
             robot["moves"] = moves
-            robot["told"] = sum(1 for m in moves if m[2] < 0)
+            robot["told"] = sum(1 for m in moves if m[2] < 0) - (j in joins)
             robot["done"] = 0
             robot["node"] = int(solution.paths[0, j])
             robot["agent"] = j
@@ -123,6 +137,55 @@ def resolve(
         "solve_id": secrets.token_hex(8),
         "solve": figures,
     }
+
+
+def _join(
+    fleet_map: FleetMap,
+    cell: list[int],
+    taken: set[int],
+    others: list[npt.NDArray[np.float64]],
+    reach: float,
+) -> int:
+    """The node a robot at ``cell`` joins the roadmap at: the nearest it reaches by a straight
+    move that keeps ``reach`` from every other robot's place, else the nearest (then it waits
+    for the robot in its way); -1 when none is in reach."""
+    graph, point = fleet_map.graph, np.array(cell, dtype=np.float64)
+    rejected = set(taken)
+    first = -1
+    for _ in range(12):
+        node = attach(graph, fleet_map.analysis, cell, exclude=rejected)
+        if node < 0:
+            break
+        first = node if first < 0 else first
+        target = graph.cells[node].astype(np.float64)
+        clear = all(
+            segment_distances(point, target, p[:-1] if len(p) > 1 else p, p[1:] if len(p) > 1 else p).min()
+            >= reach
+            for p in others
+        )
+        if clear:
+            return int(node)
+        rejected.add(int(node))
+    return first
+
+
+def _joins_last(moves: list[list[Move]], joins: list[int]) -> list[list[Move]]:
+    """The moves with each joining agent's move onto the roadmap (its last before time 0) at
+    a plan time of its own, one after another in the order they joined, after every move told
+    before the solve: joining robots then go one at a time where they would come close, and
+    only once the moves in progress near them are done."""
+    out = [list(own) for own in moves]
+    offset = len(joins) + 1
+    for own in out:
+        for m, (u, v, t) in enumerate(own):
+            if t < 0:
+                own[m] = (u, v, t - offset)
+    for order, j in enumerate(joins):
+        own = out[j]
+        last = max(m for m, move in enumerate(own) if move[2] < 0)
+        u, v, _ = own[last]
+        own[last] = (u, v, order - len(joins))
+    return out
 
 
 def node_cell(
