@@ -48,6 +48,7 @@ import uvloop
 from common import Process, free_port, ros_maps, service
 from fleet_scenarios import (
     Scenario,
+    corridor_map,
     corridor_scenario,
     map_body,
     random_corridor_scenario,

@@ -62,7 +62,7 @@ def resolve(
                     blocked[node] = True
                 else:  # standing off the roadmap: the nodes near it are its too
                     cell = np.array(node_cell(node, robots[k], old_extras, graph), dtype=np.float64)
-                    near = np.linalg.norm(graph.cells - cell, axis=1) < 2.0 * reach
+                    near = np.linalg.norm(graph.cells - cell, axis=1) < reach
                     blocked |= near
     def others(k: str) -> list[npt.NDArray[np.float64]]:
         """The other robots' places: their chains' points, and the moves joining so far."""
@@ -77,7 +77,7 @@ def resolve(
     pending: list[list[int]] = []
     starts: list[int] = []
     joins: list[int] = []  # the agents joining the roadmap from a place off it
-    taken = {chain(robots[k])[-1] for k in agents} - {-1}
+    taken = {n for n in (chain(robots[k])[-1] for k in agents) if 0 <= n < graph.nodes}
     for k in agents:
         nodes = chain(robots[k])
         # Places off the roadmap get node numbers after the roadmap's (the schedule's points).
@@ -97,6 +97,10 @@ def resolve(
     goals = [int(robots[k]["goal_node"]) for k in agents]
     for node in starts:
         blocked[node] = False
+    for k, goal in zip(agents, goals, strict=True):
+        if blocked[goal]:
+            why = f"robot {k}'s goal is taken by a robot standing there or by obstacles"
+            return _failed(fleet, "unsolvable", why)
     started = time.perf_counter()
     solution = solve(
         graph, starts, goals, time_limit_s=time_limit_s, seed=seed, blocked=blocked
@@ -113,6 +117,16 @@ def resolve(
     if solution.status != "solved":
         return {**_failed(fleet, solution.status, ""), "solve": figures}
     timed = _joins_last(timed_moves(solution.paths, pending), joins)
+    for k in order:  # the parked robots' places in the new numbering
+        if k not in agents and robots[k]["moves"]:
+            robots[k] = {
+                **robots[k],
+                "moves": [
+                    [_renumber(u, robots[k], old_extras, graph, extras),
+                     _renumber(v, robots[k], old_extras, graph, extras), t]
+                    for u, v, t in robots[k]["moves"]
+                ],
+            }  # fmt: skip
     new = {}
     for k in order:
         robot = dict(robots[k])

@@ -133,7 +133,9 @@ def _new_robot(state: FleetRecord, plan: planner.Plan, fmap: FleetMap) -> dict[s
     graph = fmap.graph
     start, goal = [int(v) for v in plan.start], [int(v) for v in plan.goal]
     at = int(graph.node_of([start])[0])
-    goal_node = attach(graph, fmap.analysis, goal, exclude=set())
+    # Its goal joins the nearest node that no other robot's goal joins.
+    others = {int(r["goal_node"]) for r in state["robots"].values()}
+    goal_node = attach(graph, fmap.analysis, goal, exclude=others)
     if goal_node < 0:
         msg = f"goal {goal} has no node of the fleet's roadmap in reach by a straight move"
         raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
@@ -163,12 +165,10 @@ def _check_free(fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: Fle
     start = np.array(robot["cell"], dtype=np.float64)
     for plan_id, other in state["robots"].items():
         reach = (robot["radius"] + float(other["radius"])) / res
-        if other["goal_node"] == robot["goal_node"] or (
-            np.linalg.norm(np.array(other["goal"], dtype=np.float64) - goal) < reach
-        ):
+        if np.linalg.norm(np.array(other["goal"], dtype=np.float64) - goal) < reach:
             msg = (
                 f"FLEET_GOAL_TAKEN: goal {robot['goal']} is robot {quote(plan_id)}'s goal in "
-                f"fleet {quote(fleet)} (its roadmap node, or within both radii): choose another"
+                f"fleet {quote(fleet)} (within the sum of both radii): choose another"
             )
             raise planner.InvalidInput(msg, field="goal", code="FLEET_GOAL_TAKEN")
         cells = np.array(

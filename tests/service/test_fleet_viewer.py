@@ -47,7 +47,7 @@ def test_the_fleet_page_names_nothing_outside_the_service(live_url: str) -> None
         assert client.get("/fleets/page").json()["robots"][0]["poses"] is None
 
 
-def test_the_fleet_page_shows_robots_turns_and_the_holder_in_chromium(
+def test_the_fleet_page_shows_robots_routes_and_whom_they_wait_for_in_chromium(
     live_url: str, tmp_path: Path
 ) -> None:
     outside: list[str] = []
@@ -73,22 +73,27 @@ def test_the_fleet_page_shows_robots_turns_and_the_holder_in_chromium(
             page.goto(f"{live_url}/fleets/door/view")
             page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
             assert page.locator(".robot").count() == 2
-            assert page.locator(".passage").count() == 1
+            assert page.locator(".route").count() == 0  # not solved yet
             held = None
             for seq in range(300):
                 for plan_id in (a, b):
                     client.post(f"/plan/{plan_id}/step", json={"seq": seq})
                 fleet = client.get("/fleets/door").json()
-                holders = fleet["passages"][0]["held_by"]
                 waiting = [r for r in fleet["robots"] if r["waiting_for"]]
-                if holders and waiting:
-                    held = (holders, waiting[0])
+                if waiting:
+                    held = waiting[0]
                     break
-            assert held is not None, "no robot waited for the other at the passage"
-            (holder,), waiter = held
-            assert waiter["waiting_for"] == holder
+            assert held is not None, "no robot waited for the other at the corridor"
+            waiter = held
+            holder = waiter["waiting_for"]
+            assert holder in (a, b)
             page.wait_for_function(
-                "document.querySelector('.passage').dataset.heldBy === "
+                "document.querySelectorAll('.route').length >= 1", timeout=2000
+            )
+            page.wait_for_function(
+                "document.querySelector(\".fleet-robot[data-plan-id='"
+                + waiter["plan_id"]
+                + "'] .robot\").dataset.waitingFor === "
                 + orjson.dumps(holder).decode(),
                 timeout=2000,
             )

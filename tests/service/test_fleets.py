@@ -1,5 +1,7 @@
-"""Fleets (docs/fleets.md): plans of one fleet keep clear of each other, also when their steps
-arrive at once; a robot on another's goal makes it wait; fleets are per map and per tenant."""
+"""Fleets (docs/fleets.md): plans of one fleet are solved together on a roadmap and executed in
+order: whatever the order, pace and pauses of their steps, no two robots come closer than their
+radii and every robot arrives; a waiting robot names whom it waits for; a silent robot is
+planned around; fleets are per map and per tenant."""
 
 from __future__ import annotations
 
@@ -69,20 +71,30 @@ async def test_robots_crossing_a_room_never_collide_and_all_arrive(
 async def test_robots_swapping_through_a_one_lane_corridor_take_turns(
     client: httpx.AsyncClient, per_side: int, seeds: tuple[int, ...]
 ) -> None:
-    """Without passages taken one at a time, two robots meet head-on in the corridor and wait
-    for each other forever: here every robot arrives in budget, no two collide, and none waits
-    in the corridor while another is in it. In seed 24 the robot coming out finds its goal
-    taken by a robot queued for the passage, which goes in on its turn."""
     for seed in seeds:
         scenario = F.corridor_scenario(per_side, seed)
-        outcome = await F.run([client], scenario, fleet=f"corridor-{seed}", seed=seed)
+        outcome = await F.run([client], scenario, fleet=f"corridor-{seed}", seed=seed, skip=0.2)
         assert outcome.errors == []
         assert outcome.collisions == []
-        assert outcome.passage_waits == []
         assert outcome.arrived == 2 * per_side, outcome
 
 
-async def test_the_fleet_shows_who_holds_the_passage(client: httpx.AsyncClient) -> None:
+@pytest.mark.parametrize("seed", range(12))
+async def test_random_rooms_and_corridors_with_skips_and_pauses(
+    client: httpx.AsyncClient, seed: int
+) -> None:
+    """Rooms of random sizes, a corridor 1-4 m long and 2r + 0.05 m to 4r wide, 1-4 robots a
+    side; robots skip ticks and fall silent for a while."""
+    scenario = F.random_corridor_scenario(seed)
+    outcome = await F.run(
+        [client], scenario, fleet=f"rooms-{seed}", seed=seed, skip=0.2, pause=0.02
+    )
+    assert outcome.errors == []
+    assert outcome.collisions == []
+    assert outcome.arrived == outcome.robots, outcome
+
+
+async def test_a_waiting_robot_names_whom_it_waits_for(client: httpx.AsyncClient) -> None:
     scenario = F.corridor_scenario(1, 0)
     map_id = await _map(client, scenario.robot_map)
     (a_start, a_goal), (b_start, b_goal) = scenario.robots
@@ -92,27 +104,80 @@ async def test_the_fleet_shows_who_holds_the_passage(client: httpx.AsyncClient) 
                      robot_radius=0.325)).json()["plan_id"]  # fmt: skip
     fleet = (await client.get("/fleets/d")).json()
     assert fleet["robot_radius"] == 0.325
-    (passage,) = fleet["passages"]
-    assert passage["held_by"] == []
-    assert 0.75 <= passage["width_m"] <= 0.85
-    held_by: set[str] = set()
+    assert fleet["solve"]["status"] == "pending"
+    assert fleet["roadmap"]["nodes"] > 10
     waited_for: set[str] = set()
-    for seq in range(400):
+    for seq in range(200):
         for plan_id in (a, b):
             step = (await client.post(f"/plan/{plan_id}/step", json={"seq": seq})).json()
-            if step.get("waiting_for") is not None:
+            if step["status"] == "waiting":
+                assert step["waiting_for"] in (a, b)
+                assert step["waiting_for"] != plan_id
                 waited_for.add(step["waiting_for"])
         fleet = (await client.get("/fleets/d")).json()
-        (passage,) = fleet["passages"]
-        assert len(passage["held_by"]) <= 1
-        held_by |= set(passage["held_by"])
-        robots = {r["plan_id"]: r for r in fleet["robots"]}
-        for plan_id in passage["held_by"]:
-            assert robots[plan_id]["holds"] == [0]
+        assert fleet["solve"]["status"] == "solved"
+        assert fleet["solve"]["sum_of_costs"] >= fleet["solve"]["lower_bound"] > 0
+        for robot in fleet["robots"]:
+            assert robot["moves_done"] <= robot["moves_total"]
+            assert len(robot["remaining"]) == len(robot["remaining_xy"])
         if all(r["status"] == "arrived" for r in fleet["robots"]):
             break
-    assert held_by == {a, b}  # each held it in turn
-    assert waited_for  # and one waited for the other
+    assert all(r["status"] == "arrived" for r in fleet["robots"])
+    assert waited_for  # one waited for the other
+
+
+async def test_a_silent_robot_is_planned_around_after_its_lease() -> None:
+    """A robot that stops stepping in the corridor: past the lease the other is solved again
+    around it (it stands where it last was) and gets by, or waits naming it when it cannot."""
+    app = create_app(SETTINGS.model_copy(update={"fleet_lease_seconds": 0.3}))
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
+            map_id = await _map(client, room(60))
+            silent = (await _plan(client, map_id, [30, 30], [5, 5], fleet="f")).json()["plan_id"]
+            mover = (await _plan(client, map_id, [30, 5], [30, 55], fleet="f")).json()["plan_id"]
+            assert (await client.post(f"/plan/{silent}/step", json={})).status_code == 200
+            await asyncio.sleep(0.4)
+            answer: dict[str, Any] = {}
+            for _ in range(60):
+                answer = (await client.post(f"/plan/{mover}/step", json={})).json()
+                if answer["status"] == "arrived":
+                    break
+            assert answer["status"] == "arrived"
+            fleet = (await client.get("/fleets/f")).json()
+            robots = {r["plan_id"]: r for r in fleet["robots"]}
+            assert robots[silent]["parked"] is True
+            assert fleet["solve"]["agents"] == 1
+            # It steps again: it rejoins.
+            assert (await client.post(f"/plan/{silent}/step", json={})).status_code == 200
+            fleet = (await client.get("/fleets/f")).json()
+            assert not any(r["parked"] for r in fleet["robots"])
+            assert fleet["solve"]["agents"] == 2
+
+
+async def test_robots_created_head_on_inside_a_corridor_never_deadlock(
+    client: httpx.AsyncClient,
+) -> None:
+    m = F.corridor_map(resolution=0.1, lane_m=0.8, length_m=3.0, room_m=4.0)
+    row = 20  # the lane's middle row
+    scenario = F.Scenario("inside", m, 0.325, (((row, 45), (row, 70)), ((row, 52), (row, 10))))
+    for seed in range(3):
+        outcome = await F.run([client], scenario, fleet=f"inside-{seed}", seed=seed, skip=0.3)
+        assert outcome.errors == []
+        assert outcome.collisions == []
+        assert outcome.arrived == 2, outcome
+
+
+async def test_goals_taken_and_fleets_too_big_are_refused(client: httpx.AsyncClient) -> None:
+    map_id = await _map(client, room())
+    assert (await _plan(client, map_id, [15, 3], [15, 21], fleet="f")).status_code == 201
+    taken = await _plan(client, map_id, [5, 3], [15, 22], fleet="f")
+    assert taken.status_code == 422
+    assert taken.json()["code"] == "FLEET_GOAL_TAKEN"
+    assert taken.json()["field"] == "goal"
+    bigger = await _plan(client, map_id, [8, 8], [8, 22], fleet="f", robot_radius=0.3)
+    assert bigger.status_code == 422
+    assert bigger.json()["code"] == "FLEET_RADIUS"
 
 
 async def test_without_a_fleet_robots_ignore_each_other(client: httpx.AsyncClient) -> None:
@@ -128,86 +193,25 @@ async def test_without_a_fleet_robots_ignore_each_other(client: httpx.AsyncClien
     assert met
 
 
-async def test_a_robot_on_the_goal_makes_the_other_wait_until_it_is_deleted(
-    client: httpx.AsyncClient,
-) -> None:
-    map_id = await _map(client, room())
-    parked = (await _plan(client, map_id, [15, 20], [15, 21], fleet="f")).json()["plan_id"]
-    made = await _plan(client, map_id, [15, 3], [15, 21], fleet="f")
-    assert made.status_code == 201, made.text
-    mover = made.json()["plan_id"]
-    assert (await client.post(f"/plan/{parked}/step", json={})).json()["status"] == "arrived"
-    answer: dict[str, Any] = {}
-    for _ in range(40):
-        answer = (await client.post(f"/plan/{mover}/step", json={})).json()
-    assert answer["status"] == "waiting"
-    assert answer["waiting_for"] == parked
-    r, c = answer["position"]
-    assert (r - 15) ** 2 + (c - 21) ** 2 > (0.5 / 0.1) ** 2  # kept the sum of radii away
-    fleet = (await client.get("/fleets/f")).json()
-    assert fleet["map_id"] == map_id
-    assert [robot["plan_id"] for robot in fleet["robots"]] == [parked, mover]
-    assert fleet["robots"][0]["status"] == "arrived"
-    assert fleet["robots"][1]["waiting_for"] == parked
-    assert fleet["robots"][1]["position"] == answer["position"]
-    assert (await client.delete(f"/plan/{parked}")).status_code == 204
-    for _ in range(20):
-        answer = (await client.post(f"/plan/{mover}/step", json={})).json()
-    assert answer["status"] == "arrived"
-    assert answer["waiting_for"] is None
-    assert [robot["plan_id"] for robot in (await client.get("/fleets/f")).json()["robots"]] == [
-        mover
-    ]
-    assert (await client.delete(f"/plan/{mover}")).status_code == 204
-    gone = await client.get("/fleets/f")
-    assert gone.status_code == 404
-    assert gone.json()["code"] == "NOT_FOUND"
-
-
-async def test_a_robot_on_its_goal_answers_as_a_lone_robot_would(
-    client: httpx.AsyncClient,
-) -> None:
-    # Its step skips the fleet's traffic: the answer is a lone robot's, the client's cells are
-    # still checked, and the fleet still records it on its goal.
-    map_id = await _map(client, room())
-    parked = (await _plan(client, map_id, [15, 20], [15, 21], fleet="f")).json()["plan_id"]
-    near = (await _plan(client, map_id, [15, 27], [15, 28], fleet="f")).json()["plan_id"]
-    alone = (await _plan(client, map_id, [15, 20], [15, 21])).json()["plan_id"]
-    for body in ({}, {"dynamic_obstacles": [[15, 21], [14, 22]]}, {"position": [15, 21]}):
-        for plan_id in (parked, near, alone):
-            assert (await client.post(f"/plan/{plan_id}/step", json=body)).status_code == 200
-        got = (await client.post(f"/plan/{parked}/step", json=body)).json()
-        want = (await client.post(f"/plan/{alone}/step", json=body)).json()
-        assert got["status"] == "arrived"
-        assert got == want
-    bad = await client.post(f"/plan/{parked}/step", json={"dynamic_obstacles": [[0, 0], [99, 0]]})
-    assert bad.status_code == 422
-    assert "dynamic_obstacles[1] [99, 0] is outside" in bad.json()["detail"]
-    robots = (await client.get("/fleets/f")).json()["robots"]
-    assert robots[0]["plan_id"] == parked
-    assert robots[0]["position"] == [15, 21]
-    assert robots[0]["status"] == "arrived"
-
-
-async def test_a_fleet_finds_its_waiting_zones_when_its_plan_is_made(
+async def test_a_fleet_builds_its_roadmap_when_its_plan_is_made(
     client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # Found in the plan's creation: the fleet's first step does not wait for them.
-    found: list[float] = []
-    find = fleets._waiting_zones
+    # Built in the plan's creation: the fleet's first step does not wait for it.
+    built: list[float] = []
+    build = fleets.build_roadmap
 
-    def counted(robot_map: planner.RobotMap, robot_radius: float) -> Any:
-        found.append(robot_radius)
-        return find(robot_map, robot_radius)
+    def counted(analysis: planner.Analysis, *, radius: float, wide: bool) -> Any:
+        built.append(radius)
+        return build(analysis, radius=radius, wide=wide)
 
-    monkeypatch.setattr(fleets, "_waiting_zones", counted)
+    monkeypatch.setattr(fleets, "build_roadmap", counted)
     map_id = await _map(client, room())
     made = await _plan(client, map_id, [15, 3], [15, 20], fleet="f")
     assert made.status_code == 201, made.text
-    assert found == [0.25]
+    assert built == [0.25]
     assert (await client.post(f"/plan/{made.json()['plan_id']}/step", json={})).status_code == 200
     assert (await _plan(client, map_id, [5, 3], [5, 20], fleet="f")).status_code == 201
-    assert found == [0.25]  # then kept in the analysis cache
+    assert built == [0.25]  # then kept in the analysis cache
 
 
 async def test_a_robot_that_never_stepped_counts_at_its_start(client: httpx.AsyncClient) -> None:
@@ -329,7 +333,7 @@ async def test_a_step_never_writes_over_another_maps_fleet_of_its_name() -> None
             assert made.status_code == 201, made.text
             plan_id = made.json()["plan_id"]
             store = app.state.engine.store
-            other = {"map_id": two, "radius": 0.25, "next": 0, "robots": {}}
+            other = {"map_id": two, "radius": 0.25, "params": {}, "next": 0, "robots": {}}
             store._fleets["reused"] = other  # the name taken again on map two
             step = await client.post(f"/plan/{plan_id}/step", json={})
             assert step.status_code == 422, step.text
