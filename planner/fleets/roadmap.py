@@ -21,6 +21,7 @@ import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
+from scipy import ndimage
 
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
@@ -88,9 +89,11 @@ def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Gr
 
 def _radius(radius: Any) -> float:
     if isinstance(radius, bool) or not isinstance(radius, int | float):
-        raise InvalidInput(f"radius must be a number of meters; got {quote(radius)}", "radius")
+        msg = f"radius must be a number of meters; got {quote(radius)}"
+        raise InvalidInput(msg, field="radius")
     if not (math.isfinite(radius) and radius >= 0):
-        raise InvalidInput(f"radius must be >= 0 meters; got {quote(radius)}", "radius")
+        msg = f"radius must be >= 0 meters; got {quote(radius)}"
+        raise InvalidInput(msg, field="radius")
     return float(radius)
 
 
@@ -99,11 +102,16 @@ def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int
     spacings, then lattice nodes, each kept only if no node is nearer than the separation."""
     clear = edt.edt(free, black_border=True).astype(np.float64)
     step = spacing(separation / 2.0)
-    trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), int(math.ceil(step)))
+    trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), math.ceil(step))
     skeleton = trunk & (clear < step)
+    order = _chain_order(np.ascontiguousarray(skeleton), clear)
+    # A piece of free space too small for chain or lattice still gets its widest cell.
+    labels, pieces = ndimage.label(free, np.ones((3, 3), dtype=bool))
+    widest = ndimage.maximum_position(clear, labels, np.arange(1, pieces + 1))
+    fill = np.array([r * free.shape[1] + c for r, c in widest], dtype=np.int64)
     minimum = separation + 0.5
     nodes: npt.NDArray[np.int64] = _place(
-        free, np.ascontiguousarray(skeleton), minimum, step * math.sqrt(3.0) / 2.0, step
+        free, order, minimum, step * math.sqrt(3.0) / 2.0, step, fill
     )
     return nodes
 
@@ -206,6 +214,59 @@ def _prune(skeleton: npt.NDArray[np.bool_], rounds: int) -> npt.NDArray[np.bool_
 
 
 @njit(cache=True, nogil=True)
+def _chain_order(
+    skeleton: npt.NDArray[np.bool_], clear: npt.NDArray[np.float64]
+) -> npt.NDArray[np.int64]:
+    """The skeleton's cells in the order chain nodes are tried: its junctions (three branches
+    or more meet), widest first, so that crossings get nodes; then every cell breadth first
+    from the first of each piece, so that a chain is walked along."""
+    H, W = skeleton.shape
+    ring_r = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
+    ring_c = np.array([0, 1, 1, 1, 0, -1, -1, -1])
+    junctions = np.empty(H * W, dtype=np.int64)
+    width = np.empty(H * W, dtype=np.float64)
+    n = 0
+    for r in range(H):
+        for c in range(W):
+            if not skeleton[r, c]:
+                continue
+            ends = 0
+            for k in range(8):
+                here = _on(skeleton, r + ring_r[k], c + ring_c[k])
+                after = _on(skeleton, r + ring_r[(k + 1) % 8], c + ring_c[(k + 1) % 8])
+                ends += here and not after
+            if ends >= 3:
+                junctions[n] = r * W + c
+                width[n] = -clear[r, c]
+                n += 1
+    out = np.empty(H * W + n, dtype=np.int64)
+    out[:n] = junctions[:n][np.argsort(width[:n], kind="mergesort")]
+    m = n
+    seen = np.zeros((H, W), dtype=np.bool_)
+    for root in range(H * W):
+        if not skeleton[root // W, root % W] or seen[root // W, root % W]:
+            continue
+        seen[root // W, root % W] = True
+        out[m] = root
+        head, m = m, m + 1
+        while head < m:
+            r, c = out[head] // W, out[head] % W
+            head += 1
+            for k in range(8):
+                r2, c2 = r + ring_r[k], c + ring_c[k]
+                if _on(skeleton, r2, c2) and not seen[r2, c2]:
+                    seen[r2, c2] = True
+                    out[m] = r2 * W + c2
+                    m += 1
+    return out[:m].copy()
+
+
+@njit(cache=True, nogil=True)
+def _on(grid: npt.NDArray[np.bool_], r: int, c: int) -> bool:
+    return 0 <= r < grid.shape[0] and 0 <= c < grid.shape[1] and bool(grid[r, c])
+
+
+@njit(cache=True, nogil=True)
 def _buckets(
     nodes: npt.NDArray[np.int64], size: float, H: int, W: int
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, int]:
@@ -229,7 +290,7 @@ def _near(
     bucket: one node a bucket, as nodes are farther apart than a bucket's diagonal) is nearer
     than ``minimum`` to ``(r, c)``."""
     bh, bw = grid.shape[0], grid.shape[1]
-    reach = int(math.ceil(minimum / size))
+    reach = math.ceil(minimum / size)
     minimum_sq = minimum * minimum
     br, bc = r // size, c // size
     for i in range(max(0, br - reach), min(bh, br + reach + 1)):
@@ -245,47 +306,33 @@ def _near(
 @njit(cache=True, nogil=True)
 def _place(
     free: npt.NDArray[np.bool_],
-    skeleton: npt.NDArray[np.bool_],
+    order: npt.NDArray[np.int64],
     minimum: float,
     row_step: float,
     col_step: float,
+    fill: npt.NDArray[np.int64],
 ) -> npt.NDArray[np.int64]:
-    """Nodes ``(n, 2)``: the ``skeleton`` cells walked breadth first (so that a chain is
-    walked along), then the triangular lattice's cells, each kept when free and no kept node
-    is nearer than ``minimum``."""
+    """Nodes ``(n, 2)``: the cells of ``order`` (flat indices), then the triangular lattice's
+    cells, then the cells of ``fill``, each kept when free and no kept node is nearer than
+    ``minimum``."""
     H, W = free.shape
     size = max(1, int(minimum / math.sqrt(2.0)))  # a bucket's diagonal below the minimum
     grid = np.full((H // size + 1, W // size + 1), -1, dtype=np.int64)
     out = np.empty((H * W, 2), dtype=np.int64)
     n = 0
-    seen = np.zeros((H, W), dtype=np.bool_)
-    queue = np.empty(H * W, dtype=np.int64)
-    for root in range(H * W):
-        if not skeleton[root // W, root % W] or seen[root // W, root % W]:
-            continue
-        seen[root // W, root % W] = True
-        queue[0], head, tail = root, 0, 1
-        while head < tail:
-            r, c = queue[head] // W, queue[head] % W
-            head += 1
-            if not _near(grid, size, W, r, c, minimum):
-                grid[r // size, c // size] = r * W + c
-                out[n, 0], out[n, 1] = r, c
-                n += 1
-            for dr in range(-1, 2):
-                for dc in range(-1, 2):
-                    r2, c2 = r + dr, c + dc
-                    if 0 <= r2 < H and 0 <= c2 < W and skeleton[r2, c2] and not seen[r2, c2]:
-                        seen[r2, c2] = True
-                        queue[tail] = r2 * W + c2
-                        tail += 1
+    for k in order:
+        r, c = k // W, k % W
+        if not _near(grid, size, W, r, c, minimum):
+            grid[r // size, c // size] = k
+            out[n, 0], out[n, 1] = r, c
+            n += 1
     rows = int((H - 1) / row_step) + 1
     for i in range(rows):
-        r = int(round(i * row_step))
+        r = round(i * row_step)
         shift = col_step / 2.0 if i % 2 else 0.0
         j = 0
         while True:
-            c = int(round(shift + j * col_step))
+            c = round(shift + j * col_step)
             j += 1
             if c >= W:
                 break
@@ -293,6 +340,12 @@ def _place(
                 grid[r // size, c // size] = r * W + c
                 out[n, 0], out[n, 1] = r, c
                 n += 1
+    for k in fill:
+        r, c = k // W, k % W
+        if not _near(grid, size, W, r, c, minimum):
+            grid[r // size, c // size] = k
+            out[n, 0], out[n, 1] = r, c
+            n += 1
     return out[:n].copy()
 
 
