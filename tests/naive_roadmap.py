@@ -95,8 +95,8 @@ def too_close(graph: Graph, separation: float) -> list[tuple[int, int, int, int,
     cells = graph.cells
     ends = cells[items]  # (m, 2, 2)
     lengths = np.sqrt(((ends[:, 1] - ends[:, 0]) ** 2).sum(axis=1))
-    size = 2 * float(lengths.max(initial=0.0)) + separation + 1.0
-    bucket = (ends[:, 0] // size).astype(np.int64)
+    size = float(lengths.max(initial=0.0)) + separation + 1.0
+    bucket = ((ends[:, 0] + ends[:, 1]) / 2 // size).astype(np.int64)
     groups: dict[tuple[int, int], list[int]] = {}
     for k, (i, j) in enumerate(bucket.tolist()):
         groups.setdefault((i, j), []).append(k)
