@@ -1,7 +1,7 @@
 """The figure of the fleet roadmap: a shared ROS map's roadmap for a fleet's radius, its edges
 as lines and its nodes as discs of the robots' size over the map::
 
-    .venv/bin/python benchmarks/roadmap_figure.py     # depot -> docs/figures/fleet-roadmap-depot.png
+    .venv/bin/python benchmarks/roadmap_figure.py   # docs/figures/fleet-roadmap-depot.png
     .venv/bin/python benchmarks/roadmap_figure.py --map smoothers_world --radius 0.22
 """
 

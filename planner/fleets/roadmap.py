@@ -9,7 +9,7 @@ triangular lattice fills open floor.
 >>> a = planner.analyse_map(m, planner.resolve_params("wide", robot_radius=0.1, unknown="free"))
 >>> g = build_roadmap(a, radius=0.1)
 >>> g.nodes, g.edges, attach(g, a, [0, 0])
-(10, 17, 0)
+(21, 39, 6)
 """
 
 from __future__ import annotations
@@ -17,24 +17,21 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
-from planner.analysis.medial import medial_axis
 from planner.errors import InvalidInput, quote
 from planner.fleets.graph import Graph, grid_graph
+from planner.fleets.roadmap_nodes import roadmap_nodes, spacing
 from planner.fleets.segments import point_segment_sq, segment_free, segment_segment_sq
 
-__all__ = ["attach", "attach_all", "build_roadmap", "spacing"]
+__all__ = ["attach", "attach_all", "build_roadmap"]
 
 #: Most edges a node keeps (a node's neighbours are ``2 * radius`` apart: a handful fit).
 MAX_DEGREE = 16
-#: Cells added to the separation for nodes snapped to cell centers.
-SNAP_MARGIN = 1.5
 #: Candidate edges reach this many lattice spacings (to join chains to the lattice).
 REACH = 2.2
 #: A start or goal joins a node within this many lattice spacings.
@@ -42,12 +39,6 @@ ATTACH_REACH = 2.0
 # Squared distances must beat the separation by this much: float rounding never lets an edge
 # in that exact arithmetic would find too close.
 _SLACK = 1e-6
-
-
-def spacing(radius_cells: float) -> float:
-    """The triangular lattice's spacing for a separation of ``2 * radius_cells`` cells: its
-    rows are the separation plus a snapping margin apart (``sqrt(3) / 2`` of the spacing)."""
-    return 2.0 * (2.0 * radius_cells + SNAP_MARGIN) / math.sqrt(3.0)
 
 
 def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Graph:
@@ -81,31 +72,19 @@ def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Gr
         g = grid_graph(free, resolution=resolution)
         nodes, edges = g.cells, _pairs(g)
     else:
-        nodes = _nodes(free, separation)
+        nodes = roadmap_nodes(free, separation)
         edges = _edges(free, nodes, separation)
     return _graph(nodes, edges, clean, free.shape, r, resolution)
 
 
 def _radius(radius: Any) -> float:
     if isinstance(radius, bool) or not isinstance(radius, int | float):
-        raise InvalidInput(f"radius must be a number of meters; got {quote(radius)}", "radius")
+        msg = f"radius must be a number of meters; got {quote(radius)}"
+        raise InvalidInput(msg, field="radius")
     if not (math.isfinite(radius) and radius >= 0):
-        raise InvalidInput(f"radius must be >= 0 meters; got {quote(radius)}", "radius")
+        msg = f"radius must be >= 0 meters; got {quote(radius)}"
+        raise InvalidInput(msg, field="radius")
     return float(radius)
-
-
-def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int64]:
-    """Chain nodes along the medial axis where the free space is narrower than two lattice
-    spacings, then lattice nodes, each kept only if no node is nearer than the separation."""
-    clear = edt.edt(free, black_border=True).astype(np.float64)
-    step = spacing(separation / 2.0)
-    trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), int(math.ceil(step)))
-    skeleton = trunk & (clear < step)
-    minimum = separation + 0.5
-    nodes: npt.NDArray[np.int64] = _place(
-        free, np.ascontiguousarray(skeleton), minimum, step * math.sqrt(3.0) / 2.0, step
-    )
-    return nodes
 
 
 def _edges(
@@ -177,35 +156,6 @@ def _penalties(
 
 
 @njit(cache=True, nogil=True)
-def _prune(skeleton: npt.NDArray[np.bool_], rounds: int) -> npt.NDArray[np.bool_]:
-    """The skeleton without its spurs: ``rounds`` times, every end cell (one 8-neighbour) goes
-    at once. Spurs shorter than that (into corners, off a wall's ragged edge) vanish; loops
-    stay whole, and a dead end loses ``rounds`` cells, which a start there reaches straight."""
-    H, W = skeleton.shape
-    out = skeleton.copy()
-    cells = np.flatnonzero(skeleton.ravel())
-    ends = np.empty(cells.size, dtype=np.int64)
-    for _ in range(rounds):
-        n = 0
-        for k in cells:
-            r, c = k // W, k % W
-            if not out[r, c]:
-                continue
-            around = 0
-            for i in range(max(0, r - 1), min(H, r + 2)):
-                for j in range(max(0, c - 1), min(W, c + 2)):
-                    around += out[i, j]
-            if around <= 2:  # itself and at most one neighbour
-                ends[n] = k
-                n += 1
-        if n == 0:
-            break
-        for k in ends[:n]:
-            out[k // W, k % W] = False
-    return out
-
-
-@njit(cache=True, nogil=True)
 def _buckets(
     nodes: npt.NDArray[np.int64], size: float, H: int, W: int
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, int]:
@@ -219,81 +169,6 @@ def _buckets(
         after[k] = head[b]
         head[b] = k
     return head, after, bh, bw
-
-
-@njit(cache=True, nogil=True)
-def _near(
-    grid: npt.NDArray[np.int64], size: int, W: int, r: int, c: int, minimum: float
-) -> bool:  # fmt: skip
-    """Whether a node marked in ``grid`` (bucket -> the node's flat cell, ``size`` cells a
-    bucket: one node a bucket, as nodes are farther apart than a bucket's diagonal) is nearer
-    than ``minimum`` to ``(r, c)``."""
-    bh, bw = grid.shape[0], grid.shape[1]
-    reach = int(math.ceil(minimum / size))
-    minimum_sq = minimum * minimum
-    br, bc = r // size, c // size
-    for i in range(max(0, br - reach), min(bh, br + reach + 1)):
-        for j in range(max(0, bc - reach), min(bw, bc + reach + 1)):
-            k = grid[i, j]
-            if k >= 0:
-                dr, dc = k // W - r, k % W - c
-                if dr * dr + dc * dc < minimum_sq:
-                    return True
-    return False
-
-
-@njit(cache=True, nogil=True)
-def _place(
-    free: npt.NDArray[np.bool_],
-    skeleton: npt.NDArray[np.bool_],
-    minimum: float,
-    row_step: float,
-    col_step: float,
-) -> npt.NDArray[np.int64]:
-    """Nodes ``(n, 2)``: the ``skeleton`` cells walked breadth first (so that a chain is
-    walked along), then the triangular lattice's cells, each kept when free and no kept node
-    is nearer than ``minimum``."""
-    H, W = free.shape
-    size = max(1, int(minimum / math.sqrt(2.0)))  # a bucket's diagonal below the minimum
-    grid = np.full((H // size + 1, W // size + 1), -1, dtype=np.int64)
-    out = np.empty((H * W, 2), dtype=np.int64)
-    n = 0
-    seen = np.zeros((H, W), dtype=np.bool_)
-    queue = np.empty(H * W, dtype=np.int64)
-    for root in range(H * W):
-        if not skeleton[root // W, root % W] or seen[root // W, root % W]:
-            continue
-        seen[root // W, root % W] = True
-        queue[0], head, tail = root, 0, 1
-        while head < tail:
-            r, c = queue[head] // W, queue[head] % W
-            head += 1
-            if not _near(grid, size, W, r, c, minimum):
-                grid[r // size, c // size] = r * W + c
-                out[n, 0], out[n, 1] = r, c
-                n += 1
-            for dr in range(-1, 2):
-                for dc in range(-1, 2):
-                    r2, c2 = r + dr, c + dc
-                    if 0 <= r2 < H and 0 <= c2 < W and skeleton[r2, c2] and not seen[r2, c2]:
-                        seen[r2, c2] = True
-                        queue[tail] = r2 * W + c2
-                        tail += 1
-    rows = int((H - 1) / row_step) + 1
-    for i in range(rows):
-        r = int(round(i * row_step))
-        shift = col_step / 2.0 if i % 2 else 0.0
-        j = 0
-        while True:
-            c = int(round(shift + j * col_step))
-            j += 1
-            if c >= W:
-                break
-            if free[r, c] and not _near(grid, size, W, r, c, minimum):
-                grid[r // size, c // size] = r * W + c
-                out[n, 0], out[n, 1] = r, c
-                n += 1
-    return out[:n].copy()
 
 
 @njit(cache=True, nogil=True)

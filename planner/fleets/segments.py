@@ -19,8 +19,8 @@ from numba import njit
 
 __all__ = [
     "point_segment_sq",
-    "segment_free",
     "segment_distance",
+    "segment_free",
     "segment_segment_sq",
     "supercover",
 ]
@@ -50,7 +50,7 @@ def segment_free(free: npt.NDArray[np.bool_], r0: int, c0: int, r1: int, c1: int
     if c0 < 0 or c1 >= W or min(r0, r1) < 0 or max(r0, r1) >= H:
         return False
     if c0 == c1:
-        for r in range(min(r0, r1), max(r0, r1) + 1):
+        for r in range(min(r0, r1), max(r0, r1) + 1):  # noqa: SIM110 (numba: no generators)
             if not free[r, c0]:
                 return False
         return True

@@ -1,0 +1,263 @@
+"""The fleet roadmap: separation (exact, over every pair of disjoint elements), collision-free
+nodes and edges, coverage of narrow passages and of the shared ROS maps, route length against
+the single-robot ``wide`` plan, edge costs, and the plain grid's 4-connected cells."""
+
+from __future__ import annotations
+
+import itertools
+import statistics
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+import planner
+from planner.fleets.graph import Graph, grid_graph
+from planner.fleets.roadmap import attach, attach_all, build_roadmap
+from planner.fleets.segments import segment_distance, supercover
+from tests import naive_roadmap
+from tests.conftest import ROS_MAP_NAMES
+
+RADII = (0.15, 0.22, 0.3)
+
+
+@cache
+def _ros(folder: Path, name: str, radius: float) -> tuple[planner.Analysis, Graph]:
+    robot_map = planner.read_ros_map(folder / f"{name}.yaml")
+    analysis = planner.analyse_map(robot_map, planner.resolve_params("wide", robot_radius=radius))
+    return analysis, build_roadmap(analysis, radius=radius)
+
+
+def _synthetic(rows: list[list[int]], radius: float) -> tuple[planner.Analysis, Graph]:
+    m = planner.grid_map(rows, resolution=0.05)
+    analysis = planner.analyse_map(m, planner.resolve_params("wide", robot_radius=radius))
+    return analysis, build_roadmap(analysis, radius=radius)
+
+
+def _rooms(corridor_m: float, *, length: int = 60, tilt: bool = False) -> list[list[int]]:
+    """Two 60 x 60 cell rooms (3 m) joined by a corridor ``corridor_m`` wide (0.05 m cells),
+    straight or with a step halfway."""
+    width = round(corridor_m / 0.05)
+    H, W = 60, 60 + length + 60
+    grid = np.ones((H + 2, W + 2), dtype=np.uint8)
+    grid[1:-1, 1:61] = 0
+    grid[1:-1, W - 59 : W + 1] = 0
+    top = H // 2 - width // 2
+    for c in range(61, W - 59):
+        shift = 6 if tilt and c > 61 + length // 2 else 0
+        grid[1 + top + shift : 1 + top + shift + width, c] = 0
+    return grid.tolist()
+
+
+def _check_separation(graph: Graph) -> None:
+    separation = 2 * graph.radius / graph.resolution
+    assert naive_roadmap.too_close(graph, separation) == []
+
+
+def _check_collision_free(graph: Graph, analysis: planner.Analysis) -> None:
+    free = analysis.state != 1
+    assert free[graph.cells[:, 0], graph.cells[:, 1]].all()
+    for u, v in naive_roadmap.elements(graph)[graph.nodes :].tolist():
+        a, b = tuple(graph.cells[u].tolist()), tuple(graph.cells[v].tolist())
+        assert all(free[cell] for cell in naive_roadmap.supercover(a, b)), (a, b)
+
+
+# The kernels against their slow references.
+
+
+def test_supercover_is_the_exact_one() -> None:
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        a, b = rng.integers(0, 12, size=2), rng.integers(0, 12, size=2)
+        got = {tuple(cell) for cell in supercover(a, b).tolist()}
+        assert got == naive_roadmap.supercover(tuple(a.tolist()), tuple(b.tolist())), (a, b)
+
+
+def test_segment_distance_is_the_reference() -> None:
+    rng = np.random.default_rng(2)
+    ends = rng.integers(-6, 7, size=(400, 4, 2))
+    for a, b, c, d in ends:
+        want = naive_roadmap.segment_sq(a[None], b[None], c[None], d[None])[0]
+        assert segment_distance(a, b, c, d) == pytest.approx(np.sqrt(want), abs=1e-9)
+
+
+def test_the_separation_check_finds_crossing_edges() -> None:
+    cells = np.array([[0, 0], [10, 10], [0, 10], [10, 0]])
+    indptr = np.array([0, 1, 2, 3, 4])
+    indices = np.array([1, 0, 3, 2])
+    g = Graph(cells, indptr, indices, np.ones(4), (11, 11), radius=0.1, resolution=0.05)
+    assert len(naive_roadmap.too_close(g, 4.0)) == 1  # the two diagonals cross
+    assert naive_roadmap.too_close(g, 4.0)[0][-1] == 0.0
+
+
+# 1 and 2: separation and collision-free, on the shared maps and synthetic ones.
+
+
+@pytest.mark.parametrize("radius", RADII)
+@pytest.mark.parametrize("name", ROS_MAP_NAMES)
+def test_ros_roadmaps_keep_robots_apart_and_off_obstacles(
+    ros: Path, name: str, radius: float
+) -> None:
+    analysis, graph = _ros(ros, name, radius)
+    _check_separation(graph)
+    _check_collision_free(graph, analysis)
+
+
+@pytest.mark.parametrize("radius", [0.1, 0.22, 0.3])
+@pytest.mark.parametrize("tilt", [False, True])
+def test_synthetic_roadmaps_keep_robots_apart_and_off_obstacles(radius: float, tilt: bool) -> None:
+    rows = _rooms(2 * radius + 0.3, tilt=tilt)
+    rows[20][20] = rows[40][30] = 1  # pillars in a room
+    analysis, graph = _synthetic(rows, radius)
+    _check_separation(graph)
+    _check_collision_free(graph, analysis)
+
+
+# 3: coverage.
+
+
+@pytest.mark.parametrize("radius", [0.15, 0.22, 0.3])
+@pytest.mark.parametrize("extra", ["2r+0.05", "2r+0.3", "3r", "4r"])
+def test_every_corridor_a_robot_fits_through_joins_the_rooms(radius: float, extra: str) -> None:
+    width = {"2r+0.05": 2 * radius + 0.05, "2r+0.3": 2 * radius + 0.3}.get(extra)
+    width = width if width is not None else float(extra[0]) * radius
+    analysis, graph = _synthetic(_rooms(width), radius)
+    left, right = attach_all(graph, analysis, [[31, 30], [31, 150]])
+    assert left >= 0
+    assert right >= 0
+    labels = naive_roadmap.components(graph)
+    assert labels[left] == labels[right], (radius, extra)
+    # one lane: the corridor's nodes, in order along it, a chain of edges
+    inside = np.flatnonzero((graph.cells[:, 1] > 75) & (graph.cells[:, 1] < 105))
+    if width < 4 * radius + 1e-9:
+        inside = inside[np.argsort(graph.cells[inside, 1])]
+        assert len(inside) >= 1
+        for u, v in itertools.pairwise(inside.tolist()):
+            assert v in graph.neighbours(u), (u, v)
+    _check_separation(graph)
+
+
+def _pairs(analysis: planner.Analysis, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    free = analysis.state != 1
+    labels, _ = ndimage.label(free, np.ones((3, 3), dtype=bool))
+    cells = np.argwhere(free)
+    rng = np.random.default_rng(seed)
+    starts = cells[rng.integers(len(cells), size=count)]
+    goals = np.empty_like(starts)
+    for k, (r, c) in enumerate(starts.tolist()):
+        same = np.argwhere(labels == labels[r, c])
+        goals[k] = same[rng.integers(len(same))]
+    return starts, goals
+
+
+@pytest.mark.parametrize("radius", [0.22, 0.3])
+@pytest.mark.parametrize("name", ["depot", "smoothers_world", "tb3_sandbox"])
+def test_random_reachable_pairs_are_joined_through_the_roadmap(
+    ros: Path, name: str, radius: float
+) -> None:
+    analysis, graph = _ros(ros, name, radius)
+    starts, goals = _pairs(analysis, 200, seed=0)
+    s, g = attach_all(graph, analysis, starts), attach_all(graph, analysis, goals)
+    labels = naive_roadmap.components(graph)
+    joined = (s >= 0) & (g >= 0)
+    joined[joined] &= labels[s[joined]] == labels[g[joined]]
+    assert joined.mean() >= 0.99, joined.mean()
+
+
+# 4: route length.
+
+
+@pytest.mark.parametrize("radius", [0.22, 0.3])
+@pytest.mark.parametrize("name", ["depot", "smoothers_world"])
+def test_routes_are_at_most_a_tenth_longer_than_the_wide_plan(
+    ros: Path, name: str, radius: float
+) -> None:
+    analysis, graph = _ros(ros, name, radius)
+    robot_map = planner.read_ros_map(ros / f"{name}.yaml")
+    starts, goals = _pairs(analysis, 30, seed=1)
+    s, g = attach_all(graph, analysis, starts), attach_all(graph, analysis, goals)
+    routes = naive_roadmap.route_lengths(graph, starts, goals, s, g) * robot_map.resolution
+    ratios = []
+    for k in range(len(starts)):
+        if (starts[k] == goals[k]).all():
+            continue
+        plan = planner.plan(
+            robot_map, starts[k].tolist(), goals[k].tolist(), analysis=analysis,
+            preset="wide", robot_radius=radius,
+        )  # fmt: skip
+        ratios.append(routes[k] / plan.length_m)
+    assert statistics.median(ratios) <= 1.10, ratios
+
+
+# 5: costs.
+
+
+def test_costs_are_the_length_or_the_length_and_the_clean_penalty(ros: Path) -> None:
+    analysis, wide = _ros(ros, "smoothers_world", 0.22)
+    plain = build_roadmap(analysis, radius=0.22, wide=False)
+    np.testing.assert_array_equal(plain.indices, wide.indices)
+    source = np.repeat(np.arange(wide.nodes), np.diff(wide.indptr))
+    d = wide.cells[wide.indices] - wide.cells[source]
+    length = np.hypot(d[:, 0], d[:, 1])
+    np.testing.assert_allclose(plain.costs, length)
+    penalty = []
+    for u, v in zip(source.tolist(), wide.indices.tolist(), strict=True):
+        (r0, c0), (r1, c1) = wide.cells[u], wide.cells[v]
+        n = max(abs(r1 - r0), abs(c1 - c0))
+        steps = [((r1 - r0) * k / n, (c1 - c0) * k / n) for k in range(1, n + 1)]
+        penalty.append(sum(float(analysis.clean[r0 + round(r), c0 + round(c)]) for r, c in steps))
+    np.testing.assert_allclose(wide.costs, length + np.array(penalty), rtol=1e-9)
+    assert (wide.costs >= length).all()
+    assert (wide.costs > length).any()
+
+
+# 6: the plain grid.
+
+
+def test_a_plain_grid_with_radius_zero_is_its_cells_4_connected(movingai: Path) -> None:
+    grid = np.asarray(planner.read_map(movingai / "den312d.map"))
+    analysis = planner.analyse(grid)
+    graph = build_roadmap(analysis, radius=0.0, wide=False)
+    expected = grid_graph(grid == 0)
+    np.testing.assert_array_equal(graph.cells, expected.cells)
+    np.testing.assert_array_equal(graph.indptr, expected.indptr)
+    np.testing.assert_array_equal(graph.indices, expected.indices)
+    np.testing.assert_array_equal(graph.costs, expected.costs)
+
+
+@pytest.mark.parametrize("radius", [0.01, 0.025])
+def test_a_robot_within_half_a_cell_gets_the_cells_4_connected_and_they_are_apart(
+    radius: float,
+) -> None:
+    rows = _rooms(0.2)
+    analysis, graph = _synthetic(rows, radius)
+    expected = grid_graph(analysis.state != 1)
+    np.testing.assert_array_equal(graph.indices, expected.indices)
+    _check_separation(graph)
+
+
+# attach and validation.
+
+
+def test_attach_joins_the_nearest_node_in_sight_or_none() -> None:
+    rows = _rooms(0.6)
+    analysis, graph = _synthetic(rows, 0.2)
+    node = attach(graph, analysis, [31, 30])
+    distances = np.hypot(*(graph.cells - [31, 30]).T)
+    assert distances[node] == distances.min()
+    assert attach(graph, analysis, [0, 0]) == -1  # a wall
+    assert attach_all(graph, analysis, np.zeros((0, 2), dtype=int)).tolist() == []
+
+
+def test_bad_input_is_refused() -> None:
+    analysis, graph = _synthetic(_rooms(0.6), 0.2)
+    with pytest.raises(planner.InvalidInput, match="radius"):
+        build_roadmap(analysis, radius=-1.0)
+    with pytest.raises(planner.InvalidInput, match="more than the analysis"):
+        build_roadmap(analysis, radius=0.3)
+    with pytest.raises(TypeError, match="Analysis"):
+        build_roadmap(np.zeros((3, 3)), radius=0.1)  # type: ignore[arg-type]
+    with pytest.raises(planner.InvalidInput, match="cells"):
+        attach_all(graph, analysis, [[1.5, 2.0]])
