@@ -116,7 +116,7 @@ def cost_distances(graph: Graph, goals: npt.ArrayLike) -> npt.NDArray[np.float64
 
     >>> from planner.fleets.graph import grid_graph
     >>> cost_distances(grid_graph([[1, 0], [1, 1]]), [2]).tolist()
-    [[1.0, 1.0, 0.0]]
+    [[2.0, 1.0, 0.0]]
     """
     nodes = _goal_nodes(graph, goals)
     costs = graph.costs

@@ -67,7 +67,7 @@ def solve(
     >>> line = grid_graph([[1, 1, 1], [0, 1, 0]])  # nodes 0 1 2 on a row, 3 below 1
     >>> s = solve(line, [0, 2], [2, 0])
     >>> s.status, s.sum_of_costs, s.lower_bound
-    ('solved', 8, 4)
+    ('solved', 7, 4)
     >>> solve(grid_graph([[1, 1]]), [0, 1], [1, 0]).status
     'unsolvable'
     """
