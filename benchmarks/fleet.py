@@ -48,10 +48,8 @@ import uvloop
 from common import Process, free_port, ros_maps, service
 from fleet_scenarios import (
     Scenario,
-    corridor_map,
     corridor_scenario,
     map_body,
-    random_corridor_scenario,
     random_scenario,
 )
 
@@ -225,7 +223,7 @@ def _polylines_apart(a: Any, b: Any) -> float:
     """The least distance between two polylines (``(n, 2)`` points; one point: a point)."""
     a0, a1 = (a[:-1], a[1:]) if len(a) > 1 else (a, a)
     b0, b1 = (b[:-1], b[1:]) if len(b) > 1 else (b, b)
-    return float(min(segment_distances(p, q, b0, b1).min() for p, q in zip(a0, a1)))
+    return float(min(segment_distances(p, q, b0, b1).min() for p, q in zip(a0, a1, strict=False)))
 
 
 def _percentile(values: list[float], q: float) -> float:

@@ -55,9 +55,7 @@ class Schedule:
         return k, None
 
 
-def timed_moves(
-    paths: npt.NDArray[np.int64], pending: Sequence[Sequence[int]]
-) -> list[list[Move]]:
+def timed_moves(paths: npt.NDArray[np.int64], pending: Sequence[Sequence[int]]) -> list[list[Move]]:
     """Each robot's moves in a joint plan: ``paths`` (``(T + 1, k)``: each robot's node at each
     time) with waits left out, after the moves of ``pending[j]`` (the nodes robot ``j`` was
     already told to go through before its first node in ``paths``: moves it may still be

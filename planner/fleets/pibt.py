@@ -149,9 +149,7 @@ def _swap_partner(
 
 
 @njit(cache=True, nogil=True)
-def _closes_cycle(
-    i: int, j: int, q_from: np.ndarray, q_to: np.ndarray, now: np.ndarray
-) -> bool:
+def _closes_cycle(i: int, j: int, q_from: np.ndarray, q_to: np.ndarray, now: np.ndarray) -> bool:
     """Whether agent ``i`` moving into agent ``j``'s node closes a rotation: following who moves
     into whose node from ``j`` leads back to ``i``. A fleet executes its plan by the order of
     its moves (planner.fleets.execution), and robots rotating at once can never do that."""
@@ -203,9 +201,9 @@ def _pibt(
         u = q_to[i]
         if ok and u >= 0 and u != q_from[i] and now[u] >= 0 and q_to[now[u]] == q_from[i]:
             ok = False
-        if ok and u >= 0 and u != q_from[i] and now[u] >= 0 and now[u] != i:
-            if _closes_cycle(i, now[u], q_from, q_to, now):
-                ok = False  # fixed moves that rotate
+        moving = ok and u >= 0 and u != q_from[i] and now[u] >= 0 and now[u] != i
+        if moving and _closes_cycle(i, now[u], q_from, q_to, now):
+            ok = False  # fixed moves that rotate
     width = 1
     for v in q_from:
         width = max(width, indptr[v + 1] - indptr[v] + 1)
@@ -248,7 +246,12 @@ def _pibt(
                     j = now[u]
                     if j >= 0 and j != i and q_to[j] == q_from[i]:
                         continue  # a swap
-                    if j >= 0 and j != i and q_to[j] >= 0 and _closes_cycle(i, j, q_from, q_to, now):
+                    if (
+                        j >= 0
+                        and j != i
+                        and q_to[j] >= 0
+                        and _closes_cycle(i, j, q_from, q_to, now)
+                    ):
                         continue  # a rotation
                     nxt[u] = i
                     q_to[i] = u

@@ -175,7 +175,9 @@ def fleet_public(view: FleetView) -> FleetPublic:
             "parked": bool(robot.get("parked")),
         }
         if view.poses is not None:
-            entry["poses"] = [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in view.poses.get(plan_id, ())]
+            entry["poses"] = [
+                {"x": x, "y": y, "yaw": yaw} for x, y, yaw in view.poses.get(plan_id, ())
+            ]
         out.append(entry)
     return FleetPublic.model_validate(
         {

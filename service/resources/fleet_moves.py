@@ -5,6 +5,7 @@ fleet entry brought up to date."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -91,7 +92,9 @@ def advance(
     if status != "waiting":
         waiting_for = None
     ahead = [node_cell(m[1], me, extras, graph) for m in moves[me["done"] : me["told"]]]
-    step = _answer(session, position, cell, ahead, target, status, seq, moves[me["told"] :], me, fmap, extras)  # noqa: E501
+    step = _answer(
+        session, position, cell, ahead, target, status, seq, moves[me["told"] :], me, fmap, extras
+    )
     me.update(
         cell=list(target), previous=[int(v) for v in step.previous], status=status,
         waiting_for=waiting_for,
@@ -125,7 +128,7 @@ def _answer(
     st.iteration += 1
     st.path_length += moved
     st.arc_cost += moved
-    st.status = status
+    st.status = status  # type: ignore[assignment]
     if seq is None:
         seq = 0 if st.last_seq is None else st.last_seq + 1
     points = frame.centers(np.array([cell.astype(np.int64).tolist(), *ahead]).reshape(-1, 2))
@@ -139,7 +142,7 @@ def _answer(
         a = node_cell(u, me, extras, fmap.graph)
         b = node_cell(v, me, extras, fmap.graph)
         rest += math.hypot(b[0] - a[0], b[1] - a[1])
-    along = sum(math.hypot(x2 - x1, y2 - y1) for (x1, y1, _), (x2, y2, _) in zip(poses, poses[1:]))
+    along = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in itertools.pairwise(poses))
     step = planner.Step(
         seq, previous, (r, c), _compass(previous, (r, c)), status,  # type: ignore[arg-type]
         st.iteration, st.path_length, st.arc_cost, rest, False, tuple(poses),
@@ -157,7 +160,7 @@ def _poses(
     apart, each heading along its segment (turns happen in place, at the nodes)."""
     heading = float(yaw) if yaw is not None else (last.poses[-1][2] if last and last.poses else 0.0)
     out = [(float(points[0][0]), float(points[0][1]), heading)]
-    for (x1, y1), (x2, y2) in zip(points[:-1], points[1:]):
+    for (x1, y1), (x2, y2) in itertools.pairwise(points):
         dx, dy = float(x2 - x1), float(y2 - y1)
         span = math.hypot(dx, dy)
         if span < 1e-9:
@@ -193,7 +196,10 @@ def _dilated(obstacles: Any, margin: int, shape: tuple[int, int]) -> set[int]:
 
 
 def _crosses(
-    a: npt.NDArray[np.float64], b: npt.NDArray[np.float64], blocked: set[int], shape: tuple[int, int]
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    blocked: set[int],
+    shape: tuple[int, int],
 ) -> bool:
     """Whether the segment from cell ``a`` to cell ``b`` passes a blocked cell."""
     pieces = max(1, math.ceil(float(np.abs(b - a).max()) * 4))

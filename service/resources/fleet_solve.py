@@ -44,7 +44,7 @@ def resolve(
     """The fleet with a new joint plan for its robots that step (the parked ones stand where
     they are, as obstacles), or, when the solver fails within its budget, its old plan kept
     with the failure in ``solve``."""
-    graph, analysis = fleet_map.graph, fleet_map.analysis
+    graph, _analysis = fleet_map.graph, fleet_map.analysis
     robots = fleet["robots"]
     extras: list[list[int]] = []
     order = sorted(robots, key=lambda k: robots[k]["rank"])
@@ -64,6 +64,7 @@ def resolve(
                     cell = np.array(node_cell(node, robots[k], old_extras, graph), dtype=np.float64)
                     near = np.linalg.norm(graph.cells - cell, axis=1) < reach
                     blocked |= near
+
     def others(k: str) -> list[npt.NDArray[np.float64]]:
         """The other robots' places: their chains' points, and the moves joining so far."""
         out = [
@@ -102,9 +103,7 @@ def resolve(
             why = f"robot {k}'s goal is taken by a robot standing there or by obstacles"
             return _failed(fleet, "unsolvable", why)
     started = time.perf_counter()
-    solution = solve(
-        graph, starts, goals, time_limit_s=time_limit_s, seed=seed, blocked=blocked
-    )
+    solution = solve(graph, starts, goals, time_limit_s=time_limit_s, seed=seed, blocked=blocked)
     figures = {
         "status": solution.status,
         "agents": len(agents),
@@ -173,7 +172,9 @@ def _join(
         first = node if first < 0 else first
         target = graph.cells[node].astype(np.float64)
         clear = all(
-            segment_distances(point, target, p[:-1] if len(p) > 1 else p, p[1:] if len(p) > 1 else p).min()
+            segment_distances(
+                point, target, p[:-1] if len(p) > 1 else p, p[1:] if len(p) > 1 else p
+            ).min()
             >= reach
             for p in others
         )

@@ -25,7 +25,14 @@ from service.tenants import scoped
 from service.work.engine import Engine
 
 __all__ = [
-    "FleetView", "Moved", "empty", "fleet_map", "get_fleet", "join", "moved_away", "step_in_fleet",
+    "FleetView",
+    "Moved",
+    "empty",
+    "fleet_map",
+    "get_fleet",
+    "join",
+    "moved_away",
+    "step_in_fleet",
 ]
 
 
@@ -72,7 +79,9 @@ async def fleet_map(engine: Engine, fleet: FleetRecord) -> FleetMap:
     wide = params.clean_weight > 0 or params.wall_cost != "cells"
 
     async def compute() -> _Sized:
-        graph = await engine.pool.run(build_roadmap, analysis, radius=params.robot_radius, wide=wide)
+        graph = await engine.pool.run(
+            build_roadmap, analysis, radius=params.robot_radius, wide=wide
+        )
         return _Sized(FleetMap(graph, analysis), int(graph.cells.nbytes * 4))
 
     key = ("roadmap", scoped(fleet["map_id"]), analysis.params_key, params.robot_radius, wide)
@@ -89,9 +98,7 @@ class _Sized:
     nbytes: int
 
 
-def join(
-    fleet: str, plan_id: str, map_id: str, plan: planner.Plan, fmap: FleetMap | None
-) -> Any:
+def join(fleet: str, plan_id: str, map_id: str, plan: planner.Plan, fmap: FleetMap | None) -> Any:
     """The fleet's new state with the plan's robot in it (marked to be solved again), from its
     state now (None: a new fleet). ``InvalidInput`` when the fleet is on another map
     (``FLEET_MAP_MISMATCH``), the robot is larger than the fleet's roadmap allows
@@ -332,4 +339,3 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
             last = None if record is None else record["state"].get("last_step")
             poses[plan_id] = [] if last is None else list(last.get("poses") or ())
     return FleetView(fleet, state, robot_map.frame, fmap, robot_map.shape, poses)
-

@@ -106,8 +106,9 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         # The fleet's roadmap found now, in the pool (a new fleet's for this robot): its goal
         # joins a node, and the fleet's first step does not wait for it.
         now = await engine.store.get_fleet(body.fleet)
-        same = now is not None and now["robots"] and now["map_id"] == body.map_id
-        fmap = await fleets.fleet_map(engine, now if same else fleets.empty(body.map_id, plan))
+        if now is None or not now["robots"] or now["map_id"] != body.map_id:
+            now = fleets.empty(body.map_id, plan)
+        fmap = await fleets.fleet_map(engine, now)
         joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap)
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
     return PlanView(plan_id, record, plan, state)

@@ -29,7 +29,7 @@ def _execute(plan: Schedule, starts: list[int], seed: int, *, pause: float = 0.2
     done, told = [0] * k, [0] * k
     paused = [0] * k
     for tick in range(1, 20_000):
-        if all(d == len(m) for d, m in zip(done, plan.moves)):
+        if all(d == len(m) for d, m in zip(done, plan.moves, strict=False)):
             return tick
         order = list(range(k))
         rng.shuffle(order)
@@ -43,7 +43,9 @@ def _execute(plan: Schedule, starts: list[int], seed: int, *, pause: float = 0.2
             done[j] = told[j]
             end, _ = plan.ready(j, told[j], done)
             told[j] = min(end, told[j] + rng.randint(1, 3))
-            places = [_places(list(plan.moves[i]), done[i], told[i]) or {starts[i]} for i in range(k)]
+            places = [
+                _places(list(plan.moves[i]), done[i], told[i]) or {starts[i]} for i in range(k)
+            ]
             for a in range(k):
                 for b in range(a + 1, k):
                     assert not places[a] & places[b], (tick, a, b, places[a], places[b])

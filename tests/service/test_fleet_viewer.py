@@ -87,9 +87,7 @@ def test_the_fleet_page_shows_robots_routes_and_whom_they_wait_for_in_chromium(
             waiter = held
             holder = waiter["waiting_for"]
             assert holder in (a, b)
-            page.wait_for_function(
-                "document.querySelectorAll('.route').length >= 1", timeout=2000
-            )
+            page.wait_for_function("document.querySelectorAll('.route').length >= 1", timeout=2000)
             page.wait_for_function(
                 "document.querySelector(\".fleet-robot[data-plan-id='"
                 + waiter["plan_id"]

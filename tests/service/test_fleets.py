@@ -14,6 +14,7 @@ import pytest
 from pydantic import SecretStr
 
 import planner
+import planner.fleets
 from service.config import Settings
 from service.main import create_app
 from service.resources import fleets
@@ -198,7 +199,7 @@ async def test_a_fleet_builds_its_roadmap_when_its_plan_is_made(
 ) -> None:
     # Built in the plan's creation: the fleet's first step does not wait for it.
     built: list[float] = []
-    build = fleets.build_roadmap
+    build = planner.fleets.build_roadmap
 
     def counted(analysis: planner.Analysis, *, radius: float, wide: bool) -> Any:
         built.append(radius)
