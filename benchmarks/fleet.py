@@ -1,18 +1,19 @@
 """Fleets over HTTP (docs/fleets.md): N robots of one fleet with seeded starts and goals, stepped
-in synchronous ticks (every robot steps once a tick, the steps of a tick sent concurrently in a
-random order), on a map with a one-lane corridor and on the largest shared ROS map, against the
-memory store (one server) and Redis (two replicas, a robot's steps alternating replicas).
+in ticks (the steps of a tick sent concurrently in a random order), on a map with a one-lane
+corridor, on random rooms and corridors, on the largest shared ROS map and on a Moving AI grid,
+against the memory store (one server) and Redis (two replicas, a robot's steps alternating).
 
-Counts, after every tick: collisions (two robots in one cell, two that swapped cells, or two
-whose centers are closer than the sum of their radii), robots waiting inside a passage while
-another robot is in it; at the end, whether all arrived within 4 x the sum of their solo path
-lengths + 50 ticks (else a deadlock), and the step's p50/p99: the client's (HTTP round trip,
+Robots skip ticks (``--skip``) and fall silent for 5-30 ticks (``--pause``). Counts, after every
+tick: collisions (two robots whose paths until their next step, their last answers' poses, come
+closer than the sum of their radii); at the end, whether all arrived within 4 x the sum of their
+solo path lengths + 200 ticks (else a deadlock), and the step's p50/p99: the client's (round trip,
 queue included), the server's own (its ``planner_http_request_duration_seconds`` histogram on
 ``/metrics``, read before and after each run: arrival to the end of the answer, interpolated in
 its buckets), the client's CPU time per step and the servers' (``/proc/PID/stat``).
 
-    .venv/bin/python benchmarks/fleet.py [--seeds 20] [--robots 16] [--store memory redis]
-        [--client aiohttp httpx]
+    .venv/bin/python benchmarks/fleet.py [--seeds 20] [--rooms 20] [--robots 16]
+        [--store memory redis] [--client aiohttp httpx] [--scenarios swap2 swap4 rooms depot grid]
+        [--in-process]
 
 ``--client`` says who sends the steps (httpx uploads the maps and creates the plans either
 way): ``aiohttp``, the default (:class:`AiohttpStepper`: an aiohttp session of kept-alive
@@ -50,6 +51,7 @@ from fleet_scenarios import (
     Scenario,
     corridor_scenario,
     map_body,
+    random_corridor_scenario,
     random_scenario,
 )
 
@@ -306,7 +308,12 @@ def servers(store: str, directory: Path) -> Iterator[list[Process]]:
 
 
 async def _bench(
-    replicas: list[Process], scenarios: list[tuple[Scenario, int]], *, client: str = "aiohttp"
+    replicas: list[Process],
+    scenarios: list[tuple[Scenario, int]],
+    *,
+    client: str = "aiohttp",
+    skip: float = 0.0,
+    pause: float = 0.0,
 ) -> list[Outcome]:
     urls = [replica.url for replica in replicas]
     limits = httpx.Limits(max_connections=64)
@@ -321,7 +328,10 @@ async def _bench(
         for n, (scenario, seed) in enumerate(scenarios):
             before = [await step_buckets(c) for c in clients]
             cpu = sum(replica.cpu_seconds() for replica in replicas)
-            outcome = await run(clients, scenario, fleet=f"bench-{n}", seed=seed, steppers=steppers)
+            outcome = await run(
+                clients, scenario, fleet=f"bench-{n}", seed=seed, steppers=steppers, skip=skip,
+                pause=pause,
+            )  # fmt: skip
             outcome.server_cpu_s = sum(replica.cpu_seconds() for replica in replicas) - cpu
             after = [await step_buckets(c) for c in clients]
             outcome.server_buckets = [
@@ -366,83 +376,93 @@ def _report(store: str, name: str, outcomes: list[Outcome], client: str) -> str:
     )
 
 
-async def _engine_steps(scenario: Scenario, ticks: int) -> dict[str, list[float]]:
-    """The service's own step (``service.resources.plans.step``, no HTTP, no JSON) of the
-    scenario's robots, one after the other for ``ticks`` ticks: as one fleet, and the same
-    plans with no fleet (robots ignoring each other), milliseconds per step."""
-    from schemas import MapCreate, PlanCreate, StepCreate
+def _scenarios(args: argparse.Namespace) -> dict[str, list[tuple[Scenario, int]]]:
+    """The runs of each scenario asked for, by name (seeded: each seed its own run)."""
+    depot = planner.read_ros_map(ros_maps() / "depot.yaml")
+    every: dict[str, tuple[str, Callable[[int], Scenario], int]] = {
+        "swap2": ("corridor swap x2", lambda s: corridor_scenario(1, s), args.seeds),
+        "swap4": ("corridor swap x4", lambda s: corridor_scenario(2, s), args.seeds),
+        "rooms": ("random rooms and corridors", random_corridor_scenario, args.rooms),
+        "depot": (
+            f"depot x{args.robots}, r = 0.3 m",
+            lambda s: random_scenario(depot, args.robots, s, radius=0.3),
+            args.random_seeds,
+        ),
+        "grid": (
+            f"random-32-32-10 x{args.grid_robots}, r = 0",
+            lambda s: grid_scenario(args.grid_robots, s),
+            args.random_seeds,
+        ),
+    }
+    return {every[k][0]: [(every[k][1](s), s) for s in range(every[k][2])] for k in args.scenarios}
+
+
+def grid_scenario(count: int, seed: int) -> Scenario:
+    """``count`` robots of radius 0 between random cells of the Moving AI map random-32-32-10
+    (a plain grid: the roadmap is its free cells, 4-connected)."""
+    grid = planner.read_map(ros_maps().parent / "mapf" / "random-32-32-10.map")
+    robot_map = planner.grid_map(np.asarray(grid, dtype=np.int8) * 100, resolution=1.0)
+    return random_scenario(robot_map, count, seed, radius=0.0)
+
+
+async def _in_process(runs: list[tuple[Scenario, int]], skip: float, pause: float) -> list[Outcome]:
+    """The runs through the app in this process (httpx's ASGI transport): the same steps and
+    checks, no sockets (for many episodes)."""
     from service.config import Settings
     from service.main import create_app
-    from service.resources import maps, plans
 
     app = create_app(Settings(pool_size=1))
-    out: dict[str, list[float]] = {}
+    out = []
     async with app.router.lifespan_context(app):
-        engine = app.state.engine
-        view, _ = await maps.add_map(engine, MapCreate.model_validate(map_body(scenario.robot_map)))
-        for fleet in (None, "bench"):
-            ids = []
-            for start, goal in scenario.robots:
-                body = PlanCreate(
-                    map_id=view.map_id, start=list(start), goal=list(goal),
-                    robot_radius=scenario.radius, fleet=fleet,
-                )  # fmt: skip
-                ids.append((await plans.create_plan(engine, body)).plan_id)
-            times = out["fleet" if fleet else "no fleet"] = []
-            for _ in range(ticks):
-                for plan_id in ids:
-                    t0 = time.perf_counter()
-                    await plans.step(engine, plan_id, StepCreate())
-                    times.append((time.perf_counter() - t0) * 1000)
-            for plan_id in ids:
-                await plans.delete_plan(engine, plan_id)
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
+            for n, (scenario, seed) in enumerate(runs):
+                out.append(
+                    await run([client], scenario, fleet=f"f{n}", seed=seed, skip=skip, pause=pause)
+                )
     return out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--rooms", type=int, default=20, help="random rooms-and-corridor runs")
     parser.add_argument("--robots", type=int, default=16)
+    parser.add_argument("--grid-robots", type=int, default=100)
     parser.add_argument("--random-seeds", type=int, default=3)
+    parser.add_argument("--skip", type=float, default=0.2, help="chance a robot sits a tick out")
+    parser.add_argument("--pause", type=float, default=0.02, help="chance a robot falls silent")
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
-    parser.add_argument("--scenarios", nargs="+", default=["swap2", "swap4", "depot"])
+    parser.add_argument(
+        "--scenarios", nargs="+", default=["swap2", "swap4", "rooms", "depot", "grid"]
+    )
     parser.add_argument(
         "--client", nargs="+", choices=["httpx", "aiohttp"], default=["aiohttp"],
         help="who sends the steps: httpx, or aiohttp (AiohttpStepper; the default)",
     )  # fmt: skip
     parser.add_argument(
-        "--engine", action="store_true", help="only the step in-process, fleet against none"
+        "--in-process", action="store_true", help="the runs through the app in this process"
     )
     args = parser.parse_args()
-    if args.engine:
-        depot = planner.read_ros_map(ros_maps() / "depot.yaml")
-        found = asyncio.run(_engine_steps(random_scenario(depot, args.robots, 0), 100))
-        print("| step (in-process) | steps | p50 ms | p99 ms | mean ms |")
-        print("|---|---|---|---|---|")
-        for name, times in found.items():
-            print(f"| depot x{args.robots}, {name} | {len(times)} | {_percentile(times, 50):.3f} "
-                  f"| {_percentile(times, 99):.3f} | {np.mean(times):.3f} |")  # fmt: skip
-        return
-    depot = planner.read_ros_map(ros_maps() / "depot.yaml")
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    sets = _scenarios(args)
+    if args.in_process:
+        print(HEADER)
+        for name, runs in sets.items():
+            outcomes = asyncio.run(_in_process(runs, args.skip, args.pause))
+            print(_report("in-process", name, outcomes, "httpx ASGI"), flush=True)
+            for o in outcomes:
+                for line in (o.collisions + o.errors)[:3]:
+                    print("  ", line, file=sys.stderr)
+        return
     print(HEADER)
     for store in args.store:
-        every: dict[str, tuple[str, Callable[[int], Scenario], int]] = {
-            "swap2": ("corridor swap x2", lambda s: corridor_scenario(1, s), args.seeds),
-            "swap4": ("corridor swap x4", lambda s: corridor_scenario(2, s), args.seeds),
-            "depot": (
-                f"depot x{args.robots}",
-                lambda s: random_scenario(depot, args.robots, s),
-                args.random_seeds,
-            ),
-        }
-        sets = {
-            every[k][0]: [(every[k][1](s), s) for s in range(every[k][2])] for k in args.scenarios
-        }
         with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as replicas:
             for (name, scenarios), client in itertools.product(sets.items(), args.client):
                 # On uvloop, as the servers run: less of the client's CPU in each round trip.
-                outcomes = uvloop.run(_bench(replicas, scenarios, client=client))
+                outcomes = uvloop.run(
+                    _bench(replicas, scenarios, client=client, skip=args.skip, pause=args.pause)
+                )
                 print(_report(store, name, outcomes, client), flush=True)
                 print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:

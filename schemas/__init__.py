@@ -6,6 +6,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 from schemas.errors import ErrorPublic
 from schemas.fleet_names import PlanCreate
 from schemas.fleets import FleetPublic, FleetRobotPublic, FleetSolvePublic
+from schemas.mapf import MapfAgent, MapfCreate, MapfPublic, PlanGoalUpdate
 from schemas.maps import MULTIPART_FIELDS, MapCreate, MapPublic
 from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.passages import NarrowestPublic, PassagePublic, PassagesPublic
@@ -64,6 +65,9 @@ __all__ = [
     "LivePublic",
     "MapCreate",
     "MapPublic",
+    "MapfAgent",
+    "MapfCreate",
+    "MapfPublic",
     "NarrowestPublic",
     "NavPath",
     "Obstacle",
@@ -71,6 +75,7 @@ __all__ = [
     "PassagesPublic",
     "PlanCreate",
     "PlanDetail",
+    "PlanGoalUpdate",
     "PlanPublic",
     "Point",
     "PoolStats",

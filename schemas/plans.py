@@ -192,8 +192,7 @@ PARAMS_DESCRIPTION = (
     "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
     "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
     "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
-    "the preview's `duration_s`), `deviation_m` (meters: how far a fleet robot may be reported "
-    "from its told moves before the fleet is solved again)."
+    "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve)."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -237,13 +236,8 @@ EXAMPLE_PLAN: dict[str, Any] = {
     "status": "ready",
     "position": [0, 0],
     "narrow_fallback": False,
-    "analysis": {
-        "gates": 0,
-        "tunnels": 0,
-        "narrow_fallback": False,
-        "cache_hit": False,
-        "analysis_ms": 0.02,
-    },
+    "analysis": {"gates": 0, "tunnels": 0, "narrow_fallback": False, "cache_hit": False,
+                 "analysis_ms": 0.02},
     "preview": {
         "path": [[0, 0], [1, 1], [1, 2], [1, 3], [1, 4], [2, 4], [3, 4], [4, 5]],
         "length": 7.828427,

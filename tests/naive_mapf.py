@@ -30,11 +30,26 @@ def check_solution(graph: Graph, starts: Any, goals: Any, paths: np.ndarray) -> 
             assert u == v or (u, v) in edges, f"agent {a} jumps {u} -> {v} at t={t}"
             for b, (x, y) in enumerate(zip(before, after, strict=True)):
                 assert not (a != b and u != v and x == v and y == u), f"{a}, {b} swap at t={t}"
+        _no_rotation(before, after, t)
     cost = 0
     for a, goal in enumerate(goals):
         away = [t for t, row in enumerate(rows) if row[a] != goal]
         cost += away[-1] + 1 if away else 0
     return cost, len(rows) - 1
+
+
+def _no_rotation(before: list[int], after: list[int], t: int) -> None:
+    """No agents moving into each other's nodes in a cycle at once (a fleet executes its plan by
+    the order of its moves, and no order carries a rotation out)."""
+    at = {v: a for a, v in enumerate(before)}
+    follows = {a: at[v] for a, (u, v) in enumerate(zip(before, after, strict=True))
+               if u != v and v in at}  # fmt: skip
+    for start in follows:
+        seen, a = set(), start
+        while a in follows and a not in seen:
+            seen.add(a)
+            a = follows[a]
+        assert a != start or start not in follows or a not in seen, f"a rotation at t={t}"
 
 
 def bfs(graph: Graph, goal: int) -> list[int]:
@@ -79,9 +94,27 @@ def pibt_step(
             if u in nxt:
                 return None
             nxt[u] = i
+
+    def rotates(i: int, j: int) -> bool:
+        """Whether ``i`` moving into ``j``'s node closes a cycle of agents moving at once."""
+        a = j
+        for _ in range(k):
+            t = q_to[a]
+            if t is None or t == q_from[a]:
+                return False
+            b = now.get(t)
+            if b == i:
+                return True
+            if b is None:
+                return False
+            a = b
+        return False
+
     for i in range(k):
         u = q_to[i]
         if u is not None and u != q_from[i] and u in now and q_to[now[u]] == q_from[i]:
+            return None
+        if u is not None and u != q_from[i] and now.get(u, i) != i and rotates(i, now[u]):
             return None
 
     def onward(behind: int, ahead: int) -> list[int]:
@@ -150,10 +183,18 @@ def pibt_step(
             j = now.get(u)
             if j is not None and j != i and q_to[j] == v:
                 continue
+            if j is not None and j != i and q_to[j] is not None and rotates(i, j):
+                continue
             nxt[u], q_to[i] = i, u
             if j is not None and j != i and q_to[j] is None and not plan(j):
                 continue
-            if swap is not None and index == 0 and q_to[swap] is None and v not in nxt:
+            if (
+                swap is not None
+                and index == 0
+                and q_to[swap] is None
+                and v not in nxt
+                and not rotates(swap, i)
+            ):
                 nxt[v], q_to[swap] = swap, v
             return True
         nxt[v], q_to[i] = i, v

@@ -20,6 +20,7 @@ from planner.plans.ends import cell_of
 from service.errors import NotFound
 from service.resources.fleet_moves import advance
 from service.resources.fleet_solve import FleetMap, chain, node_cell, resolve
+from service.resources.mapf_size import check_size
 from service.stores.base import FleetRecord
 from service.tenants import scoped
 from service.work.engine import Engine
@@ -32,6 +33,7 @@ __all__ = [
     "get_fleet",
     "join",
     "moved_away",
+    "retarget",
     "step_in_fleet",
 ]
 
@@ -98,12 +100,21 @@ class _Sized:
     nbytes: int
 
 
-def join(fleet: str, plan_id: str, map_id: str, plan: planner.Plan, fmap: FleetMap | None) -> Any:
+def join(
+    fleet: str,
+    plan_id: str,
+    map_id: str,
+    plan: planner.Plan,
+    fmap: FleetMap | None,
+    *,
+    most: int = 500,
+) -> Any:
     """The fleet's new state with the plan's robot in it (marked to be solved again), from its
     state now (None: a new fleet). ``InvalidInput`` when the fleet is on another map
     (``FLEET_MAP_MISMATCH``), the robot is larger than the fleet's roadmap allows
     (``FLEET_RADIUS``), another robot stands within both radii of its start or its way onto the
-    roadmap (``FLEET_START_TAKEN``), or its goal is another robot's (``FLEET_GOAL_TAKEN``)."""
+    roadmap (``FLEET_START_TAKEN``), its goal is another robot's (``FLEET_GOAL_TAKEN``), or the
+    fleet has ``most`` robots (``FLEET_FULL``) or more than its solver's tables allow here."""
     radius = float(plan.params.robot_radius)
 
     def apply(state: FleetRecord | None) -> FleetRecord:
@@ -124,6 +135,11 @@ def join(fleet: str, plan_id: str, map_id: str, plan: planner.Plan, fmap: FleetM
             raise planner.InvalidInput(msg, field="params.robot_radius", code="FLEET_RADIUS")
         if fmap is None:
             raise AssertionError("a fleet's roadmap is found before a robot joins")
+        count = len(state["robots"]) + 1
+        if count > most:
+            msg = f"FLEET_FULL: fleet {quote(fleet)} has {most} robots, PLANNER_MAX_FLEET_ROBOTS"
+            raise planner.InvalidInput(msg, field="fleet", code="FLEET_FULL")
+        check_size(count, fmap.graph, "fleet")
         robot = _new_robot(state, plan, fmap)
         _check_free(fleet, state, robot, fmap)
         return {
@@ -181,13 +197,34 @@ def _check_free(fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: Fle
         cells = np.array(
             [node_cell(n, other, extras, fmap.graph) for n in chain(other)], dtype=np.float64
         )
-        if np.min(np.linalg.norm(cells - start, axis=1)) < max(reach, 1e-9):
+        if robot["cell"][0] >= 0 and np.min(np.linalg.norm(cells - start, axis=1)) < max(
+            reach, 1e-9
+        ):
             msg = (
                 f"start {robot['cell']} is taken: robot {quote(plan_id)} of fleet "
                 f"{quote(fleet)} stands there (within the sum of both radii); delete its plan "
                 "first"
             )
             raise planner.InvalidInput(msg, field="start", code="FLEET_START_TAKEN")
+
+
+def retarget(
+    fleet_name: str, state: FleetRecord, plan_id: str, goal: list[int], fmap: FleetMap
+) -> FleetRecord:
+    """The fleet with ``plan_id``'s robot going to ``goal`` (its node: the nearest no other
+    robot's goal joins), marked to be solved again; ``FLEET_GOAL_TAKEN`` when the goal is
+    within both radii of another robot's goal."""
+    robots = {k: v for k, v in state["robots"].items() if k != plan_id}
+    me = dict(state["robots"][plan_id])
+    node = attach(
+        fmap.graph, fmap.analysis, goal, exclude={int(r["goal_node"]) for r in robots.values()}
+    )
+    if node < 0:
+        msg = f"goal {goal} has no node of the fleet's roadmap in reach by a straight move"
+        raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
+    me.update(goal=goal, goal_node=node, arrived=False)
+    _check_free(fleet_name, {**state, "robots": robots}, {**me, "cell": [-(10**9), 0]}, fmap)
+    return {**state, "dirty": True, "robots": {**state["robots"], plan_id: me}}
 
 
 def moved_away(plan_id: str, fleet: str, map_id: str) -> planner.InvalidInput:

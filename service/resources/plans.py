@@ -17,6 +17,7 @@ import numpy.typing as npt
 
 import planner
 from planner import quote
+from planner.plans.ends import free_cell
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.resources import fleets, passages
@@ -35,6 +36,7 @@ from service.work.engine import (
 __all__ = [
     "PlanView",
     "StepView",
+    "change_goal",
     "create_plan",
     "delete_plan",
     "get_plan",
@@ -109,7 +111,8 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         if now is None or not now["robots"] or now["map_id"] != body.map_id:
             now = fleets.empty(body.map_id, plan)
         fmap = await fleets.fleet_map(engine, now)
-        joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap)
+        most = engine.settings.max_fleet_robots
+        joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap, most=most)
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
     return PlanView(plan_id, record, plan, state)
 
@@ -122,6 +125,38 @@ async def get_plan(engine: Engine, plan_id: str) -> PlanView:
     trajectory = await engine.store.get_trajectory(plan_id) or [record["state"]["position"]]
     state = planner.SessionState.from_dict({**record["state"], "trajectory": trajectory})
     return PlanView(plan_id, record, plan, state)
+
+
+async def change_goal(engine: Engine, plan_id: str, goal: Any) -> PlanView:
+    """A fleet robot's new goal (docs/fleets.md): its record's plan goes there from its start
+    (for ``GET /plan``), and its fleet, marked, is solved again at its next step."""
+    record = await _record(engine, plan_id)
+    if "fleet" not in record:
+        msg = (
+            f"goal: plan {quote(plan_id)} is in no fleet; a lone robot's new goal is a new "
+            "plan (POST /plan from where it is)"
+        )
+        raise planner.InvalidInput(msg, field="goal")
+    plan = await engine.plan_of(record)
+    cell = list(free_cell(plan.analysis, goal, "goal"))
+    new, _ = await engine.build_plan(
+        record["map_id"], tuple(record["start"]), tuple(cell), record["preset"], record["params"]
+    )
+
+    async def decide(record: PlanRecord, fleet: FleetRecord | None) -> Update[None]:
+        if fleet is None or plan_id not in fleet["robots"]:
+            raise _unknown_plan(plan_id)
+        fmap = await fleets.fleet_map(engine, fleet)
+        state = fleets.retarget(record["fleet"], fleet, plan_id, cell, fmap)
+        changed = {
+            **record, "goal": cell, "ends": plan_ends(new), "legs": plan_legs(new),
+            "narrow_fallback": new.narrow_fallback,
+        }  # fmt: skip
+        return Update(None, changed, fleet=state)
+
+    if await engine.store.step_plan(plan_id, decide) is None:
+        raise _unknown_plan(plan_id)
+    return await get_plan(engine, plan_id)
 
 
 async def delete_plan(engine: Engine, plan_id: str) -> None:

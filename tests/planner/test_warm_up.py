@@ -10,7 +10,8 @@ from tests.service.conftest import ROOT
 
 STEP_KERNELS = (
     "planner.poses.ahead._ahead",
-    "planner.fleets.robots._robot_cells",
+    "planner.fleets.roadmap._attach",
+    "planner.fleets.pibt._pibt",
     "planner.stepping.obstacles._first_outside",
 )
 """Kernels a step (a lone robot's, a fleet robot's) calls from Python."""

@@ -1,7 +1,7 @@
 """A fleet on Redis served by two replicas, each robot's steps alternating between them and the
-steps of a tick sent at once: no two robots are ever told into one cell, to swap, or closer than
-the sum of their radii (the fleet's state is version-fenced in Redis), none waits in a passage
-another is in, and all arrive (in a room, and through a one-lane corridor)."""
+steps of a tick sent at once, some robots skipping ticks and pausing: no two robots' paths ever
+come closer than the sum of their radii (the fleet's state is version-fenced in Redis), and all
+arrive (in a room, through a one-lane corridor, between random rooms and corridors)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import httpx
 
 from tests.service.conftest import RedisServer, replicas
-from tests.service.test_fleets import F, room
+from tests.service.test_fleets import F, S, room
 
 
 def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_path: Path) -> None:
@@ -31,7 +31,7 @@ def test_a_fleet_on_two_replicas_never_collides(redis_server: RedisServer, tmp_p
                 corridor = F.corridor_scenario(per_side, 0)
                 runs.append(await F.run(clients, corridor, fleet=f"lane-{per_side}", seed=0))
             for seed in range(3):
-                rooms = F.random_corridor_scenario(seed)
+                rooms = S.random_corridor_scenario(seed)
                 runs.append(
                     await F.run(clients, rooms, fleet=f"rooms-{seed}", seed=seed, skip=0.2,
                                 pause=0.02)

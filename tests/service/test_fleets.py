@@ -21,6 +21,7 @@ from service.resources import fleets
 from tests.scripts import load_benchmark
 
 F = load_benchmark("fleet")
+S = load_benchmark("fleet_scenarios")
 pytestmark = pytest.mark.anyio
 SETTINGS = Settings(pool_size=1)
 
@@ -86,7 +87,7 @@ async def test_random_rooms_and_corridors_with_skips_and_pauses(
 ) -> None:
     """Rooms of random sizes, a corridor 1-4 m long and 2r + 0.05 m to 4r wide, 1-4 robots a
     side; robots skip ticks and fall silent for a while."""
-    scenario = F.random_corridor_scenario(seed)
+    scenario = S.random_corridor_scenario(seed)
     outcome = await F.run(
         [client], scenario, fleet=f"rooms-{seed}", seed=seed, skip=0.2, pause=0.02
     )
@@ -159,7 +160,7 @@ async def test_a_silent_robot_is_planned_around_after_its_lease() -> None:
 async def test_robots_created_head_on_inside_a_corridor_never_deadlock(
     client: httpx.AsyncClient,
 ) -> None:
-    m = F.corridor_map(resolution=0.1, lane_m=0.8, length_m=3.0, room_m=4.0)
+    m = S.corridor_map(resolution=0.1, lane_m=0.8, length_m=3.0, room_m=4.0)
     row = 20  # the lane's middle row
     scenario = F.Scenario("inside", m, 0.325, (((row, 45), (row, 70)), ((row, 52), (row, 10))))
     for seed in range(3):

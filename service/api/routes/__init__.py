@@ -2,12 +2,23 @@
 
 from fastapi import APIRouter
 
-from service.api.routes import fleets, health, maps, metrics, plans, simulate, viewer, zones
+from service.api.routes import (
+    fleets,
+    health,
+    mapf,
+    maps,
+    metrics,
+    plans,
+    simulate,
+    viewer,
+    zones,
+)
 
 __all__ = ["routers"]
 
 routers: tuple[APIRouter, ...] = tuple(
-    module.router for module in (plans, maps, zones, fleets, simulate, viewer, health, metrics)
+    module.router
+    for module in (plans, maps, zones, fleets, mapf, simulate, viewer, health, metrics)
 )
 """Every router, in the order their routes are matched: plans first. The app includes each
 directly (a router nested in another costs a level of matching on every request); the step, the

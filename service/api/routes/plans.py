@@ -15,6 +15,7 @@ from schemas import (
     NavPath,
     PlanCreate,
     PlanDetail,
+    PlanGoalUpdate,
     PlanPublic,
     StepCreate,
     StepPublic,
@@ -168,6 +169,18 @@ async def get_path(
     # Built and encoded directly (thousands of poses): `response_model` documents it, and
     # tests/service/test_poses.py checks that its answers validate as NavPath.
     return Response(orjson.dumps(answer), media_type="application/json")
+
+
+@router.patch(
+    "/plan/{plan_id}",
+    summary="Give a fleet robot a new goal",
+    responses=responses(404, 422),
+)
+async def change_goal(plan_id: str, body: PlanGoalUpdate, engine: EngineDep) -> PlanDetail:
+    """A fleet robot's new `goal` (a cell, or a point in meters): its fleet is solved again at
+    its next step, from where its robots are. `422` `FLEET_GOAL_TAKEN` when the goal is within
+    both radii of another robot's goal; `422` for a plan in no fleet (plan it again instead)."""
+    return present.plan_detail(await plans.change_goal(engine, plan_id, body.goal))
 
 
 @router.delete(
