@@ -18,6 +18,7 @@ from pydantic import BaseModel
 from schemas import (
     AnalysisPublic,
     FleetPublic,
+    MapfPublic,
     MapPublic,
     NavPath,
     PassagesPublic,
@@ -30,6 +31,7 @@ from schemas import (
 from service.client.errors import MapFileError, raise_for
 from service.client.fields import (
     CellIn,
+    MapfFields,
     PlanFields,
     PointIn,
     RouteFields,
@@ -44,6 +46,8 @@ __all__ = [
     "AsyncPlannerClient",
     "Fleet",
     "MapInfo",
+    "Mapf",
+    "MapfFields",
     "NavPath",
     "Passages",
     "Plan",
@@ -67,6 +71,7 @@ Plan = PlanPublic
 Step = StepPublic
 Simulation = SimulationPublic
 Fleet = FleetPublic
+Mapf = MapfPublic
 Passages = PassagesPublic
 
 
@@ -246,6 +251,16 @@ def _render(kind: str, id_: str, query: dict[str, Any]) -> _Call[bytes]:
     return _Call("GET", f"/{kind}/{id_}/render.png", _png, {"params": query})
 
 
+def _change_goal(plan_id: str, goal: CellIn) -> _Call[PlanDetail]:
+    body = {"goal": _cell(goal)}
+    return _Call("PATCH", f"/plan/{plan_id}", _decode(PlanDetail), {"json": body})
+
+
+def _mapf(map_id: str, agents: Sequence[tuple[CellIn, CellIn]], fields: MapfFields) -> _Call[Mapf]:
+    body = _body({"agents": [{"start": _cell(s), "goal": _cell(g)} for s, g in agents], **fields})
+    return _Call("POST", f"/maps/{map_id}/mapf", _decode(Mapf), {"json": body})
+
+
 def _fleet(name: str, ahead: bool) -> _Call[Fleet]:
     query = {"ahead": True} if ahead else {}
     return _Call("GET", f"/fleets/{name}", _decode(Fleet), {"params": query})
@@ -347,9 +362,19 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
         self._call(_delete_plan(plan_id))
 
     def fleet(self, name: str, *, ahead: bool = False) -> Fleet:
-        """A fleet's robots (plans made with ``fleet=name``), its passages, who holds each;
-        with ``ahead``, each robot's path ahead too."""
+        """A fleet's robots (plans made with ``fleet=name``), each one's route left and whom it
+        waits for, and its last solve; with ``ahead``, each robot's path ahead too."""
         return self._call(_fleet(name, ahead))
+
+    def change_goal(self, plan_id: str, goal: CellIn) -> PlanDetail:
+        """A fleet robot's new goal: its fleet is solved again at its next step."""
+        return self._call(_change_goal(plan_id, goal))
+
+    def mapf(
+        self, map_id: str, agents: Sequence[tuple[CellIn, CellIn]], **fields: Unpack[MapfFields]
+    ) -> Mapf:
+        """Agents (``(start, goal)`` cells) planned together on the map's roadmap."""
+        return self._call(_mapf(map_id, agents, fields))
 
     def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]
@@ -429,6 +454,14 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
 
     async def fleet(self, name: str, *, ahead: bool = False) -> Fleet:
         return await self._call(_fleet(name, ahead))
+
+    async def change_goal(self, plan_id: str, goal: CellIn) -> PlanDetail:
+        return await self._call(_change_goal(plan_id, goal))
+
+    async def mapf(
+        self, map_id: str, agents: Sequence[tuple[CellIn, CellIn]], **fields: Unpack[MapfFields]
+    ) -> Mapf:
+        return await self._call(_mapf(map_id, agents, fields))
 
     async def step(
         self, plan_id: str, dynamic_obstacles: Sequence[Any], **fields: Unpack[StepFields]

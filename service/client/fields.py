@@ -10,6 +10,7 @@ from typing import Any, Required, TypedDict
 
 __all__ = [
     "CellIn",
+    "MapfFields",
     "PlanFields",
     "PointIn",
     "RouteFields",
@@ -84,3 +85,11 @@ class StepFields(TypedDict, total=False):
 
     seq: int | None
     position: CellIn | None
+
+
+class MapfFields(TypedDict, total=False):
+    """``mapf``'s fields besides the agents."""
+
+    robot_radius: float | None
+    time_limit_s: float | None
+    preset: str | None

@@ -24,6 +24,7 @@ from service.client import (
     APIError,
     AsyncPlannerClient,
     ConflictError,
+    MapfFields,
     MapFileError,
     MapInfo,
     NotFoundError,
@@ -391,6 +392,8 @@ ROUTES = {
     "step": ("post", "/plan/{plan_id}/step"),
     "simulate": ("post", "/maps/{map_id}/simulate"),
     "fleet": ("get", "/fleets/{fleet}"),
+    "change_goal": ("patch", "/plan/{plan_id}"),
+    "mapf": ("post", "/maps/{map_id}/mapf"),
 }
 
 
@@ -463,6 +466,8 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     assert simulate == set(schemas.SimulationCreate.model_fields)
     step = set(get_type_hints(StepFields)) | {"dynamic_obstacles"}
     assert step == set(schemas.StepCreate.model_fields)
+    mapf = set(get_type_hints(MapfFields)) | {"agents"}
+    assert mapf == set(schemas.MapfCreate.model_fields)
     zones = set(get_type_hints(ZonesFields))
     assert zones == set(schemas.ZonesCreate.model_fields) - {"image"}  # the YAML's image is read
     route = set(get_type_hints(RouteFields))

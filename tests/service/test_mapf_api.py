@@ -29,9 +29,7 @@ async def test_offline_mapf_on_a_plain_grid_is_the_moving_ai_problem(
     free = [(r, c) for r, row in enumerate(ROWS) for c, ch in enumerate(row) if ch == "."]
     rng = np.random.default_rng(0)
     picks = rng.permutation(len(free))
-    agents = [
-        {"start": list(free[picks[i]]), "goal": list(free[picks[i + 8]])} for i in range(8)
-    ]
+    agents = [{"start": list(free[picks[i]]), "goal": list(free[picks[i + 8]])} for i in range(8)]
     answer = await client.post(f"/maps/{map_id}/mapf", json={"agents": agents})
     assert answer.status_code == 200, answer.text
     body = answer.json()
@@ -81,7 +79,9 @@ async def test_a_fleet_robot_gets_a_new_goal(client: httpx.AsyncClient) -> None:
     b = (await _plan(client, map_id, [35, 5], [5, 35], fleet="g")).json()["plan_id"]
     for seq in range(3):
         for plan_id in (a, b):
-            assert (await client.post(f"/plan/{plan_id}/step", json={"seq": seq})).status_code == 200
+            assert (
+                await client.post(f"/plan/{plan_id}/step", json={"seq": seq})
+            ).status_code == 200
     taken = await client.patch(f"/plan/{a}", json={"goal": [5, 34]})
     assert taken.status_code == 422
     assert taken.json()["code"] == "FLEET_GOAL_TAKEN"
