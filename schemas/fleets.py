@@ -55,7 +55,11 @@ class FleetSolvePublic(BaseModel):
     agents: int = Field(default=0, ge=0, description="Robots planned together.")
     solve_ms: float = Field(default=0.0, ge=0)
     sum_of_costs: int = Field(default=0, ge=0, description="Moves and waits until each rests.")
-    lower_bound: int = Field(default=0, ge=0, description="The sum of each robot's own shortest.")
+    lower_bound: int = Field(
+        default=0,
+        ge=-1,
+        description="The sum of each robot's own shortest (-1: a goal out of reach).",
+    )
     makespan: int = Field(default=0, ge=0)
     at: float | None = Field(default=None, description="When (seconds since the epoch).")
 

@@ -26,6 +26,7 @@ from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, quote
 from planner.fleets.graph import Graph, grid_graph
 from planner.fleets.roadmap_nodes import roadmap_nodes, spacing
+from planner.fleets.roadmap_repair import join_pieces
 from planner.fleets.segments import point_segment_sq, segment_free, segment_segment_sq
 
 __all__ = ["attach", "attach_all", "build_roadmap"]
@@ -74,6 +75,8 @@ def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Gr
     else:
         nodes = roadmap_nodes(free, separation)
         edges = _edges(free, nodes, separation)
+        reach = 2.0 * REACH * spacing(separation / 2.0)
+        nodes, edges = join_pieces(free, nodes, edges, separation, reach)
     return _graph(nodes, edges, clean, free.shape, r, resolution)
 
 

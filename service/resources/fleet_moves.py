@@ -40,7 +40,7 @@ def advance(
 ) -> tuple[planner.Step, str | None]:
     """Decide the robot's answer in ``state`` (changed in place: its entry, and the nodes its
     client's obstacles kept blocked for ``patience`` steps) and ``session``'s state."""
-    plan, st = session.plan, session.state
+    plan = session.plan
     robots = state["robots"]
     me = robots[plan_id]
     graph, extras = fmap.graph, state.get("extras", [])
@@ -54,7 +54,7 @@ def advance(
             done = [robots[k]["done"] if k in robots else _GONE for k in agents]
             end, blocker = plan_of.ready(j, told, done)
             waiting_for = None if blocker is None else agents[blocker]
-    cell = np.array(here if here is not None else st.position, dtype=np.float64)
+    cell = np.array(here if here is not None else session.state.position, dtype=np.float64)
     horizon = max(float(plan.params.horizon_m) / graph.resolution, 1.0)
     blocked = _dilated(obstacles, plan.params.dynamic_margin, graph.shape)
     allowed, length, held = told, 0.0, False
@@ -99,7 +99,6 @@ def advance(
         cell=list(target), previous=[int(v) for v in step.previous], status=status,
         waiting_for=waiting_for,
     )  # fmt: skip
-    _ = st
     return step, waiting_for
 
 

@@ -21,10 +21,12 @@ __all__ = ["FleetMap", "chain", "node_cell", "resolve"]
 
 @dataclass(frozen=True, slots=True)
 class FleetMap:
-    """A fleet's roadmap and the analysis it was built on (for its robots' largest radius)."""
+    """A fleet's roadmap, the analysis it was built on (for its robots' radius), and which
+    piece of the roadmap each node is in (``pieces``: robots move within one)."""
 
     graph: Graph
     analysis: planner.Analysis
+    pieces: npt.NDArray[np.int64]
 
 
 def chain(robot: dict[str, Any]) -> list[int]:
@@ -234,4 +236,5 @@ def _failed(fleet: FleetRecord, status: str, why: str) -> FleetRecord:
     solve_ = {**fleet.get("solve", {}), "status": status, "at": time.time()}
     if why:
         solve_["detail"] = why
-    return {**fleet, "dirty": False, "failed_at": time.time(), "solve": solve_}
+    # Still marked: tried again after a while (``fleets._may_solve``), or at the next change.
+    return {**fleet, "dirty": True, "failed_at": time.time(), "solve": solve_}

@@ -12,10 +12,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 import planner
 from planner import quote
-from planner.fleets import Schedule, attach, build_roadmap, schedule, segment_distances
+from planner.fleets import Graph, Schedule, attach, build_roadmap, schedule, segment_distances
 from planner.plans.ends import cell_of
 from service.errors import NotFound
 from service.resources.fleet_moves import advance
@@ -84,12 +87,22 @@ async def fleet_map(engine: Engine, fleet: FleetRecord) -> FleetMap:
         graph = await engine.pool.run(
             build_roadmap, analysis, radius=params.robot_radius, wide=wide
         )
-        return _Sized(FleetMap(graph, analysis), int(graph.cells.nbytes * 4))
+        return _Sized(FleetMap(graph, analysis, _pieces(graph)), int(graph.cells.nbytes * 5))
 
     key = ("roadmap", scoped(fleet["map_id"]), analysis.params_key, params.robot_radius, wide)
     found, _ = await engine.cache.get_or_compute(key, compute)
     assert isinstance(found.value, FleetMap)
     return found.value
+
+
+def _pieces(graph: Graph) -> npt.NDArray[np.int64]:
+    """The connected piece of each node (scipy's labels)."""
+    source = np.repeat(np.arange(graph.nodes), np.diff(graph.indptr))
+    shape = (graph.nodes, graph.nodes)
+    matrix = coo_matrix((np.ones(len(source)), (source, graph.indices)), shape=shape)
+    _, labels = connected_components(matrix, directed=False)
+    out: npt.NDArray[np.int64] = labels.astype(np.int64)
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,6 +174,13 @@ def _new_robot(state: FleetRecord, plan: planner.Plan, fmap: FleetMap) -> dict[s
     goal_node = attach(graph, fmap.analysis, goal, exclude=others)
     if goal_node < 0:
         msg = f"goal {goal} has no node of the fleet's roadmap in reach by a straight move"
+        raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
+    joins = at if at >= 0 else attach(graph, fmap.analysis, start)
+    if joins < 0 or fmap.pieces[joins] != fmap.pieces[goal_node]:
+        msg = (
+            f"NO_VALID_PATH: goal {goal} cannot be reached from start {start} on the fleet's "
+            "roadmap (robots of its radius kept apart cannot get there)"
+        )
         raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
     return {
         "rank": int(state["next"]),
@@ -363,7 +383,7 @@ async def get_fleet(engine: Engine, fleet: str, *, ahead: bool = False) -> Fleet
     """The fleet's state now (with ``ahead``, each robot's path ahead read from its plan);
     ``NotFound`` when it has no robot."""
     state = await engine.store.get_fleet(fleet)
-    if state is None or not state["robots"]:
+    if state is None or not state["robots"] or "params" not in state:
         msg = f"fleet: no fleet {quote(fleet)} (no plan of it is alive)"
         raise NotFound(msg, field="fleet")
     robot_map = await engine.robot_map(state["map_id"])

@@ -205,6 +205,8 @@ async def step(
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
         waiting_for, new_fleet = None, None
+        if fleet is not None and "params" not in fleet:
+            fleet = None  # a fleet of an older version: its robots join a new one as they step
         if "fleet" in record and fleet is None:
             # Its fleet's state expired: it starts again (the write is fenced on its absence).
             fleet = fleets.empty(record["map_id"], plan)

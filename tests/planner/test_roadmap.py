@@ -261,3 +261,23 @@ def test_bad_input_is_refused() -> None:
         build_roadmap(np.zeros((3, 3)), radius=0.1)  # type: ignore[arg-type]
     with pytest.raises(planner.InvalidInput, match="cells"):
         attach_all(graph, analysis, [[1.5, 2.0]])
+
+
+def test_random_rooms_and_corridors_are_one_piece() -> None:
+    """Two rooms joined by a corridor 2r + 0.05 m to 4r wide (benchmarks/fleet_scenarios.py):
+    the roadmap joins them, through the corridor, on every geometry."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from tests.scripts import load_benchmark
+
+    scenarios = load_benchmark("fleet_scenarios")
+    for seed in range(40):
+        scenario = scenarios.random_corridor_scenario(seed)
+        params = planner.resolve_params("wide", robot_radius=scenario.radius)
+        analysis = planner.analyse_map(scenario.robot_map, params)
+        g = build_roadmap(analysis, radius=scenario.radius)
+        source = np.repeat(np.arange(g.nodes), np.diff(g.indptr))
+        matrix = coo_matrix((np.ones(len(source)), (source, g.indices)), shape=(g.nodes,) * 2)
+        pieces, _ = connected_components(matrix, directed=False)
+        assert pieces == 1, (seed, pieces)

@@ -134,3 +134,19 @@ def test_the_table_bound_names_the_field() -> None:
     with pytest.raises(planner.InvalidInput, match="at most") as error:
         check_size(MAX_TABLE_ENTRIES // graph.nodes + 1, graph, "agents")
     assert error.value.field == "agents"
+
+
+async def test_an_unsolvable_fleet_says_so_and_its_robots_wait(client: httpx.AsyncClient) -> None:
+    # Two robots swapping ends of a one-cell-wide line: no plan exists.
+    map_id = (await client.post("/maps", json={"rows": ["....."]})).json()["map_id"]
+    body = {"map_id": map_id, "fleet": "line"}
+    a = (await client.post("/plan", json={**body, "start": [0, 0], "goal": [0, 4]})).json()
+    b = (await client.post("/plan", json={**body, "start": [0, 4], "goal": [0, 0]})).json()
+    for seq in range(3):
+        for plan in (a, b):
+            step = await client.post(f"/plan/{plan['plan_id']}/step", json={"seq": seq})
+            assert step.status_code == 200, step.text
+            assert step.json()["status"] == "waiting"
+            assert step.json()["position"] == plan["start"]
+    fleet = (await client.get("/fleets/line")).json()
+    assert fleet["solve"]["status"] in ("unsolvable", "timeout")
