@@ -430,6 +430,7 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=16)
     parser.add_argument("--grid-robots", type=int, default=100)
     parser.add_argument("--random-seeds", type=int, default=3)
+    parser.add_argument("--first-seed", type=int, default=0, help="the runs' seeds start here")
     parser.add_argument("--skip", type=float, default=0.2, help="chance a robot sits a tick out")
     parser.add_argument("--pause", type=float, default=0.02, help="chance a robot falls silent")
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
