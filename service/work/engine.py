@@ -211,16 +211,18 @@ class Engine:
 
     def _forget(self, key: Hashable, value: Any) -> None:
         """An analysis or wave left the cache: so do the memo's plans over it (rebuilt on their
-        next step over the cache's new one), which would otherwise keep it alive."""
-        whole = value.handed_over if isinstance(value, planner.ResumableWave) else None
+        next step over the cache's new one), which would otherwise keep it alive. A route's
+        legs share its analysis, and legs to the same cell their wave: a plan goes once."""
+        gone = {id(value)}
+        if isinstance(value, planner.ResumableWave) and value.handed_over is not None:
+            gone.add(id(value.handed_over))
+
+        def over(plan: planner.Plan) -> bool:
+            parts = (plan, *(plan.route.legs if plan.route is not None else ()))
+            return any(id(p.wave) in gone or id(p.analysis) in gone for p in parts)
+
         with self._plans_lock:
-            stale = [
-                k
-                for k, (plan, _) in self._plans.items()
-                for p in (plan, *(plan.route.legs if plan.route is not None else ()))
-                if p.wave is value or p.analysis is value or (whole is not None and p.wave is whole)
-            ]
-            for k in stale:
+            for k in [k for k, (plan, _) in self._plans.items() if over(plan)]:
                 del self._plans[k]
 
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
@@ -231,14 +233,19 @@ class Engine:
             analysis_key(map_id, p, plain=plain),
             wave_key(map_id, p, last.goal, last.narrow_fallback, plain=plain),
         )
-        if self.cache.peek(keys[0]) is not plan.analysis or self.cache.peek(keys[1]) is not wave:
-            # Evicted while the plan was built (a growing wave may even evict itself): not kept,
-            # or the memo would hold arrays the cache no longer counts.
-            return
         if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
             # Its steps read the whole-map wave directly: no lock, nothing left to settle.
             plan = dataclasses.replace(plan, wave=wave.handed_over)
         with self._plans_lock:
+            # Checked holding the memo's lock: an eviction after the check is forgotten (the
+            # cache tells it, its lock released) only once the plan is in the memo.
+            if (
+                self.cache.peek(keys[0]) is not plan.analysis
+                or self.cache.peek(keys[1]) is not wave
+            ):
+                # Evicted while the plan was built (a growing wave may even evict itself): not
+                # kept, or the memo would hold arrays the cache no longer counts.
+                return
             self._plans[key] = (plan, keys)
             self._plans.move_to_end(key)
             while len(self._plans) > PLAN_MEMO:
