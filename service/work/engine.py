@@ -431,4 +431,6 @@ def _analyse(
     derived = None if base is None else planner.rezone_analysis(base, robot_map, p)
     analysis = planner.analyse_map(robot_map, p) if derived is None else derived[0]
     analysis.clearance  # noqa: B018 - computed now, in the pool, so that nbytes is final
+    if analysis.zones is not None:
+        analysis.zones.speed_index()  # built now, in the pool: steps look caps up through it
     return analysis
