@@ -295,6 +295,60 @@ def stream_never_read(service: Service) -> str:
     return "stream dropped" if b"event: dropped" in seen else "stream held"
 
 
+def _ring(cx: float, cy: float, radius: float, n: int) -> list[dict[str, float]]:
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return [{"x": cx + radius * np.cos(a), "y": cy + radius * np.sin(a)} for a in angles]
+
+
+def rezone(service: Service) -> str:
+    """Zoning the last zoned map again, 20 times, each with 256 speed zones of 39 points (a
+    request's limits): issue 36 saw the map's zones grow without bound (5,120 at the 20th), each
+    put sum the zones of every map, ``GET /maps/{id}`` grow to 18 MB and a step cost 117 ms.
+    The answer: the zonings' statuses, then ``GET /maps/{id}``'s size and a step's median time
+    on the last map zoned."""
+    statuses: dict[int, int] = {}
+    with httpx.Client(base_url=service.url, trust_env=False, timeout=300) as c:
+        body = {"rows": ["." * 200] * 200, "resolution": 0.05}
+        map_id = c.post("/maps", json=body).json()["map_id"]
+        for k in range(20):
+            centers = [
+                (0.3 + 0.6 * i + 0.01 * k, 0.3 + 0.6 * j) for i in range(16) for j in range(16)
+            ]
+            speed = [{"polygon": _ring(x, y, 0.2, 39), "max_speed": 0.3} for x, y in centers]
+            r = c.post(f"/maps/{map_id}/zones", json={"speed": speed})
+            statuses[r.status_code] = statuses.get(r.status_code, 0) + 1
+            if r.status_code in (200, 201):
+                map_id = r.json()["map_id"]
+        size = len(c.get(f"/maps/{map_id}").content)
+        plan = c.post("/plan", json={"map_id": map_id, "start": [100, 0], "goal": [100, 199]})
+        plan_id = plan.json()["plan_id"]
+        times = []
+        for _ in range(20):
+            t0 = time.monotonic()
+            c.post(f"/plan/{plan_id}/step", json={})
+            times.append(time.monotonic() - t0)
+    zonings = ", ".join(f"{n} x {code}" for code, n in sorted(statuses.items()))
+    return f"{zonings}; GET {size / 1e6:.2f} MB; step {1e3 * float(np.median(times)):.1f} ms"
+
+
+def waypoints(service: Service) -> str:
+    """A free 1024 x 1024 map at 0.05 m, a patrol of 8 waypoints between two cells, then 64
+    waypoints spread over it (twice): issue 36 saw a 500 (a route's plan forgotten twice)."""
+    with httpx.Client(base_url=service.url, trust_env=False, timeout=300) as c:
+        body = {"rows": ["." * 1024] * 1024, "resolution": 0.05}
+        map_id = c.post("/maps", json=body).json()["map_id"]
+        ends = {"map_id": map_id, "start": [0, 0], "goal": [1023, 1023]}
+        spread = np.random.default_rng(36).integers(0, 1024, (64, 2)).tolist()
+        answers = []
+        for points in ([[900, 100], [100, 900]] * 4, spread, spread):
+            try:
+                r = c.post("/plan", json={**ends, "waypoints": points})
+                answers.append(str(r.status_code))
+            except httpx.HTTPError as exc:  # a connection the server dropped
+                answers.append(type(exc).__name__)
+    return " ".join(answers)
+
+
 PATTERNS: dict[str, tuple[str, Callable[[Service], str]]] = {
     "quiet": ("the quiet service (polling only)", quiet),
     "alias-bomb": ("YAML alias bomb: 9 levels of 9 aliases, ~480 bytes", alias_bomb),
@@ -314,6 +368,8 @@ PATTERNS: dict[str, tuple[str, Callable[[Service], str]]] = {
         "an event stream never read, 300 steps of ~700 KB events",
         stream_never_read,
     ),
+    "rezone": ("zoning the zoned map again, 20 x 256 speed zones", rezone),
+    "waypoints": ("1024 x 1024 map: 8 waypoints, then 64 (twice)", waypoints),
 }
 
 

@@ -10,6 +10,8 @@ from typing import Any
 
 import numpy as np
 
+from planner.maps.polygons import points_in_polygon
+
 FREE, BLOCKED_CELL, TUNNEL = 0, 1, 2
 MOVES = [(-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1)]
 
@@ -535,3 +537,14 @@ def simple(polygon: Any) -> bool:
             if meet(p, q, c, d):
                 return False
     return True
+
+
+def speed_limits(zones: Any, points: Any) -> np.ndarray:
+    """The speed cap at each ``[x, y]`` point by testing it against every speed zone (the loop
+    the service ran on every step before the zones had a speed index)."""
+    xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    out = np.full(len(xy), np.inf)
+    for zone in zones.speed:
+        inside = points_in_polygon(xy, zone.polygon)
+        out[inside] = np.minimum(out[inside], zone.max_speed)
+    return out

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -23,7 +23,8 @@ import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
-from planner.maps.polygons import Polygon, check_polygon, points_in_polygon, polygon_cells
+from planner.maps.polygons import Polygon, check_polygon, polygon_cells
+from planner.maps.speed_index import SpeedIndex, speed_index
 
 __all__ = [
     "MAX_SPEED",
@@ -38,9 +39,13 @@ __all__ = [
 ]
 
 MAX_ZONES = 256
-"""Polygons (keepout and speed together) a map may have at most."""
+"""Zones a map may carry at most: keepout polygons, speed zones and keepout masks together, its
+base map's and the new ones (zoning a zoned map adds to its zones)."""
 MAX_ZONE_POINTS = 10_000
-"""Points a request's polygons may have in all: the work of checking and drawing them."""
+"""Points a map's polygons may have in all, its base map's and the new ones: the work of
+checking, storing, answering and drawing them."""
+POINT_BYTES = 112
+"""What a polygon's point holds in memory: a tuple of two floats, and its place in the polygon."""
 MAX_SPEED = 100.0
 """A speed zone's ``max_speed`` at most, m/s."""
 
@@ -71,6 +76,31 @@ class Zones:
     keepout: tuple[Polygon, ...] = ()
     speed: tuple[SpeedZone, ...] = ()
     keepout_masks: tuple[KeepoutMask, ...] = ()
+    _speed_index: SpeedIndex | None = field(default=None, init=False, repr=False, compare=False)
+
+    @property
+    def count(self) -> int:
+        """The zones: keepout polygons, speed zones and keepout masks."""
+        return len(self.keepout) + len(self.speed) + len(self.keepout_masks)
+
+    @property
+    def points(self) -> int:
+        """The points of every polygon, keepout and speed."""
+        return sum(map(len, self.keepout)) + sum(len(z.polygon) for z in self.speed)
+
+    @property
+    def nbytes(self) -> int:
+        """About what the zones hold in memory (a store charges it beside the cells)."""
+        return POINT_BYTES * self.points + 2 * POINT_BYTES * self.count
+
+    def speed_index(self) -> SpeedIndex:
+        """Its speed zones' :class:`~planner.maps.speed_index.SpeedIndex`, built on first use
+        and kept with the zones (:func:`speed_limits` looks caps up through it)."""
+        index = self._speed_index
+        if index is None:
+            index = speed_index([z.polygon for z in self.speed], [z.max_speed for z in self.speed])
+            object.__setattr__(self, "_speed_index", index)
+        return index
 
     def as_dict(self) -> dict[str, Any]:
         """The zones as JSON-ready data (``GET /maps/{id}``'s ``zones``)."""
@@ -107,23 +137,17 @@ def _points(polygon: Polygon) -> list[dict[str, float]]:
 
 
 def check_zones(
-    keepout: Any = (), speed: Any = ()
+    keepout: Any = (), speed: Any = (), *, carried: Zones | None = None, masks: int = 0
 ) -> tuple[tuple[Polygon, ...], tuple[SpeedZone, ...]]:
     """Keepout polygons and speed zones (``{"polygon", "max_speed"}``) as given in a request,
     checked (:func:`~planner.maps.polygons.check_polygon`; ``max_speed`` in m/s, positive and
-    finite), every error naming its field."""
+    finite), every error naming its field. With the zones the map already ``carried`` and the
+    ``masks`` the request adds, the map's zones and points stay within :data:`MAX_ZONES` and
+    :data:`MAX_ZONE_POINTS`: the error names the first field beyond."""
     for name, value in (("keepout", keepout), ("speed", speed)):
         if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence):
             raise InvalidInput(f"{name} must be a list; got {quote(value)}", field=name)
-    if len(keepout) + len(speed) > MAX_ZONES:
-        msg = f"at most {MAX_ZONES} zones a request; got {len(keepout) + len(speed)}"
-        raise InvalidInput(msg, field="keepout" if keepout else "speed")
-    total = sum(_length(p) for p in keepout) + sum(
-        _length(z.get("polygon")) if isinstance(z, Mapping) else 0 for z in speed
-    )
-    if total > MAX_ZONE_POINTS:
-        msg = f"at most {MAX_ZONE_POINTS} points in all a request's polygons; got {total}"
-        raise InvalidInput(msg, field="keepout" if keepout else "speed")
+    _check_room(keepout, speed, carried, masks)
     polygons = tuple(check_polygon(p, field=f"keepout[{i}]") for i, p in enumerate(keepout))
     zones = []
     for i, zone in enumerate(speed):
@@ -152,6 +176,37 @@ def check_zones(
     return polygons, tuple(zones)
 
 
+def _check_room(
+    keepout: Sequence[Any], speed: Sequence[Any], carried: Zones | None, masks: int
+) -> None:
+    """The map's zones and points, ``carried`` and new, within the limits (checked before the
+    polygons: on the counts as given)."""
+    has = 0 if carried is None else carried.count
+    fields = [f"keepout[{i}]" for i in range(len(keepout))]
+    fields += [f"speed[{i}]" for i in range(len(speed))] + ["image"] * masks
+    if has + len(fields) > MAX_ZONES:
+        beyond = fields[max(0, MAX_ZONES - has)]
+        msg = (
+            f"a map carries at most {MAX_ZONES} zones (keepout, speed and masks together, its "
+            f"base map's with the new); it has {has} and the request adds {len(fields)}: "
+            f"{beyond} is beyond"
+        )
+        raise InvalidInput(msg, field=beyond)
+    points = [_length(p) for p in keepout]
+    points += [_length(z.get("polygon")) if isinstance(z, Mapping) else 0 for z in speed]
+    total = has_points = 0 if carried is None else carried.points
+    for i, count in enumerate(points):
+        total += count
+        if total > MAX_ZONE_POINTS:
+            beyond = fields[i] if i < len(keepout) else f"{fields[i]}.polygon"
+            msg = (
+                f"a map's polygons have at most {MAX_ZONE_POINTS} points in all (its base map's "
+                f"with the new); it has {has_points} and the request adds {sum(points)}: "
+                f"{beyond} is beyond"
+            )
+            raise InvalidInput(msg, field=beyond)
+
+
 def _length(points: Any) -> int:
     return len(points) if isinstance(points, Sequence) and not isinstance(points, str) else 0
 
@@ -175,12 +230,8 @@ def keepout_cells(frame: MapFrame, polygons: Sequence[Polygon]) -> npt.NDArray[n
 
 def speed_limits(zones: Zones | None, points: Any) -> npt.NDArray[np.float64]:
     """The speed cap (m/s) at each of an ``(n, 2)`` array of ``[x, y]`` points: the least
-    ``max_speed`` of the speed zones holding it, ``inf`` outside every zone."""
-    xy = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    out = np.full(len(xy), np.inf)
+    ``max_speed`` of the speed zones holding it, ``inf`` outside every zone: looked up through
+    the zones' :meth:`Zones.speed_index` (a grid built once), not a loop over the polygons."""
     if zones is None:
-        return out
-    for zone in zones.speed:
-        inside = points_in_polygon(xy, zone.polygon)
-        out[inside] = np.minimum(out[inside], zone.max_speed)
-    return out
+        return np.full(len(np.asarray(points, dtype=np.float64).reshape(-1, 2)), np.inf)
+    return zones.speed_index().caps(points)

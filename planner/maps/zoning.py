@@ -64,9 +64,13 @@ def zone_map(
 ) -> RobotMap:
     """``base`` zoned: keepout polygons (lists of ``(x, y)`` or ``{"x", "y"}`` in meters) and
     the cells of a keepout ``mask`` (:func:`keepout_mask`) blocked (occupancy 100), speed zones
-    (``{"polygon", "max_speed"}``) kept for the poses. Its zones are ``base``'s and these; its
-    id hashes its cells and zones, ``base``'s id among them."""
-    polygons, zones = check_zones(keepout, speed)
+    (``{"polygon", "max_speed"}``) kept for the poses. Its zones are ``base``'s and these (at
+    most :data:`~planner.maps.zones.MAX_ZONES` in all, and
+    :data:`~planner.maps.zones.MAX_ZONE_POINTS` points); its id hashes its cells and zones,
+    ``base``'s id among them."""
+    polygons, zones = check_zones(
+        keepout, speed, carried=base.zones, masks=0 if mask is None else 1
+    )
     blocked = keepout_cells(base.frame, polygons)
     masks: tuple[KeepoutMask, ...] = ()
     if mask is not None:

@@ -23,15 +23,8 @@ from service.errors import NotFound
 from service.resources import fleets, passages
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
-from service.work.engine import (
-    Engine,
-    cell_size,
-    frame_map,
-    overrides,
-    plan_ends,
-    plan_legs,
-    where,
-)
+from service.work.engine import Engine, cell_size, frame_map, overrides, where
+from service.work.records import plan_ends, plan_legs
 
 __all__ = [
     "PlanView",

@@ -9,7 +9,6 @@ from collections.abc import Awaitable, Callable
 import orjson
 
 from planner import RobotMap
-from service.errors import InsufficientStorage
 from service.stores.base import (
     Cells,
     Decide,
@@ -26,6 +25,7 @@ from service.stores.base import (
     unknown_map,
     unpack,
 )
+from service.stores.map_room import MapRoom
 from service.tenants import TENANT, scoped
 
 __all__ = ["MAP_OVERHEAD_BYTES", "MemoryStore"]
@@ -42,8 +42,9 @@ class MemoryStore(Store):
     """Everything in this process: for one uvicorn worker.
 
     Maps take at most ``max_map_bytes``: a new map evicts the least recently used maps that no
-    live plan uses, and is refused (507) when those do not free enough. Each tenant holds at
-    most ``max_plans`` live plans (429 beyond).
+    live plan uses, and is refused (507) when those do not free enough (:class:`MapRoom`: each
+    map kept with its size, the bookkeeping incremental). Each tenant holds at most
+    ``max_plans`` live plans (429 beyond).
     """
 
     kind = "memory"
@@ -62,12 +63,8 @@ class MemoryStore(Store):
         self._plans_of: dict[str, int] = {}  # live plans per tenant
         self._clock = clock
         self.max_map_bytes = max_map_bytes
-        self.map_bytes = 0
         # Each tenant's maps take at most an equal share: one key cannot evict another's maps.
-        self._share = None if max_map_bytes is None else max_map_bytes // max(1, shares)
-        self._held: dict[str, int] = {}  # map bytes per tenant
-        self._maps: OrderedDict[str, RobotMap] = OrderedDict()  # least recently used first
-        self._plans_on: dict[str, int] = {}  # live plans per stored map key
+        self._maps = MapRoom(max_map_bytes, shares=shares)
         # Every write puts the plan last with expiry now + ttl, so the order is expiry order.
         # An entry: (expiry, the record as JSON, the trajectory log, its map's key, the record
         # itself: read-only, what a step decides on).
@@ -78,22 +75,20 @@ class MemoryStore(Store):
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = scoped(map_id)
         if key in self._maps:
-            self._maps.move_to_end(key)
+            self._maps.touch(key)
             return False
-        size = _size(robot_map)
         self._expire()  # expired plans hold no map
-        self._make_room(size)
-        self._maps[key] = robot_map  # read-only, and never shared with a writer
-        self.map_bytes += size
-        self._held[TENANT.get()] = self._held.get(TENANT.get(), 0) + size
+        # Read-only, and never shared with a writer.
+        self._maps.put(key, robot_map, size=_size(robot_map), tenant=TENANT.get())
         return True
 
+    @property
+    def map_bytes(self) -> int:
+        """The bytes the stored maps take."""
+        return self._maps.bytes
+
     async def get_map(self, map_id: str) -> RobotMap | None:
-        key = scoped(map_id)
-        robot_map = self._maps.get(key)
-        if robot_map is not None:
-            self._maps.move_to_end(key)
-        return robot_map
+        return self._maps.get(scoped(map_id))
 
     async def has_map(self, map_id: str) -> bool:
         return await self.get_map(map_id) is not None
@@ -192,7 +187,7 @@ class MemoryStore(Store):
         if entry is None:
             map_key = scoped(record["map_id"]) if "map_id" in record else None
             if map_key is not None:
-                self._plans_on[map_key] = self._plans_on.get(map_key, 0) + 1
+                self._maps.use(map_key)
             tenant = _owner(key)
             self._plans_of[tenant] = self._plans_of.get(tenant, 0) + 1
             log = bytearray()
@@ -203,8 +198,8 @@ class MemoryStore(Store):
         # record is handed out as a copy (get_plan) or read-only (update_plan).
         self._plans[key] = (self._clock() + self._ttl, orjson.dumps(record), log, map_key, record)
         self._plans.move_to_end(key)
-        if map_key is not None and map_key in self._maps:
-            self._maps.move_to_end(map_key)
+        if map_key is not None:
+            self._maps.touch(map_key)
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         self._expire()
@@ -225,46 +220,6 @@ class MemoryStore(Store):
         """Locks held or waited for now (for tests: none is left behind)."""
         return len(self._locks)
 
-    def _make_room(self, size: int) -> None:
-        limit, share = self.max_map_bytes, self._share
-        if limit is None or share is None:
-            return
-        tenant = TENANT.get()
-        if size > share:
-            msg = f"a map of {size} bytes is over this key's share of PLANNER_MAP_STORE_BYTES "
-            raise InsufficientStorage(msg + f"({share} of {limit})", field="map")
-        # The tenant's own idle maps, least recently used first, until it is within its share;
-        # then anyone's idle maps until all are within the whole bound. Nothing is evicted when
-        # that would not make room.
-        own = [k for k in self._maps if _owner(k) == tenant and not self._plans_on.get(k)]
-        over = self._held.get(tenant, 0) + size - share
-        if over > sum(_size(self._maps[k]) for k in own):
-            raise self._full(limit)
-        self._evict(own, over)
-        idle = [k for k in self._maps if not self._plans_on.get(k)]
-        over = self.map_bytes + size - limit
-        if over > sum(_size(self._maps[k]) for k in idle):
-            raise self._full(limit)
-        self._evict(idle, over)
-
-    def _evict(self, keys: list[str], over: int) -> None:
-        """Drop maps of ``keys`` in order until ``over`` bytes are freed."""
-        for key in keys:
-            if over <= 0:
-                return
-            size = _size(self._maps.pop(key))
-            over -= size
-            self.map_bytes -= size
-            self._held[_owner(key)] -= size
-
-    @staticmethod
-    def _full(limit: int) -> InsufficientStorage:
-        msg = (
-            f"the map store is full: PLANNER_MAP_STORE_BYTES ({limit}) is taken by maps that "
-            "live plans use; delete plans or retry when they expire"
-        )
-        return InsufficientStorage(msg, field="map")
-
     def _forget(self, key: str) -> bool:
         entry = self._plans.pop(key, None)
         if entry is None:
@@ -280,11 +235,7 @@ class MemoryStore(Store):
             del self._plans_of[tenant]
         map_key = entry[3]
         if map_key is not None:
-            left = self._plans_on.get(map_key, 1) - 1
-            if left:
-                self._plans_on[map_key] = left
-            else:
-                self._plans_on.pop(map_key, None)
+            self._maps.leave(map_key)
         return True
 
     def _expire(self) -> None:
@@ -320,6 +271,7 @@ def _owner(key: str) -> str:
 
 
 def _size(robot_map: RobotMap) -> int:
-    """The bytes a stored map holds: one per cell, a zoned map's zones, and its bookkeeping."""
-    zones = 0 if robot_map.zones is None else len(repr(robot_map.zones))
+    """The bytes a stored map holds: one per cell, a zoned map's zones (counted by their points,
+    once: the size is kept with the map), and its bookkeeping."""
+    zones = 0 if robot_map.zones is None else robot_map.zones.nbytes
     return int(robot_map.occupancy.nbytes) + zones + MAP_OVERHEAD_BYTES

@@ -4,6 +4,7 @@ from the event loop or from worker threads alike."""
 from __future__ import annotations
 
 import asyncio
+import logging
 import threading
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable, Hashable
@@ -13,6 +14,8 @@ from typing import Any, Protocol, TypeVar, cast
 from service.tenants import TENANT
 
 __all__ = ["ByteLRU", "Sized"]
+
+logger = logging.getLogger(__name__)
 
 
 class Sized(Protocol):
@@ -45,7 +48,9 @@ class ByteLRU:
     ) -> None:
         self.max_bytes = max_bytes
         self.on_evict = on_evict
-        """Called with each evicted key and value, holding the cache's lock: keep it short."""
+        """Called with each evicted key and value once the eviction is complete and the cache's
+        lock released (it may use the cache); what it raises is logged, not raised to the caller
+        whose insert made the room."""
         self.share = max_bytes // max(1, shares)
         self.bytes = 0
         self.hits = self.misses = self.evictions = 0
@@ -89,27 +94,38 @@ class ByteLRU:
         >>> grows.resize(60, refcheck=False); cache.recharge("a", grows); cache.bytes
         60
         """
+        new = int(value.nbytes)
+        evicted: list[tuple[Hashable, Any]] = []
         with self._lock:
             entry = self._entries.get(key)
             if entry is None or entry[0] is not value:
                 return
             _, size, tenant = entry
-            new = int(value.nbytes)
             if new == size:
                 return
             self._entries[key] = (value, new, tenant)
             self.bytes += new - size
             self._held[tenant] += new - size
             if new > self.share:
-                self._evict(key)
-                return
-            if self._held[tenant] > self.share:
-                for old in [k for k, e in self._entries.items() if e[2] == tenant and k != key]:
-                    self._evict(old)
-                    if self._held[tenant] <= self.share:
-                        break
-            while self.bytes > self.max_bytes:
-                self._evict(next(iter(self._entries)))
+                self._evict(key, evicted)
+            else:
+                if self._held[tenant] > self.share:
+                    own = [k for k, e in self._entries.items() if e[2] == tenant and k != key]
+                    for old in own:
+                        self._evict(old, evicted)
+                        if self._held[tenant] <= self.share:
+                            break
+                while self.bytes > self.max_bytes:
+                    self._evict(next(iter(self._entries)), evicted)
+        self._tell(evicted)
+
+    def discard(self, key: Hashable) -> None:
+        """Drop the entry of ``key`` if there is one, as an eviction (``on_evict`` is told)."""
+        evicted: list[tuple[Hashable, Any]] = []
+        with self._lock:
+            if key in self._entries:
+                self._evict(key, evicted)
+        self._tell(evicted)
 
     async def get_or_compute(
         self, key: Hashable, compute: Callable[[], Awaitable[T]]
@@ -178,35 +194,55 @@ class ByteLRU:
         value: Sized | None = None,
         error: BaseException | None = None,
     ) -> None:
-        with self._lock:
-            del self._pending[key]
+        """Cache the result (the key no longer pending) and hand it, or the error, to every
+        waiter: the future is settled whatever happens here, so that no waiter hangs."""
+        evicted: list[tuple[Hashable, Any]] = []
+        try:
+            with self._lock:
+                del self._pending[key]
+                if error is None:
+                    assert value is not None
+                    self._insert(key, value, int(value.nbytes), evicted)
+        finally:
             if error is None:
-                assert value is not None
-                self._insert(key, value, int(value.nbytes))
-        if error is None:
-            future.set_result(value)
-        else:
-            future.set_exception(error)
+                future.set_result(value)
+            else:
+                future.set_exception(error)
+        self._tell(evicted)
 
-    def _insert(self, key: Hashable, value: Any, size: int) -> None:
+    def _insert(
+        self, key: Hashable, value: Any, size: int, evicted: list[tuple[Hashable, Any]]
+    ) -> None:
         if size > self.share:
             return
         tenant = TENANT.get()
         if self._held.get(tenant, 0) + size > self.share:
             for old in [k for k, e in self._entries.items() if e[2] == tenant]:
-                self._evict(old)
+                self._evict(old, evicted)
                 if self._held.get(tenant, 0) + size <= self.share:
                     break
         self._entries[key] = (value, size, tenant)
         self.bytes += size
         self._held[tenant] = self._held.get(tenant, 0) + size
         while self.bytes > self.max_bytes:
-            self._evict(next(iter(self._entries)))
+            self._evict(next(iter(self._entries)), evicted)
 
-    def _evict(self, key: Hashable) -> None:
+    def _evict(self, key: Hashable, evicted: list[tuple[Hashable, Any]]) -> None:
+        """Drop an entry (the lock held); ``on_evict`` is told of it after (:meth:`_tell`)."""
         value, size, tenant = self._entries.pop(key)
         self.bytes -= size
         self._held[tenant] -= size
         self.evictions += 1
-        if self.on_evict is not None:
-            self.on_evict(key, value)
+        evicted.append((key, value))
+
+    def _tell(self, evicted: list[tuple[Hashable, Any]]) -> None:
+        """``on_evict`` of each evicted entry, the lock released: the cache is whole whatever
+        it does, and an error of one is logged, the others still told."""
+        on_evict = self.on_evict
+        if on_evict is None:
+            return
+        for key, value in evicted:
+            try:
+                on_evict(key, value)
+            except Exception:
+                logger.exception("on_evict failed for an evicted cache entry")

@@ -35,9 +35,10 @@ from service.config import Settings
 from service.errors import TooLarge
 from service.stores import PlanRecord, Store
 from service.stores.base import unknown_map
-from service.tenants import TENANT, scoped
+from service.tenants import scoped
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
+from service.work.records import plan_ends, plan_key, plan_legs, plan_of_record
 
 __all__ = [
     "MAX_IMAGE_PIXELS",
@@ -47,9 +48,6 @@ __all__ = [
     "cell_size",
     "frame_map",
     "overrides",
-    "plan_ends",
-    "plan_key",
-    "plan_legs",
     "wave_key",
     "where",
 ]
@@ -88,54 +86,6 @@ def wave_key(
 PLAN_MEMO = 1024
 """Plans the engine keeps built (their arrays are the cache's: a plan adds its path and a few
 numbers), so that a warm step finds its plan with one look-up."""
-
-
-def plan_key(record: PlanRecord) -> Hashable:
-    """What a stored plan's arrays depend on: the tenant, map, start, goal, preset, parameters,
-    narrow fallback and plainness of its record, and its ends in meters."""
-    ends = record.get("ends") or {}
-    return (
-        TENANT.get(), record["map_id"], tuple(record["start"]), tuple(record["goal"]),
-        record["preset"], tuple(record["params"].items()), record["narrow_fallback"],
-        record.get("plain", True),
-        tuple((k, tuple(v) if isinstance(v, list) else v) for k, v in sorted(ends.items())),
-        repr(record.get("legs")),
-    )  # fmt: skip
-
-
-def plan_ends(plan: planner.Plan) -> dict[str, Any]:
-    """What a record keeps of a plan's ends in meters, to rebuild it (:meth:`Engine.plan_of`):
-    the start and goal points as given, their yaws, the goal used within the tolerance."""
-
-    def point(xy: tuple[float, float] | None) -> list[float] | None:
-        return None if xy is None else [xy[0], xy[1]]
-
-    return {
-        "start_point": point(plan.start_point),
-        "goal_point": point(plan.goal_point),
-        "start_yaw": plan.start_yaw,
-        "goal_yaw": plan.goal_yaw,
-        "goal_used": point(plan.goal_used),
-        "goal_tolerance": plan.goal_tolerance,
-    }
-
-
-def plan_legs(plan: planner.Plan) -> list[dict[str, Any]] | None:
-    """What a record keeps of a route's legs (None: no waypoints), to rebuild each over its
-    cached wave: its start and goal cells, narrow fallback, ends in meters and plain cost-to-go
-    from its start (so that a step reads no other leg's wave)."""
-    if plan.route is None:
-        return None
-    return [
-        {
-            "start": list(leg.start),
-            "goal": list(leg.goal),
-            "narrow_fallback": leg.narrow_fallback,
-            "ends": plan_ends(leg),
-            "cost": cost,
-        }
-        for leg, cost in zip(plan.route.legs, plan.route.costs, strict=True)
-    ]
 
 
 def where(value: list[int] | Point) -> Any:
@@ -211,16 +161,18 @@ class Engine:
 
     def _forget(self, key: Hashable, value: Any) -> None:
         """An analysis or wave left the cache: so do the memo's plans over it (rebuilt on their
-        next step over the cache's new one), which would otherwise keep it alive."""
-        whole = value.handed_over if isinstance(value, planner.ResumableWave) else None
+        next step over the cache's new one), which would otherwise keep it alive. A route's
+        legs share its analysis, and legs to the same cell their wave: a plan goes once."""
+        gone = {id(value)}
+        if isinstance(value, planner.ResumableWave) and value.handed_over is not None:
+            gone.add(id(value.handed_over))
+
+        def over(plan: planner.Plan) -> bool:
+            parts = (plan, *(plan.route.legs if plan.route is not None else ()))
+            return any(id(p.wave) in gone or id(p.analysis) in gone for p in parts)
+
         with self._plans_lock:
-            stale = [
-                k
-                for k, (plan, _) in self._plans.items()
-                for p in (plan, *(plan.route.legs if plan.route is not None else ()))
-                if p.wave is value or p.analysis is value or (whole is not None and p.wave is whole)
-            ]
-            for k in stale:
+            for k in [k for k, (plan, _) in self._plans.items() if over(plan)]:
                 del self._plans[k]
 
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
@@ -231,14 +183,19 @@ class Engine:
             analysis_key(map_id, p, plain=plain),
             wave_key(map_id, p, last.goal, last.narrow_fallback, plain=plain),
         )
-        if self.cache.peek(keys[0]) is not plan.analysis or self.cache.peek(keys[1]) is not wave:
-            # Evicted while the plan was built (a growing wave may even evict itself): not kept,
-            # or the memo would hold arrays the cache no longer counts.
-            return
         if isinstance(wave, planner.ResumableWave) and wave.handed_over is not None:
             # Its steps read the whole-map wave directly: no lock, nothing left to settle.
             plan = dataclasses.replace(plan, wave=wave.handed_over)
         with self._plans_lock:
+            # Checked holding the memo's lock: an eviction after the check is forgotten (the
+            # cache tells it, its lock released) only once the plan is in the memo.
+            if (
+                self.cache.peek(keys[0]) is not plan.analysis
+                or self.cache.peek(keys[1]) is not wave
+            ):
+                # Evicted while the plan was built (a growing wave may even evict itself): not
+                # kept, or the memo would hold arrays the cache no longer counts.
+                return
             self._plans[key] = (plan, keys)
             self._plans.move_to_end(key)
             while len(self._plans) > PLAN_MEMO:
@@ -432,28 +389,7 @@ class Engine:
         """A plan (or a route's leg) from its record, over the cached analysis and wave."""
         map_id, goal, narrow = record["map_id"], record["goal"], record["narrow_fallback"]
         wave = self._wave(map_id, params, analysis, goal, narrow)
-        ends = record.get("ends") or {}  # a record from before poses: the cells' centers
-
-        def point(name: str) -> tuple[float, float] | None:
-            xy = ends.get(name)
-            return None if xy is None else (float(xy[0]), float(xy[1]))
-
-        return planner.Plan(
-            start=(record["start"][0], record["start"][1]),
-            goal=(goal[0], goal[1]),
-            preset=record["preset"],
-            params=params,
-            analysis=analysis,
-            wave=wave,
-            narrow_fallback=narrow,
-            elapsed_ms=0.0,
-            start_point=point("start_point"),
-            goal_point=point("goal_point"),
-            start_yaw=ends.get("start_yaw"),
-            goal_yaw=ends.get("goal_yaw"),
-            goal_used=point("goal_used"),
-            goal_tolerance=float(ends.get("goal_tolerance", 0.0)),
-        )
+        return plan_of_record(record, params, analysis, wave)
 
     async def step(
         self, session: planner.Session, obstacles: Any, *, position: Any, seq: int | None
@@ -495,4 +431,6 @@ def _analyse(
     derived = None if base is None else planner.rezone_analysis(base, robot_map, p)
     analysis = planner.analyse_map(robot_map, p) if derived is None else derived[0]
     analysis.clearance  # noqa: B018 - computed now, in the pool, so that nbytes is final
+    if analysis.zones is not None:
+        analysis.zones.speed_index()  # built now, in the pool: steps look caps up through it
     return analysis

@@ -330,7 +330,7 @@ def test_pictures_hatch_keepout_and_label_speed_zones() -> None:
     assert legend.height > image.shape[0]
 
 
-def test_a_request_holds_at_most_ten_thousand_points() -> None:
+def test_a_map_holds_at_most_ten_thousand_points() -> None:
     base = planner.grid_map([[0] * 4] * 4, resolution=0.5)
     ring = [
         (1 + math.cos(2 * math.pi * k / 1000), 1 + math.sin(2 * math.pi * k / 1000))
@@ -338,12 +338,15 @@ def test_a_request_holds_at_most_ten_thousand_points() -> None:
     ]
     with pytest.raises(InvalidInput, match="at most 10000 points in all") as info:
         planner.zone_map(base, keepout=[ring] * 6, speed=[{"polygon": ring, "max_speed": 1}] * 5)
-    assert info.value.field == "keepout"
+    assert info.value.field == "speed[4].polygon"  # the first polygon beyond
     zoned = planner.zone_map(
         base, keepout=[ring] * 5, speed=[{"polygon": ring, "max_speed": 1}] * 5
     )
     assert zoned.zones is not None
     assert len(zoned.zones.keepout) == 5
+    with pytest.raises(InvalidInput, match="it has 10000 and the request adds 3") as info:
+        planner.zone_map(zoned, keepout=[ring[::400]])  # its base's points count
+    assert info.value.field == "keepout[0]"
 
 
 def test_polygons_sharing_an_edge_through_centers_never_share_a_cell() -> None:

@@ -118,3 +118,58 @@ async def test_identical_concurrent_plans_analyse_once(
     flags = sorted(a.json()["analysis"]["cache_hit"] for a in answers)
     assert flags == [False] + [True] * (n - 1)
     assert len({a.json()["plan_id"] for a in answers}) == n
+
+
+async def test_an_on_evict_that_raises_leaves_the_cache_whole_and_no_waiter_hangs(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    told: list[Any] = []
+
+    def on_evict(key: Any, value: Any) -> None:
+        told.append(key)
+        raise KeyError(key)  # as Engine._forget once did, deleting a plan twice
+
+    cache = ByteLRU(max_bytes=100, on_evict=on_evict)
+    for key in ("a", "b"):
+        cache.get_or_compute_sync(key, lambda: block(40))
+    release = asyncio.Event()
+
+    async def compute() -> np.ndarray:
+        await release.wait()
+        return block(70)  # evicts "a" and "b"
+
+    waiters = [asyncio.ensure_future(cache.get_or_compute("c", compute)) for _ in range(4)]
+    await asyncio.sleep(0)
+    release.set()
+    with anyio.fail_after(10):
+        results = await asyncio.gather(*waiters)
+    assert sorted(hit for _, hit in results) == [False, True, True, True]
+    assert (told, cache.bytes, len(cache), cache.evictions) == (["a", "b"], 70, 1, 2)
+    assert "on_evict failed" in caplog.text
+    cache.recharge("c", results[0][0])  # the cache still works
+    assert cache.peek("c") is results[0][0]
+
+
+def test_on_evict_may_use_the_cache_from_every_path() -> None:
+    """``on_evict`` runs with the cache's lock released: on insert, on a value grown in place
+    and on :meth:`ByteLRU.discard`, reading the cache from it does not deadlock."""
+    cache = ByteLRU(max_bytes=100)
+    seen: list[tuple[Any, Any]] = []
+    cache.on_evict = lambda key, value: seen.append((key, cache.peek(key)))
+    grows = block(10)
+
+    def run() -> None:
+        cache.get_or_compute_sync("a", lambda: grows)
+        cache.get_or_compute_sync("b", lambda: block(50))
+        cache.peek("a")
+        grows.resize(60, refcheck=False)
+        cache.recharge("a", grows)  # grown: evicts "b"
+        cache.get_or_compute_sync("c", lambda: block(50))  # inserted: evicts "a"
+        cache.discard("c")
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout=10)
+    assert not thread.is_alive(), "deadlocked: on_evict called holding the cache's lock"
+    assert seen == [("b", None), ("a", None), ("c", None)]
+    assert (cache.bytes, len(cache), cache.evictions) == (0, 0, 3)

@@ -207,8 +207,7 @@ async def test_an_evicted_wave_is_rebuilt_and_the_plan_steps_on(
     for seq, body in enumerate(bodies):
         if seq % 10 == 5:  # evicted mid-episode, as a full cache would
             (key, old, _), *_ = cached_waves(engine)
-            with engine.cache._lock:
-                engine.cache._evict(key)
+            engine.cache.discard(key)
             assert not any(p.wave is old for p, _ in engine._plans.values())
         r = await client.post(f"/plan/{plan_id}/step", json={**body, "seq": seq})
         assert r.status_code == 200, r.text
@@ -221,6 +220,33 @@ async def test_an_evicted_wave_is_rebuilt_and_the_plan_steps_on(
             (_, new, _), *_ = cached_waves(engine)
             assert new is not old  # rebuilt on demand
     assert (await client.get(f"/plan/{plan_id}")).status_code == 200
+
+
+async def test_a_route_whose_legs_share_a_wave_is_forgotten_once(
+    app: FastAPI, client: httpx.AsyncClient
+) -> None:
+    """Evicting a wave that two legs (and the route itself) read drops the route's plan from the
+    memo once: it was deleted once per leg, a ``KeyError`` inside the cache's eviction."""
+    engine = engine_of(app)
+    free = np.zeros((40, 40), dtype=np.uint8)
+    r = await client.post("/maps", json={"grid": free.tolist()})
+    body = {"map_id": r.json()["map_id"], "start": [0, 0], "goal": [30, 5]}
+    r = await client.post("/plan", json={**body, "waypoints": [[30, 5], [5, 30]] * 2})
+    assert r.status_code == 201, r.text
+    plan_id = r.json()["plan_id"]
+    assert len(engine._plans) == 1
+    ((route, _),) = engine._plans.values()
+    assert route.route is not None
+    shared = route.wave  # the goal's: legs 1, 3 and 5 and the route's own
+    assert sum(leg.wave is shared for leg in route.route.legs) == 3
+    (key,) = [k for k, w, _ in cached_waves(engine) if w is shared]
+    engine._forget(key, shared)
+    assert not engine._plans
+    engine._remember_plan(("again",), body["map_id"], route)
+    engine._forget(("analysis",), route.analysis)  # every leg's
+    assert not engine._plans
+    r = await client.post(f"/plan/{plan_id}/step", json={})  # rebuilt over the cache's waves
+    assert r.status_code == 200, r.text
 
 
 async def test_a_step_that_must_search_runs_on_a_step_worker(
