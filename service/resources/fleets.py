@@ -305,7 +305,6 @@ async def step_in_fleet(
             resolve, state, fmap, time_limit_s=engine.settings.fleet_solve_seconds,
             seed=int(state["next"]),
         )  # fmt: skip
-        robots = state["robots"]
     plan_of = await _schedule(engine, state, fmap)
     step, waiting_for = advance(
         plan_id, state, plan_of, fmap, session, obstacles, position=position, here=here, seq=seq,
@@ -315,8 +314,8 @@ async def step_in_fleet(
 
 
 def _may_solve(state: FleetRecord, now: float, budget: float) -> bool:
-    """A fleet whose last solve failed is tried again only after a while (its budget, at least
-    a second): every step would otherwise wait for the solver to fail again."""
+    """A fleet whose last solve failed is tried again only after a while (twice its budget, at
+    least a second): every step would otherwise wait for the solver to fail again."""
     failed = state.get("failed_at")
     return failed is None or now - float(failed) >= max(1.0, 2.0 * budget)
 
