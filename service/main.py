@@ -52,8 +52,9 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         max_plans=settings.max_plans_per_tenant,
     )
     pool = Pool(
-        settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs
-    )
+        settings.pool_size, step_size=settings.step_pool_size, max_queued=settings.max_queued_jobs,
+        tenants=len(settings.keys) > 1,
+    )  # fmt: skip
     cache = ByteLRU(settings.cache_bytes, shares=max(1, len(settings.keys)))
     engine = Engine(settings, store, cache, pool)
     # Steps for the live viewer.

@@ -49,3 +49,35 @@ async def test_healthz_answers_while_four_big_analyses_run(
     assert any(running), "the analyses ended before /healthz answered: the loop was blocked"
     assert [p.status_code for p in plans] == [201] * 4
     assert all(p.json()["analysis"]["cache_hit"] is False for p in plans)
+
+
+@pytest.mark.parametrize("tenants", [True, False])
+async def test_one_tenant_flooding_heavy_work_never_holds_every_worker(tenants: bool) -> None:
+    """Tenant A sends three 1 s jobs to a pool of two workers, then tenant B a short one: B's
+    runs at once (A holds at most one worker), where first come, first served (the control,
+    without tenants) makes it wait for A's first job. A's jobs past its share of the queue are
+    refused (503)."""
+    from service.errors import Busy
+    from service.tenants import TENANT
+    from service.work.pool import Pool
+
+    pool = Pool(2, max_queued=4, tenants=tenants)
+    try:
+
+        async def job(tenant: str, seconds: float) -> float:
+            TENANT.set(tenant)
+            started = asyncio.get_running_loop().time()
+            await pool.run(__import__("time").sleep, seconds)
+            return asyncio.get_running_loop().time() - started
+
+        flood = [asyncio.ensure_future(job("a", 1.0)) for _ in range(3)]
+        await asyncio.sleep(0.05)
+        waited = await job("b", 0.01)
+        assert waited < 0.5 if tenants else waited > 0.5
+        if tenants:
+            more = [asyncio.ensure_future(job("a", 0.01)) for _ in range(3)]
+            done = await asyncio.gather(*more, return_exceptions=True)
+            assert any(isinstance(d, Busy) for d in done)  # over A's share of the queue
+        await asyncio.gather(*flood)
+    finally:
+        pool.close()
