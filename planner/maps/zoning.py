@@ -24,7 +24,7 @@ from planner.maps.frames import MapFrame
 from planner.maps.robot_maps import RobotMap
 from planner.maps.zones import KeepoutMask, Zones, check_zones, keepout_cells
 
-__all__ = ["MASK_OCCUPIED", "keepout_mask", "zone_map"]
+__all__ = ["MASK_OCCUPIED", "check_mask_frame", "keepout_mask", "zone_map"]
 
 MASK_OCCUPIED = 65
 """A keepout mask's cell of at least this occupancy (percent) is keepout: map_server's
@@ -37,22 +37,30 @@ def keepout_mask(mask: RobotMap, frame: MapFrame) -> npt.NDArray[np.bool_]:
     """The keepout cells of a Nav2 keepout filter ``mask`` (a map_server map), which must have
     ``frame``'s size, resolution and origin: its cells of occupancy ``MASK_OCCUPIED`` or
     more."""
-    (h, w), (H, W) = mask.shape, frame.shape
+    check_mask_frame(mask.shape, mask.resolution, mask.origin, frame)
+    out: npt.NDArray[np.bool_] = mask.occupancy >= MASK_OCCUPIED
+    return out
+
+
+def check_mask_frame(
+    shape: tuple[int, int], resolution: float, origin: Any, frame: MapFrame
+) -> None:
+    """``InvalidInput`` naming the field unless a keepout mask of ``shape`` (rows, columns),
+    ``resolution`` and ``origin`` lies on ``frame``: checked from the image's header and the
+    YAML before a pixel is decoded."""
+    (h, w), (H, W) = shape, frame.shape
     if (h, w) != (H, W):
         msg = f"image: the mask is {w} x {h} cells; the map is {W} x {H}"
         raise InvalidInput(msg, field="image")
-    if not math.isclose(mask.resolution, frame.resolution, rel_tol=1e-9, abs_tol=0.0):
+    if not math.isclose(resolution, frame.resolution, rel_tol=1e-9, abs_tol=0.0):
         msg = (
-            f"yaml.resolution: the mask's is {mask.resolution:g} m; the map's is "
-            f"{frame.resolution:g} m"
+            f"yaml.resolution: the mask's is {resolution:g} m; the map's is {frame.resolution:g} m"
         )
         raise InvalidInput(msg, field="yaml.resolution")
     tolerance = (1e-6, 1e-6, 1e-9)  # meters, meters, radians
-    if any(abs(a - b) > t for a, b, t in zip(mask.origin, frame.origin, tolerance, strict=True)):
-        msg = f"yaml.origin: the mask's is {list(mask.origin)}; the map's is {list(frame.origin)}"
+    if any(abs(a - b) > t for a, b, t in zip(origin, frame.origin, tolerance, strict=True)):
+        msg = f"yaml.origin: the mask's is {list(origin)}; the map's is {list(frame.origin)}"
         raise InvalidInput(msg, field="yaml.origin")
-    out: npt.NDArray[np.bool_] = mask.occupancy >= MASK_OCCUPIED
-    return out
 
 
 def zone_map(

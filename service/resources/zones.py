@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 import planner
+from planner.maps.zoning import check_mask_frame
 from schemas import ZonesCreate
 from service.resources.maps import MapView
 from service.work.engine import Engine
@@ -37,13 +38,10 @@ def _zone(base: planner.RobotMap, body: ZonesCreate) -> planner.RobotMap:
 
 
 def _mask(frame: planner.MapFrame, yaml: bytes, image: bytes | None) -> npt.NDArray[np.bool_]:
-    """A keepout filter mask's cells, its size checked from the image's header before its
-    pixels are decoded."""
+    """A keepout filter mask's cells, its size (from the image's header), resolution and origin
+    (from its YAML) checked before its pixels are decoded."""
     assert image is not None
     meta = planner.parse_map_yaml(yaml)
     width, height = planner.image_size(image)
-    if (height, width) != frame.shape:
-        H, W = frame.shape
-        msg = f"image: the mask is {width} x {height} pixels; the map is {W} x {H}"
-        raise planner.InvalidInput(msg, field="image")
+    check_mask_frame((height, width), meta.resolution, meta.origin, frame)
     return planner.keepout_mask(planner.decode_map_image(image, meta), frame)

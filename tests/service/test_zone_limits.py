@@ -94,3 +94,33 @@ async def test_the_memory_store_sizes_a_map_once_and_never_sums_the_others(
     assert zoned.zones is not None
     each = 100 + MAP_OVERHEAD_BYTES
     assert store.map_bytes == 301 * each + 151 * zoned.zones.nbytes
+
+
+def test_a_mask_of_another_resolution_is_refused_before_it_is_decoded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Its YAML's resolution and origin are checked with the image's header: a 16 M pixel
+    mask of the wrong resolution is refused without decoding a pixel."""
+    import planner
+    from service.resources import zones
+
+    decoded: list[int] = []
+    decode = planner.decode_map_image
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        decoded.append(1)
+        return decode(*args, **kwargs)
+
+    monkeypatch.setattr(zones.planner, "decode_map_image", counted)
+    frame = planner.MapFrame((4, 6), 0.05, (0.0, 0.0, 0.0))
+    image = b"P5\n6 4\n255\n" + bytes(24)
+    for yaml, field in (
+        (b"image: m.pgm\nresolution: 0.1\norigin: [0.0, 0.0, 0.0]\n", "yaml.resolution"),
+        (b"image: m.pgm\nresolution: 0.05\norigin: [1.0, 0.0, 0.0]\n", "yaml.origin"),
+    ):
+        with pytest.raises(planner.InvalidInput) as error:
+            zones._mask(frame, yaml, image)
+        assert error.value.field == field
+    assert decoded == []
+    zones._mask(frame, b"image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n", image)
+    assert decoded == [1]
