@@ -93,12 +93,10 @@ def test_no_private_name_crosses_a_folder() -> None:
 
 
 # Modules still importing private names from a module beside them in their folder (issue 36,
-# "the house"): each to go when its folder is next reworked. The Redis store's split by job will
-# remove its own (service/stores/ was being changed beside this test's work).
+# "the house"): the Redis store's split by job will remove its own (service/stores/ was being
+# changed beside the work that removed the rest).
 KNOWN_PRIVATE_IMPORTS = frozenset(
     {
-        "planner/maps/robot_maps.py",
-        "planner/maps/ros_maps.py",
         "service/stores/redis.py",
     }
 )
