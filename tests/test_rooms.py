@@ -1,5 +1,5 @@
 """The codebase stays one a newcomer can carry: small modules, no import cycle between the
-folders of a package, and no private name imported from another folder."""
+folders of a package, and no private name imported from another module."""
 
 from __future__ import annotations
 
@@ -90,3 +90,28 @@ def test_no_private_name_crosses_a_folder() -> None:
             if private and folder != here:
                 crossings.append(f"{path.relative_to(ROOT)} imports {private} from {module}")
     assert crossings == []
+
+
+# Modules still importing private names from a module beside them in their folder (issue 36,
+# "the house"): the Redis store's split by job will remove its own (service/stores/ was being
+# changed beside the work that removed the rest).
+KNOWN_PRIVATE_IMPORTS = frozenset(
+    {
+        "service/stores/redis.py",
+    }
+)
+
+
+def test_no_private_name_crosses_a_module() -> None:
+    crossings = []
+    for path in _modules():
+        for module, names in _imports(path):
+            private = [n for n in names if n.startswith("_")]
+            if module.rsplit(".", 1)[-1].startswith("_") and module.split(".")[-1] != "__init__":
+                private.append(module)
+            if private and module != _name(path):
+                crossings.append(f"{path.relative_to(ROOT)} imports {private} from {module}")
+    unknown = [c for c in crossings if c.split(" imports ")[0] not in KNOWN_PRIVATE_IMPORTS]
+    assert unknown == []
+    stale = KNOWN_PRIVATE_IMPORTS - {c.split(" imports ")[0] for c in crossings}
+    assert stale == set(), "known exceptions that no longer import a private name"

@@ -12,8 +12,18 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
+from planner.parsing import number
 
-__all__ = ["MAX_EXTENT", "MAX_RESOLUTION", "MIN_RESOLUTION", "MapFrame", "point_xy"]
+__all__ = [
+    "MAX_EXTENT",
+    "MAX_RESOLUTION",
+    "MIN_RESOLUTION",
+    "MapFrame",
+    "framed",
+    "origin_of",
+    "point_xy",
+    "resolution_of",
+]
 
 MIN_RESOLUTION = 1e-4
 """Meters per cell at least (0.1 mm): below it, no robot's map."""
@@ -119,15 +129,7 @@ def point_xy(point: Any, *, name: str) -> tuple[float, float]:
     return float(values[0]), float(values[1])
 
 
-def _number(value: Any, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise InvalidInput(f"{field} must be a number; got {quote(value)}", field=field)
-    if not math.isfinite(float(value)):
-        raise InvalidInput(f"{field} must be finite; got {quote(value)}", field=field)
-    return float(value)
-
-
-def _resolution(value: Any, field: str) -> float:
+def resolution_of(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise InvalidInput(
             f"{field} must be a number of meters per cell; got {quote(value)}", field=field
@@ -142,17 +144,17 @@ def _resolution(value: Any, field: str) -> float:
     return res
 
 
-def _origin(value: Any, field: str) -> tuple[float, float, float]:
+def origin_of(value: Any, field: str) -> tuple[float, float, float]:
     if isinstance(value, str | bytes | Mapping) or not isinstance(value, Sequence | np.ndarray):
         raise InvalidInput(f"{field} must be [x, y, yaw]; got {quote(value)}", field=field)
     items = list(value)
     if len(items) != 3:
         raise InvalidInput(f"{field} must be [x, y, yaw]; got {quote(value)}", field=field)
-    x, y, yaw = (_number(v, field) for v in items)
+    x, y, yaw = (number(v, field) for v in items)
     return (x + 0.0, y + 0.0, yaw + 0.0)  # + 0.0: no negative zero
 
 
-def _framed(
+def framed(
     shape: tuple[int, int],
     resolution: float,
     origin: tuple[float, float, float],

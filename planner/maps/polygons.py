@@ -26,6 +26,7 @@ from numba import njit
 
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
+from planner.parsing import COORDINATE_MAX, point
 
 __all__ = [
     "COORDINATE_MAX",
@@ -41,8 +42,6 @@ Polygon = tuple[tuple[float, float], ...]
 """A simple polygon's vertices ``(x, y)`` in meters, in order, not closed (the last vertex is
 joined to the first)."""
 
-COORDINATE_MAX = 1e9
-"""Meters from 0 a polygon's coordinate may be at most."""
 
 MAX_POLYGON_POINTS = 1000
 """Vertices a polygon may have at most (its simplicity check compares every pair of edges)."""
@@ -59,8 +58,8 @@ def check_polygon(points: Any, *, field: str) -> Polygon:
         msg = f"{field} must have 3 to {MAX_POLYGON_POINTS} points; got {len(points)}"
         raise InvalidInput(msg, field=field)
     xy: list[tuple[float, float]] = []
-    for i, point in enumerate(points):
-        xy.append(_point(point, f"{field}[{i}]"))
+    for i, pt in enumerate(points):
+        xy.append(point(pt, f"{field}[{i}]"))
     n = len(xy)
     for i in range(n):
         if xy[i] == xy[(i + 1) % n]:
@@ -75,30 +74,6 @@ def check_polygon(points: Any, *, field: str) -> Polygon:
         )
         raise InvalidInput(msg, field=field)
     return tuple(xy)
-
-
-def _point(point: Any, field: str) -> tuple[float, float]:
-    if isinstance(point, Mapping):
-        unknown = sorted(str(k) for k in point if k not in ("x", "y"))
-        if unknown or "x" not in point or "y" not in point:
-            msg = f"{field} must be a point {{x, y}} in meters; got {quote(point)}"
-            raise InvalidInput(msg, field=field)
-        values = [point["x"], point["y"]]
-    elif isinstance(point, Sequence | np.ndarray) and not isinstance(point, str | bytes):
-        values = list(point)
-    else:
-        raise InvalidInput(f"{field} must be a point {{x, y}}; got {quote(point)}", field=field)
-    ok = len(values) == 2 and all(
-        isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
-        for v in values
-    )
-    if not ok or not all(math.isfinite(float(v)) and abs(v) <= COORDINATE_MAX for v in values):
-        msg = (
-            f"{field} must be a point of finite numbers in meters (at most {COORDINATE_MAX:g} "
-            f"from 0); got {quote(point)}"
-        )
-        raise InvalidInput(msg, field=field)
-    return float(values[0]) + 0.0, float(values[1]) + 0.0
 
 
 @njit(cache=True, nogil=True)

@@ -24,9 +24,10 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
-from planner.maps.frames import MapFrame, _framed, _number, _origin, _resolution
+from planner.maps.frames import MapFrame, framed, origin_of, resolution_of
 from planner.maps.grids import grid_array
 from planner.maps.zones import Zones
+from planner.parsing import number
 
 __all__ = ["MapFrame", "RobotMap", "grid_map", "occupancy_grid_map"]
 
@@ -144,10 +145,10 @@ def grid_map(
         )
         raise InvalidInput(msg, field=name)
     occupancy = np.where(arr == 1, 100, arr).astype(np.int8)
-    frame = _framed(
+    frame = framed(
         (int(arr.shape[0]), int(arr.shape[1])),
-        _resolution(resolution, "resolution"),
-        _origin(origin, "origin"),
+        resolution_of(resolution, "resolution"),
+        origin_of(origin, "origin"),
     )
     return RobotMap(np.ascontiguousarray(occupancy), frame)
 
@@ -165,11 +166,11 @@ def occupancy_grid_map(message: Any, *, name: str = "occupancy_grid") -> RobotMa
         )
     width = _size(_key(info, "width", f"{name}.info"), f"{name}.info.width")
     height = _size(_key(info, "height", f"{name}.info"), f"{name}.info.height")
-    resolution = _resolution(_key(info, "resolution", f"{name}.info"), f"{name}.info.resolution")
+    resolution = resolution_of(_key(info, "resolution", f"{name}.info"), f"{name}.info.resolution")
     pose = _key(info, "origin", f"{name}.info")
     origin = _pose(pose, f"{name}.info.origin")
     fields = (f"{name}.info.resolution", f"{name}.info.origin")
-    frame = _framed((height, width), resolution, origin, fields=fields)
+    frame = framed((height, width), resolution, origin, fields=fields)
     data = _key(message, "data", name)
     field = f"{name}.data"
     try:
@@ -226,10 +227,10 @@ def _pose(pose: Any, field: str) -> tuple[float, float, float]:
         if unknown:
             msg = f"{field}.{part} has no field {quote(unknown[0])} (it takes {', '.join(names)})"
             raise InvalidInput(msg, field=f"{field}.{part}.{unknown[0][:100]}")
-    x = _number(position.get("x", 0.0), f"{field}.position.x")
-    y = _number(position.get("y", 0.0), f"{field}.position.y")
+    x = number(position.get("x", 0.0), f"{field}.position.x")
+    y = number(position.get("y", 0.0), f"{field}.position.y")
     qx, qy, qz, qw = (
-        _number(orientation.get(k, 1.0 if k == "w" else 0.0), f"{field}.orientation.{k}")
+        number(orientation.get(k, 1.0 if k == "w" else 0.0), f"{field}.orientation.{k}")
         for k in "xyzw"
     )
     if qx * qx + qy * qy + qz * qz + qw * qw == 0:

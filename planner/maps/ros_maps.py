@@ -17,8 +17,9 @@ import yaml
 from PIL import Image, UnidentifiedImageError
 
 from planner.errors import QUOTE_LIMIT, InvalidInput, quote
-from planner.maps.frames import _framed, _number, _origin, _resolution
+from planner.maps.frames import framed, origin_of, resolution_of
 from planner.maps.robot_maps import RobotMap
+from planner.parsing import number
 
 __all__ = [
     "DEFAULT_FREE_THRESH",
@@ -129,8 +130,8 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
     for key in ("resolution", "origin"):
         if key not in doc:
             raise InvalidInput(f"{name} has no '{key}'", field=f"{name}.{key}")
-    resolution = _resolution(doc["resolution"], f"{name}.resolution")
-    origin = _origin(doc["origin"], f"{name}.origin")
+    resolution = resolution_of(doc["resolution"], f"{name}.resolution")
+    origin = origin_of(doc["origin"], f"{name}.origin")
     negate = doc.get("negate", 0)
     if negate not in (0, 1) or not isinstance(negate, int):  # bool is an int too
         msg = f"{name}.negate must be 0 or 1; got {quote(negate)}"
@@ -140,7 +141,7 @@ def parse_map_yaml(text: str | bytes, *, name: str = "yaml") -> MapYaml:
         ("occupied_thresh", DEFAULT_OCCUPIED_THRESH),
         ("free_thresh", DEFAULT_FREE_THRESH),
     ):
-        value = _number(doc.get(key, default), f"{name}.{key}")
+        value = number(doc.get(key, default), f"{name}.{key}")
         if not 0.0 <= value <= 1.0:
             msg = f"{name}.{key} must be in [0, 1]; got {quote(doc[key])}"
             raise InvalidInput(msg, field=f"{name}.{key}")
@@ -215,9 +216,7 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
     try:
         with _open_image(data, name) as image, warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            frame = _framed(
-                (image.height, image.width), meta.resolution, meta.origin, fields=fields
-            )
+            frame = framed((image.height, image.width), meta.resolution, meta.origin, fields=fields)
             scaled = _netpbm_scaled(data, image, name)
             if scaled is None:
                 image.load()

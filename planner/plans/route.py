@@ -18,6 +18,7 @@ from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, NoValidPath, quote
 from planner.plans.ends import end_yaw, free_cell, stand_on, tolerance_m
 from planner.plans.whole_wave import Wave
+from planner.poses.polyline import wrap_angle
 from planner.poses.smooth import MAX_TURN
 
 __all__ = [
@@ -186,20 +187,15 @@ def route_of(legs: Sequence[L], costs: Sequence[float] = ()) -> L:
     return plan
 
 
-def _wrap(a: float) -> float:
-    a = math.atan2(math.sin(a), math.cos(a))
-    return math.pi if a == -math.pi else a
-
-
 def _between(a: float, c: float, b: float) -> bool:
     """Whether heading ``c`` lies on the shorter turn from ``a`` to ``b``."""
-    return abs(_wrap(c - a)) + abs(_wrap(b - c)) <= abs(_wrap(b - a)) + 1e-9
+    return abs(wrap_angle(c - a)) + abs(wrap_angle(b - c)) <= abs(wrap_angle(b - a)) + 1e-9
 
 
 def _passes(p: list[float], q: list[float]) -> bool:
     """Whether the step from pose ``p`` to pose ``q`` keeps the poses' rules: a turn of at most
     15 degrees, and the step's direction between their yaws."""
-    if abs(_wrap(q[2] - p[2])) > MAX_TURN:
+    if abs(wrap_angle(q[2] - p[2])) > MAX_TURN:
         return False
     dx, dy = q[0] - p[0], q[1] - p[1]
     return math.hypot(dx, dy) == 0.0 or _between(p[2], math.atan2(dy, dx), q[2])
@@ -229,14 +225,14 @@ def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int,
         x, y = out[-1][0], out[-1][1]
         nxt[0][0], nxt[0][1] = x, y  # the waypoint's point, to the bit
         a, d = out[-1][2], nxt[0][2]
-        turn = _wrap(d - a)
+        turn = wrap_angle(d - a)
         if loose or legs[k - 1].goal_yaw is not None or turn == 0.0:
             out[-1] = nxt[0]
             indices.append(len(out) - 1)
             out += nxt[1:]
             loose = False
             continue
-        h = _wrap(a + turn / 2)
+        h = wrap_angle(a + turn / 2)
         merged = [x, y, h]
         prior = out[-2] if len(out) > 1 else None
         after = nxt[1] if len(nxt) > 1 else None
@@ -246,9 +242,9 @@ def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int,
             out += nxt[1:]
             continue
         n = math.ceil(abs(turn / 2) / _TURN_STEP)
-        out += [[x, y, _wrap(a + turn / 2 * q / n)] for q in range(1, n + 1)]
+        out += [[x, y, wrap_angle(a + turn / 2 * q / n)] for q in range(1, n + 1)]
         indices.append(len(out) - 1)
-        out += [[x, y, _wrap(h + turn / 2 * q / n)] for q in range(1, n)]
+        out += [[x, y, wrap_angle(h + turn / 2 * q / n)] for q in range(1, n)]
         out += nxt
     poses = np.array(out, dtype=np.float64).reshape(-1, 3)
     keep = np.ones(len(poses), dtype=bool)

@@ -1,19 +1,18 @@
 """The cells a step's dynamic obstacles block, for the path ahead: a small window's mask of them
-(each obstacle's cell and those within the margin), how far along a route the robot reaches
-before one, and whether a segment enters one's square."""
+(each obstacle's cell and those within the margin), and how far along a route the robot
+reaches before one."""
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["reachable"]
+from planner.errors import InvalidInput, quote
 
-_INSIDE = 1e-9  # cells: a segment along a blocked cell's side or through its corner enters none
+__all__ = ["reachable", "window"]
 
 
 @njit(cache=True, nogil=True)
@@ -58,36 +57,6 @@ def _clear_prefix(route: Any, mask: Any, top: int, left: int, exempt: int) -> in
 
 
 @njit(cache=True, nogil=True)
-def _free(mask: Any, top: int, left: int, ax: float, ay: float, bx: float, by: float) -> bool:
-    """Whether segment a-b (X = col, Y = -row) enters no blocked cell's square: column by
-    column, the rows its part in the column spans."""
-    # u, v: the cells' corners at whole numbers, cell (r, c) = [c, c + 1] x [r, r + 1].
-    au, av, bu, bv = ax + 0.5, -ay + 0.5, bx + 0.5, -by + 0.5
-    h, w = mask.shape
-    du, dv = bu - au, bv - av
-    u_lo, u_hi = min(au, bu), max(au, bu)
-    for c in range(math.floor(u_lo), math.floor(u_hi) + 1):
-        u0 = max(u_lo, c + _INSIDE)
-        u1 = min(u_hi, c + 1 - _INSIDE)
-        if u0 > u1:
-            continue
-        if abs(du) > 1e-12:
-            v0 = av + dv * (u0 - au) / du
-            v1 = av + dv * (u1 - au) / du
-        else:
-            v0, v1 = av, bv
-        v_lo, v_hi = min(v0, v1), max(v0, v1)
-        cc = c - left
-        if cc < 0 or cc >= w:
-            continue
-        for r in range(math.ceil(v_lo - 1 + _INSIDE), math.floor(v_hi - _INSIDE) + 1):
-            rr = r - top
-            if 0 <= rr < h and mask[rr, cc]:
-                return False
-    return True
-
-
-@njit(cache=True, nogil=True)
 def _reach(
     flat: Any, W: int, H: int, obstacles: Any, margin: int, exempt: int
 ) -> tuple[Any, int, Any, int, int]:
@@ -109,6 +78,34 @@ def _reach(
     return route, n, mask, top, left
 
 
+def window(
+    route: npt.NDArray[np.int64],
+    shape: tuple[int, int],
+    obstacles: npt.NDArray[np.int64],
+    *,
+    margin: int,
+    exempt: int,
+) -> tuple[npt.NDArray[np.int64], int, npt.NDArray[np.uint8], int, int]:
+    """``route``'s cells ``(m, 2)`` (from flat indices of a map of ``shape``), how many of them
+    the robot reaches (as :func:`reachable`), and the mask of the cells the ``obstacles``
+    block in a window round the route, with its corner (top, left): what
+    :func:`~planner.poses.route_poses.poses_ahead` keeps clear of."""
+    H, W = (int(v) for v in shape)
+    for name, array, ndim in (("route", route, 1), ("obstacles", obstacles, 2)):
+        if not isinstance(array, np.ndarray) or array.dtype != np.int64 or array.ndim != ndim:
+            msg = f"{name} must be a {ndim}-D int64 array; got {quote(array)}"
+            raise InvalidInput(msg, field=name)
+    if len(route) == 0 or route.min() < 0 or route.max() >= H * W:
+        msg = f"route must hold flat cells of a {H} x {W} map, one at least; got {quote(route)}"
+        raise InvalidInput(msg, field="route")
+    if (len(obstacles) and obstacles.shape[1] != 2) or margin < 0 or exempt < 0:
+        msg = f"obstacles must be (k, 2) cells, margin and exempt >= 0; got {obstacles.shape!r}"
+        raise InvalidInput(msg, field="obstacles")
+    flat = np.ascontiguousarray(route)
+    cells, n, mask, top, left = _reach(flat, W, H, obstacles, int(margin), int(exempt))
+    return cells, int(n), mask, int(top), int(left)
+
+
 def reachable(
     route: npt.NDArray[np.int64],
     shape: tuple[int, int],
@@ -119,5 +116,6 @@ def reachable(
 ) -> int:
     """How many of ``route``'s cells (flat indices of a map of ``shape``) the robot reaches
     before a move into a cell within Chebyshev ``margin`` of one of the ``obstacles`` (or
-    diagonally past one), after the first ``exempt`` moves: those :func:`poses_ahead` follows."""
-    return int(_reach(route, shape[1], shape[0], obstacles, margin, exempt)[1])
+    diagonally past one), after the first ``exempt`` moves: those
+    :func:`~planner.poses.route_poses.poses_ahead` follows."""
+    return window(route, shape, obstacles, margin=margin, exempt=exempt)[1]

@@ -11,22 +11,116 @@ Y = -row: a right-handed frame on the map's axes, whose cell centers are whole n
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 from numba import njit
 
-from planner.poses.blocked import _free
-from planner.poses.polyline import _arc, _corner
+from planner.errors import InvalidInput
 
-__all__: list[str] = []  # kernels of planner.poses.smooth_path
+__all__ = ["D_REL", "Sight", "chords_clear", "shortcut", "threshold"]
+
+D_REL = 2e-7
+"""A relative margin for the rounding of float32 distances."""
 
 _PIECE = 0.5  # cells of a segment checked exactly at once where the lower bound is too loose
 _CERTIFY = 0.05  # cells of slack below which a piece is checked exactly
 _MARGIN = 0.1  # of the threshold (at least a cell's tenth): what a long segment is checked against
 _LONG = 8.0  # cells: shorter segments are checked against the threshold alone
-_D_REL = 2e-7  # float32 distances: a relative margin for their rounding
-_SHORT = 1e-6  # cells: a shorter line than this between two arcs would have no clear direction
+_TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
+_SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
+_INSIDE = 1e-9  # cells: a segment along a blocked cell's side or through its corner enters none
+
+
+class Sight(NamedTuple):
+    """What a segment must keep to be clear: every point at least ``root`` = sqrt(``T``) cells
+    from every blocked center (the map's outside blocked too when ``outside``), and no cell of
+    a mask entered, the mask's corner at (``top``, ``left``)."""
+
+    T: float
+    root: float
+    outside: bool
+    top: int
+    left: int
+
+
+def threshold(least: float, radius: float) -> tuple[float, float]:
+    """The bound a path's poses keep (its least clearance ``least`` less one cell) and the
+    squared clearance ``T`` every point must keep: more than ``radius`` and than half a cell's
+    diagonal, and at least that bound (cells). Ties pass the bound; the radius must be beaten."""
+    bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
+    T = max(bound * bound * (1.0 - _TIE), radius * radius + _TIE * max(1.0, radius * radius))
+    return bound, max(T, _SQUARE + _TIE)
+
+
+def shortcut(
+    distance: npt.NDArray[np.float32],
+    polyline: npt.NDArray[np.float64],
+    mask: npt.NDArray[np.uint8],
+    sight: Sight,
+) -> tuple[npt.NDArray[np.int64], int]:
+    """The greedy line-of-sight shortcut of ``polyline`` ``(n, 2)`` (cells, X = col, Y = -row)
+    over ``distance`` (float32, the exact distance to the nearest blocked center), kept clear
+    by ``sight`` and of ``mask`` (uint8, 1: blocked; empty: none): the kept vertices' indices,
+    and -1, or the index of a vertex whose step to the next is not clear itself."""
+    _check(distance, np.float32, 2, "distance")
+    _check(polyline, np.float64, 2, "polyline")
+    _check(mask, np.uint8, 2, "mask")
+    if polyline.shape[1:] != (2,) or len(polyline) == 0:
+        msg = f"polyline must be an (n, 2) array, n >= 1; got shape {polyline.shape!r}"
+        raise InvalidInput(msg, field="polyline")
+    keep, bad = _shortcut(distance, mask, polyline, _sight(sight))
+    return keep, int(bad)
+
+
+def _sight(sight: Sight) -> Sight:
+    """The record with the types its kernels were compiled for."""
+    T, root, outside, top, left = sight
+    return Sight(float(T), float(root), bool(outside), int(top), int(left))
+
+
+def _check(array: Any, dtype: type, ndim: int, field: str) -> None:
+    if not isinstance(array, np.ndarray) or array.dtype != dtype or array.ndim != ndim:
+        got = (
+            f"{array.dtype} array of shape {array.shape!r}"
+            if isinstance(array, np.ndarray)
+            else type(array).__name__
+        )
+        msg = f"{field} must be a {ndim}-D {np.dtype(dtype)} array; got {got}"
+        raise InvalidInput(msg, field=field)
+    if not array.flags.c_contiguous:
+        raise InvalidInput(f"{field} must be C-contiguous", field=field)
+
+
+@njit(cache=True, nogil=True)
+def _free(mask: Any, top: int, left: int, ax: float, ay: float, bx: float, by: float) -> bool:
+    """Whether segment a-b (X = col, Y = -row) enters no blocked cell's square: column by
+    column, the rows its part in the column spans."""
+    # u, v: the cells' corners at whole numbers, cell (r, c) = [c, c + 1] x [r, r + 1].
+    au, av, bu, bv = ax + 0.5, -ay + 0.5, bx + 0.5, -by + 0.5
+    h, w = mask.shape
+    du, dv = bu - au, bv - av
+    u_lo, u_hi = min(au, bu), max(au, bu)
+    for c in range(math.floor(u_lo), math.floor(u_hi) + 1):
+        u0 = max(u_lo, c + _INSIDE)
+        u1 = min(u_hi, c + 1 - _INSIDE)
+        if u0 > u1:
+            continue
+        if abs(du) > 1e-12:
+            v0 = av + dv * (u0 - au) / du
+            v1 = av + dv * (u1 - au) / du
+        else:
+            v0, v1 = av, bv
+        v_lo, v_hi = min(v0, v1), max(v0, v1)
+        cc = c - left
+        if cc < 0 or cc >= w:
+            continue
+        for r in range(math.ceil(v_lo - 1 + _INSIDE), math.floor(v_hi - _INSIDE) + 1):
+            rr = r - top
+            if 0 <= rr < h and mask[rr, cc]:
+                return False
+    return True
 
 
 @njit(cache=True, nogil=True)
@@ -42,7 +136,7 @@ def _lower_bound(D: Any, X: float, Y: float) -> float:
         rr = min(max(r, 0), H - 1)
         for c in range(c0, c0 + 2):
             cc = min(max(c, 0), W - 1)
-            v = D[rr, cc] * (1.0 - _D_REL) - math.hypot(X - cc, row - rr)
+            v = D[rr, cc] * (1.0 - D_REL) - math.hypot(X - cc, row - rr)
             best = max(best, v)
     return best
 
@@ -145,9 +239,7 @@ def _step_bound(D: Any, x0: float, y0: float, x1: float, y1: float) -> float:
 
 
 @njit(cache=True, nogil=True)
-def _shortcut(
-    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int
-) -> tuple[Any, int]:
+def _shortcut(D: Any, mask: Any, V: Any, sight: Sight) -> tuple[Any, int]:
     """The greedy line-of-sight shortcut of the polyline V: from each kept vertex, the next
     kept one is the last before the first vertex it cannot see clear (nor enter a cell of
     ``mask``, whose corner is (top, left); an empty mask blocks none). Returns the kept indices,
@@ -159,6 +251,7 @@ def _shortcut(
     min(cert(a-b), bound(b-c)) - h. Where that is not enough, a long segment is checked exactly
     against a margin above the threshold, which the next steps then spend (a failed margin is
     tried again only at twice the length): linear, not quadratic, along long corridors."""
+    T, root, outside, top, left = sight
     n = V.shape[0]
     keep = np.empty(n, dtype=np.int64)
     keep[0] = 0
@@ -225,16 +318,16 @@ def _upper_bound(D: Any, X: float, Y: float) -> float:
     H, W = D.shape
     rr = min(max(round(-Y), 0), H - 1)
     cc = min(max(round(X), 0), W - 1)
-    return float(D[rr, cc]) * (1.0 + _D_REL) + math.hypot(X - cc, -Y - rr)
+    return float(D[rr, cc]) * (1.0 + D_REL) + math.hypot(X - cc, -Y - rr)
 
 
 @njit(cache=True, nogil=True)
-def _arc_clear(
-    D: Any, outside: bool, pts: Any, T: float, root: float, mask: Any, top: int, left: int
-) -> bool:
-    """Whether every chord of an arc's points keeps ``root`` and enters no cell of ``mask``;
+def chords_clear(D: Any, mask: Any, pts: Any, sight: Sight) -> bool:
+    """Whether every chord of an arc's points ``pts`` keeps ``sight`` (as :func:`shortcut`);
     an arc with a point surely too near (the bisection of a corner tries many) is refused
-    before any exact check."""
+    before any exact check. A kernel: the corners' rounding calls it in its loop, with the
+    arrays :func:`shortcut` checks."""
+    T, root, outside, top, left = sight
     for q in range(pts.shape[0]):
         if _upper_bound(D, pts[q, 0], pts[q, 1]) < root - 1e-9:
             return False
@@ -248,56 +341,3 @@ def _arc_clear(
         ):
             return False
     return True
-
-
-@njit(cache=True, nogil=True)
-def _tangents(
-    D: Any, outside: bool, P: Any, U: Any, L: Any, T: float, root: float, mask: Any, top: int,
-    left: int, masked: bool, halvings: int,
-) -> tuple[Any, Any]:  # fmt: skip
-    """Each corner of the polyline P (segments U, L as ``polyline._segments`` gives them): its
-    turn, and the longest tangent its segments allow whose arc is clear (``halvings`` bisections
-    while it is not). Within the corner's static bound an arc is clear unless ``masked``: then
-    the mask's cells may block it too, and it is checked whatever its size."""
-    k = P.shape[0]
-    tang = np.zeros(k)
-    turn = np.zeros(k)
-    fixed = (T, root, mask, top, left)
-    for i in range(1, k - 1):
-        theta, t_max = _corner(U, L, i, k)
-        if theta == 0.0:
-            continue
-        turn[i] = theta
-        cx, cy, ix, iy, ux, uy = P[i, 0], P[i, 1], U[i - 1, 0], U[i - 1, 1], U[i, 0], U[i, 1]
-        # The corner is a cell center: every point within this of it is clear.
-        corner = D[round(-cy), round(cx)] * (1.0 - _D_REL)
-        safe = min(max(corner - root - 1e-9, 0.0), t_max)
-        lo = 0.0 if masked else safe
-        if lo < t_max:
-            if _arc_clear(D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, t_max), *fixed):
-                lo = t_max
-            else:
-                hi = t_max
-                for _ in range(halvings):
-                    mid = 0.5 * (lo + hi)
-                    pts = _arc(cx, cy, ix, iy, ux, uy, theta, mid)
-                    if _arc_clear(D, outside, pts, *fixed):
-                        lo = mid
-                    else:
-                        hi = mid
-                # A line left between arcs is either none or long enough to have a direction.
-                short = t_max - _SHORT
-                if lo > short and (
-                    (not masked and short <= safe)
-                    or _arc_clear(D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, short), *fixed)
-                ):
-                    lo = short
-        if masked and lo == 0.0:
-            # Within its cell (a route cell, not blocked) and the static bound: always clear.
-            small = min(safe, 0.45, t_max - _SHORT)
-            if small > 0.0 and _arc_clear(
-                D, outside, _arc(cx, cy, ix, iy, ux, uy, theta, small), *fixed
-            ):
-                lo = small
-        tang[i] = lo
-    return tang, turn

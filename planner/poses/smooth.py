@@ -17,92 +17,17 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from numba import njit
 
 from planner.errors import InvalidInput, quote
-from planner.poses.clearance import _shortcut, _tangents
-from planner.poses.polyline import _segments, _write
+from planner.poses.clearance import Sight, threshold
+from planner.poses.polyline import BLOCKED, JUMP, OUTSIDE, Setting, polyline_of, poses_along
 
 __all__ = ["MAX_TURN", "smooth_path"]
 
 MAX_TURN = math.radians(15.0)
 """The most a pose's heading turns from the previous pose's."""
 
-_TIE = 1e-9  # relative: a clearance equal to the bound passes; the radius must be beaten by it
-_SQUARE = 0.5  # squared cells: a blocked cell's square lies within half its diagonal of its center
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
-
-_OUTSIDE, _JUMP, _BLOCKED = 1, 2, 3  # what is wrong with a path, as _vertices says
-
-
-@njit(cache=True, nogil=True)
-def _vertices(
-    cells: Any, D: Any, sx: float, sy: float, gx: float, gy: float
-) -> tuple[Any, Any, float, int, int]:
-    """The polyline to shortcut: the start point, the cells' centers once each, the goal point
-    (each end dropped where it is its cell's center), with each vertex's index in
-    start, cells, goal; the path's least distance; and what is wrong with it, at which cell."""
-    H, W = D.shape
-    n = cells.shape[0]
-    V = np.empty((n + 2, 2))
-    index = np.empty(n + 2, dtype=np.int64)
-    least = np.inf
-    k = 0
-    for i in range(n):
-        r, c = cells[i, 0], cells[i, 1]
-        if r < 0 or r >= H or c < 0 or c >= W:
-            return V[:0], index[:0], least, _OUTSIDE, i
-        if i > 0 and max(abs(r - cells[i - 1, 0]), abs(c - cells[i - 1, 1])) > 1:
-            return V[:0], index[:0], least, _JUMP, i - 1
-        if D[r, c] <= 0.0:
-            return V[:0], index[:0], least, _BLOCKED, i
-        least = min(least, float(D[r, c]))
-        X, Y = float(c), -float(r)
-        if i == 0 and (sx != X or sy != Y):
-            V[0, 0], V[0, 1], index[0] = sx, sy, 0
-            k = 1
-        if k == 0 or i == 0 or V[k - 1, 0] != X or V[k - 1, 1] != Y:
-            V[k, 0], V[k, 1], index[k] = X, Y, i + 1
-            k += 1
-    if gx != V[k - 1, 0] or gy != V[k - 1, 1]:
-        V[k, 0], V[k, 1], index[k] = gx, gy, n + 1
-        k += 1
-    return V[:k], index[:k], least, 0, -1
-
-
-@njit(cache=True, nogil=True)
-def _poses(
-    D: Any, outside: bool, V: Any, T: float, root: float, mask: Any, top: int, left: int,
-    masked: bool, halvings: int, res: float, ox: float, oy: float, oyaw: float,
-    start_yaw: float, has_start_yaw: bool, goal_yaw: float, has_goal_yaw: bool,
-) -> tuple[Any, int, float]:  # fmt: skip
-    """Poses (m, 3) x, y, yaw in meters along the polyline V (cells, X = col, Y = -row), clear
-    of ``mask`` too (see :func:`planner.poses.clearance._tangents` for ``masked``); -1, or the
-    index of a step of V that is not clear (then no poses); and the first heading after the
-    start's turn in place."""
-    H = D.shape[0]
-    keep, bad = _shortcut(D, outside, V, T, root, mask, top, left)
-    if bad >= 0:
-        return np.empty((0, 3)), bad, 0.0
-    P = V[keep]
-    k = P.shape[0]
-    nseg, L, U = _segments(P)
-    # Round each corner: the longest tangent its segments allow whose arc is clear.
-    tang, turn = _tangents(D, outside, P, U, L, T, root, mask, top, left, masked, halvings)
-    # Count, then write the poses: the start's turn in place, lines and arcs, the goal's.
-    first_yaw = math.atan2(U[0, 1], U[0, 0]) + oyaw if nseg > 0 else start_yaw
-    if nseg == 0 and not has_start_yaw:
-        first_yaw = goal_yaw if has_goal_yaw else oyaw
-    last_yaw = math.atan2(U[nseg - 1, 1], U[nseg - 1, 0]) + oyaw if nseg > 0 else first_yaw
-    out = _write(
-        P, U, L, tang, turn, k, nseg, res, H, ox, oy, oyaw,
-        start_yaw, has_start_yaw, first_yaw, last_yaw, goal_yaw, has_goal_yaw,
-    )  # fmt: skip
-    return out, -1, first_yaw
-
-
-# --------------------------------------------------------------------------------------------
-# The wrapper
 
 
 def _number(value: Any, field: str, what: str) -> float:
@@ -257,32 +182,32 @@ step 0 goes from [0, 0] to [0, 2]
     )
     s = first if start is None else to_cells(start, "start")
     g = last if goal is None else to_cells(goal, "goal")
-    V, index, least, wrong, i = _vertices(cells, D, s[0], s[1], g[0], g[1])
-    if wrong == _OUTSIDE:
+    V, index, least, wrong, i = polyline_of(cells, D, (*s, *g))
+    if wrong == OUTSIDE:
         msg = f"path cell {cells[i].tolist()} (index {i}) is outside the {H} x {W} map"
         raise InvalidInput(msg, field="path")
-    if wrong == _JUMP:
+    if wrong == JUMP:
         msg = (
             "path steps must each go to one of the 8 neighbouring cells; step "
             f"{i} goes from {cells[i].tolist()} to {cells[i + 1].tolist()}"
         )
         raise InvalidInput(msg, field="path")
-    if wrong == _BLOCKED:
+    if wrong == BLOCKED:
         msg = f"path cell {cells[i].tolist()} (index {i}) is blocked: its distance is 0"
         raise InvalidInput(msg, field="path")
-    bound = max(least - 1.0, 0.0) if math.isfinite(least) else 0.0
-    R = radius / res
-    T = max(bound * bound * (1.0 - _TIE), R * R + _TIE * max(1.0, R * R), _SQUARE + _TIE)
+    bound, T = threshold(least, radius / res)
     none = np.zeros((0, 0), dtype=np.uint8)  # no mask: the blocked cells' distances alone
-    poses, bad, _ = _poses(
-        D, bool(outside_blocked), V, T, math.sqrt(T), none, 0, 0, False, _BISECT, res, ox, oy,
-        oyaw, yaws[0] or 0.0, yaws[0] is not None, yaws[1] or 0.0, yaws[1] is not None,
+    sight = Sight(T, math.sqrt(T), bool(outside_blocked), 0, 0)
+    setting = Setting(
+        _BISECT, False, res, ox, oy, oyaw, yaws[0] or 0.0, yaws[0] is not None, yaws[1] or 0.0,
+        yaws[1] is not None,
     )  # fmt: skip
+    poses, bad, _, _ = poses_along(D, V, none, sight, setting)
     if bad >= 0:
         a, b = int(index[bad]), int(index[bad + 1])
         need = (
             f"more than robot_radius {radius:g} m and than half a cell's diagonal "
-            f"{math.sqrt(_SQUARE) * res:.6g} m, and at least {bound * res:.6g} m (the path's "
+            f"{math.sqrt(0.5) * res:.6g} m, and at least {bound * res:.6g} m (the path's "
             f"least clearance {least * res:.6g} m less one cell)"
         )
         if a == 0 or b == len(cells) + 1:

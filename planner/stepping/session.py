@@ -22,7 +22,7 @@ from planner.plans.detour import detour_cells
 from planner.plans.ends import cell_of, end_yaw, free_cell
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, route
-from planner.stepping.ahead import path_ahead
+from planner.stepping.horizon import path_ahead
 from planner.stepping.legs import go_on, last_leg, later_cost, leg_of
 from planner.stepping.obstacles import blocked_cells, obstacle_cells
 from planner.stepping.state import MOVES, SessionState, Status, Step

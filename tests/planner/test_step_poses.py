@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput
-from planner.poses.ahead import poses_ahead
+from planner.poses.route_poses import poses_ahead
 from tests import naive_poses
 from tests.planner.test_poses import point_in
 

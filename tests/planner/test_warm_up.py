@@ -9,7 +9,7 @@ import sys
 from tests.service.conftest import ROOT
 
 STEP_KERNELS = (
-    "planner.poses.ahead._ahead",
+    "planner.poses.polyline._poses",
     "planner.fleets.roadmap._attach",
     "planner.fleets.pibt._pibt",
     "planner.stepping.obstacles._first_outside",

@@ -1,6 +1,7 @@
-"""The path ahead of a stepping robot (docs/api.md, "Stepping with poses"): the cells of its
-route from where it is, as far as the horizon needs and this step's dynamic obstacles let it,
-smoothed into poses, and the meters left to the goal."""
+"""A step's horizon (docs/api.md, "Stepping with poses"): which cells of the robot's route lie
+ahead of it, from where it is, as far as the horizon needs and round this step's dynamic
+obstacles where the decision would go; their poses (by :func:`~planner.poses.route_poses.
+poses_ahead`), and the meters left to the goal."""
 
 from __future__ import annotations
 
@@ -14,8 +15,8 @@ from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan
 from planner.plans.resumable_wave import ResumableWave
 from planner.plans.walk import walk_fields
-from planner.poses.ahead import poses_ahead
 from planner.poses.blocked import reachable
+from planner.poses.route_poses import poses_ahead
 from planner.stepping.state import Pose, SessionState, Step
 
 __all__ = ["path_ahead"]
