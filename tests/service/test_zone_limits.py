@@ -111,7 +111,7 @@ def test_a_mask_of_another_resolution_is_refused_before_it_is_decoded(
         decoded.append(1)
         return decode(*args, **kwargs)
 
-    monkeypatch.setattr(zones.planner, "decode_map_image", counted)
+    monkeypatch.setattr(planner, "decode_map_image", counted)
     frame = planner.MapFrame((4, 6), 0.05, (0.0, 0.0, 0.0))
     image = b"P5\n6 4\n255\n" + bytes(24)
     for yaml, field in (
