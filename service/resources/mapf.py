@@ -21,6 +21,7 @@ __all__ = ["paths_of", "solve_mapf"]
 async def solve_mapf(engine: Engine, map_id: str, body: MapfCreate) -> tuple[Solution, Graph]:
     """The agents' joint plan on the map's roadmap for ``robot_radius`` (cached with the
     analysis), within ``time_limit_s`` and the request's own timeout."""
+    await engine.require_map(map_id)
     params = planner.resolve_params(body.preset, robot_radius=body.robot_radius)
     record = {"map_id": map_id, "radius": body.robot_radius, "params": params.as_dict()}
     fmap = await fleets.fleet_map(engine, record)

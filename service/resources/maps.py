@@ -56,6 +56,7 @@ async def render_map(
     overrides: dict[str, Any],
     with_passages: bool = False,
 ) -> bytes:
+    await engine.require_map(map_id)
     params = planner.resolve_params(preset, **overrides)
     analysis, _ = await engine.analysis(map_id, params)
     size = cell_size(analysis.shape, cell)

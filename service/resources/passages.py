@@ -44,6 +44,7 @@ async def map_passages(
     ``2 * robot_radius + 0.3``); ``NotFound`` for an unknown map, ``InvalidInput`` naming the
     parameter for bad ones."""
     width = 2 * robot_radius + MAX_WIDTH_SLACK if max_width is None else max_width
+    await engine.require_map(map_id)
 
     async def compute() -> PassageSet:
         robot_map = await engine.robot_map(map_id)

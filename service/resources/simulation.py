@@ -20,6 +20,7 @@ async def simulate(engine: Engine, map_id: str, body: SimulationCreate) -> plann
     if body.max_steps is not None and body.max_steps > most:
         msg = f"max_steps {body.max_steps} exceeds PLANNER_MAX_SIMULATION_STEPS ({most})"
         raise planner.InvalidInput(msg, field="max_steps")
+    await engine.require_map(map_id)
     plan, _ = await engine.build_plan(
         map_id, where(body.start), where(body.goal), body.preset, overrides(body),
         goal_tolerance=body.goal_tolerance, preview=False,

@@ -213,6 +213,12 @@ class Engine:
         self.remember(map_id, robot_map)
         return robot_map
 
+    async def require_map(self, map_id: str) -> None:
+        """``NotFound`` naming ``map_id`` unless the store holds the map now: what is cached of
+        a map (its analyses, passages) outlives it, and must not answer for it."""
+        if not await self.store.has_map(map_id):
+            raise unknown_map(map_id)
+
     def remember(self, map_id: str, robot_map: planner.RobotMap) -> None:
         """Note whether the tenant's map is plain: its cache keys depend on it (another
         tenant's note never stands for the map: it must read the map from the store)."""

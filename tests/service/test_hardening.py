@@ -401,3 +401,27 @@ async def test_a_simulation_whose_client_went_away_is_cancelled() -> None:
                 break
             await asyncio.sleep(0.005)
         assert engine.pool.busy == 0
+
+
+async def test_every_route_under_a_map_is_404_once_the_map_is_gone() -> None:
+    """An idle map evicted from the memory store by a newer one: its cached analysis and
+    passages outlive it, but no route answers for it any more (they answered 200)."""
+    settings = SMALL.model_copy(update={"map_store_bytes": 4096, "max_map_cells": 10_000})
+    async with serving(settings) as client:
+        first = {"grid": random_map(40, 40, 0.2, 1).tolist()}
+        map_id = (await client.post("/maps", json=first)).json()["map_id"]
+        routes = [
+            ("GET", f"/maps/{map_id}/render.png", None),
+            ("GET", f"/maps/{map_id}/passages?robot_radius=0", None),
+            ("POST", f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [39, 39]}),
+            ("POST", f"/maps/{map_id}/mapf", {"agents": [{"start": [0, 0], "goal": [0, 1]}]}),
+        ]
+        for method, path, body in routes:  # computed and cached while the map is there
+            assert (await client.request(method, path, json=body)).status_code == 200, path
+        second = {"grid": random_map(40, 40, 0.2, 2).tolist()}
+        assert (await client.post("/maps", json=second)).status_code == 201
+        assert (await client.get(f"/maps/{map_id}")).status_code == 404
+        for method, path, body in routes:
+            gone = await client.request(method, path, json=body)
+            assert gone.status_code == 404, (path, gone.text)
+            assert gone.json()["field"] == "map_id"
