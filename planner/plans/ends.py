@@ -78,15 +78,49 @@ def free_cell(analysis: Analysis, cell: Any, name: str, code: str | None = None)
         return r, c
     where = f"{name} {quote(cell)} (cell [{r}, {c}])" if point else f"{name} [{r}, {c}]"
     cs = analysis.cspace
-    if cs is None or cs.blocked[r, c]:
-        raise InvalidInput(f"{where} is on an obstacle", field=name)
-    clearance = float(cs.distance[r, c]) * cs.resolution
     code = code or f"{name.upper()}_OCCUPIED"
-    msg = (
-        f"{code}: {where} is not traversable: its clearance {clearance:.3f} m "
-        f"is not more than robot_radius {cs.robot_radius:g} m"
-    )
-    raise InvalidInput(msg, field=name, code=code)
+    if cs is not None and cs.unknown_cells[r, c]:
+        why = (
+            f"{code}: {where} is in unknown space, which the map's `unknown` setting "
+            f"({cs.unknown!r}) blocks (`unknown: free` plans through it)"
+        )
+    elif cs is None or cs.blocked[r, c]:
+        why = f"{code}: {where} is on an obstacle"
+    else:
+        clearance = float(cs.distance[r, c]) * cs.resolution
+        why = (
+            f"{code}: {where} is not traversable: its clearance {clearance:.3f} m "
+            f"is not more than robot_radius {cs.robot_radius:g} m"
+        )
+    raise InvalidInput(why + _nearest_hint(analysis, (r, c), name), field=name, code=code)
+
+
+NEAREST_SEARCH = 256
+"""Cells around a refused start or goal searched for the nearest free one (an error's hint)."""
+
+
+def _nearest_hint(analysis: Analysis, cell: tuple[int, int], name: str) -> str:
+    """ "; the nearest free cell is ...", in meters too on a robot map, and for a goal the
+    ``goal_tolerance`` that would reach it; a bounded search (an error must stay cheap)."""
+    H, W = analysis.shape
+    r, c = cell
+    r0, r1 = max(r - NEAREST_SEARCH, 0), min(r + NEAREST_SEARCH + 1, H)
+    c0, c1 = max(c - NEAREST_SEARCH, 0), min(c + NEAREST_SEARCH + 1, W)
+    free = np.argwhere(analysis.state[r0:r1, c0:c1] != BLOCKED_CELL)
+    if not len(free):
+        return f"; no free cell within {NEAREST_SEARCH} cells"
+    free += (r0, c0)
+    d = np.hypot(free[:, 0] - r, free[:, 1] - c)
+    best = free[int(np.argmin(d))]
+    fr, fc = int(best[0]), int(best[1])
+    hint = f"; the nearest free cell is [{fr}, {fc}]"
+    if analysis.cspace is not None:
+        x, y = analysis.frame.centers([[fr, fc]])[0]
+        meters = float(d.min()) * analysis.frame.resolution
+        hint += f", the point {{x: {x:.3f}, y: {y:.3f}}}, {meters:.3f} m away"
+        if name == "goal":
+            hint += f" (a goal_tolerance of {meters + 1e-3:.3f} m would take it)"
+    return hint
 
 
 def _smoothing_args(analysis: Analysis) -> dict[str, Any]:

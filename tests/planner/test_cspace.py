@@ -336,7 +336,8 @@ def test_a_position_in_the_margin_is_named_as_start_and_goal_are() -> None:
     assert info.value.field == "position"
     assert str(info.value) == (
         "POSITION_OCCUPIED: position {'x': 0.52, 'y': 0.58} (cell [4, 5]) is not traversable: "
-        "its clearance 0.100 m is not more than robot_radius 0.15 m"
+        "its clearance 0.100 m is not more than robot_radius 0.15 m; the nearest free cell is "
+        "[4, 6], the point {x: 0.650, y: 0.550}, 0.100 m away"
     )
     with pytest.raises(InvalidInput, match=r"POSITION_OCCUPIED: position \[4, 5\] is not"):
         planner.Session(p).step([], position=[4, 5])

@@ -148,6 +148,18 @@ WALLED = grid_from(
 )
 
 
+def test_a_start_in_unknown_space_is_called_unknown() -> None:
+    grid = np.zeros((6, 8), dtype=np.int8)
+    grid[:, 5:] = -1
+    robot_map = planner.grid_map(grid, resolution=0.1)
+    with pytest.raises(InvalidInput) as e:
+        planner.plan(robot_map, [2, 6], [2, 1])
+    assert e.value.code == "START_OCCUPIED"
+    assert "is in unknown space" in str(e.value)
+    assert "`unknown: free`" in str(e.value)
+    assert "the nearest free cell is [2, 4]" in str(e.value)
+
+
 def test_goal_tolerance_inside_a_wall() -> None:
     robot_map = planner.grid_map(WALLED, resolution=0.1)
     inside = {"x": 0.55, "y": 0.25, "yaw": -1.0}  # cell [2, 5]: in the wall, 0.1 m from its edge
@@ -155,6 +167,9 @@ def test_goal_tolerance_inside_a_wall() -> None:
         with pytest.raises(InvalidInput, match="on an obstacle") as e:
             planner.plan(robot_map, [0, 0], inside, unknown="free", goal_tolerance=tolerance)
         assert e.value.field == "goal"
+        assert e.value.code == "GOAL_OCCUPIED"  # the same with a tolerance too short
+        assert "the nearest free cell is [1, 5]" in str(e.value)
+        assert "a goal_tolerance of 0.101 m would take it" in str(e.value)
     plan = planner.plan(robot_map, [0, 0], inside, unknown="free", goal_tolerance=0.15)
     # The nearest traversable cells: [1, 5] and [4, 5]'s centers are 0.1 m and 0.2 m away.
     assert plan.goal == (1, 5)
