@@ -10,10 +10,18 @@ from typing import Any
 
 import planner
 from planner.analysis.passages import MAX_WIDTH_SLACK
+from service.errors import TooLarge
 from service.tenants import scoped
 from service.work.engine import Engine
 
-__all__ = ["PassageSet", "crossed", "crossings", "map_passages", "passages_key"]
+__all__ = [
+    "MAX_PASSAGE_CELLS",
+    "PassageSet",
+    "crossed",
+    "crossings",
+    "map_passages",
+    "passages_key",
+]
 
 PASSAGE_BYTES = 200
 """What a passage holds besides its cells' array, charged to the cache."""
@@ -48,6 +56,13 @@ async def map_passages(
 
     async def compute() -> PassageSet:
         robot_map = await engine.robot_map(map_id)
+        height, width_cells = robot_map.shape
+        if height * width_cells > MAX_PASSAGE_CELLS:
+            msg = (
+                f"map_id: passages are found on maps of at most {MAX_PASSAGE_CELLS} cells "
+                f"(2048 x 2048); this map has {height} x {width_cells}"
+            )
+            raise TooLarge(msg, field="map_id")
         found = await engine.pool.run(planner.find_passages, robot_map, robot_radius, width)
         return PassageSet(found, float(robot_radius), float(width))
 
@@ -55,11 +70,17 @@ async def map_passages(
     return value
 
 
+MAX_PASSAGE_CELLS = 2048 * 2048
+"""The largest map whose passages are found (``413`` beyond; a plan's preview then names none):
+finding them takes seconds and hundreds of megabytes a few million cells."""
+
+
 async def crossings(engine: Engine, map_id: str, plan: planner.Plan) -> dict[str, Any]:
     """What a plan's record keeps for its preview: ``narrowest`` (``[x, y, width_m]``) and
     ``passages`` (the ids it crosses, for its ``robot_radius`` and the default ``max_width``);
     both None on a plain grid (cells without meters)."""
-    if plan.analysis.plain or plan.analysis.cspace is None:
+    height, width = plan.analysis.shape
+    if plan.analysis.plain or plan.analysis.cspace is None or height * width > MAX_PASSAGE_CELLS:
         return {"narrowest": None, "passages": None}
     found = await map_passages(engine, map_id, plan.params.robot_radius)
     cspace, frame, path = plan.analysis.cspace, plan.analysis.frame, plan.path

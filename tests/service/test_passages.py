@@ -268,3 +268,26 @@ def test_the_live_viewer_draws_the_passages_in_chromium(live_url: str) -> None:
         finally:
             browser.close()
     assert outside == []
+
+
+@pytest.mark.anyio
+async def test_passages_on_a_map_beyond_the_bound_are_413_and_plans_still_work(
+    client: httpx.AsyncClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Finding passages takes seconds and hundreds of megabytes on a 4096 x 4096 map: beyond
+    MAX_PASSAGE_CELLS (here lowered to below the doors map) they are refused, naming the map;
+    a plan on such a map is made without them."""
+    from service.resources import passages
+
+    monkeypatch.setattr(passages, "MAX_PASSAGE_CELLS", 100)
+    map_id = await upload_doors(client)
+    r = await client.get(f"/maps/{map_id}/passages", params={"robot_radius": RADIUS})
+    assert r.status_code == 413, r.text
+    assert r.json()["field"] == "map_id"
+    assert "2048 x 2048" in r.json()["detail"]
+    _, middles = doors_grid()
+    row = round(middles[1][0])
+    body = {"map_id": map_id, "start": [row, 70], "goal": [row, 180], "robot_radius": RADIUS}
+    made = await client.post("/plan", json=body)
+    assert made.status_code == 201, made.text
+    assert made.json()["preview"]["passages"] is None
