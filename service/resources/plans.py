@@ -21,9 +21,10 @@ from planner.plans.ends import free_cell
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
 from service.resources import fleets, passages
+from service.resources.bodies import overrides, where
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
-from service.work.engine import Engine, cell_size, frame_map, overrides, where
+from service.work.engine import Engine, cell_size, frame_map
 from service.work.records import plan_ends, plan_legs
 
 __all__ = [

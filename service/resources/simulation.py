@@ -6,7 +6,8 @@ import planner
 from schemas import SimulationCreate
 from service.edge.cancel import cancelled
 from service.errors import TimedOut
-from service.work.engine import Engine, overrides, where
+from service.resources.bodies import overrides, where
+from service.work.engine import Engine
 
 __all__ = ["simulate"]
 

@@ -28,9 +28,8 @@ from typing import Any
 import numpy as np
 
 import planner
-from planner import Unsettled, params_key, quote
+from planner import Unsettled, params_key
 from planner.render import auto_cell
-from schemas import PlanCreate, Point, SimulationCreate
 from service.config import Settings
 from service.errors import TooLarge
 from service.stores import PlanRecord, Store
@@ -47,9 +46,7 @@ __all__ = [
     "analysis_key",
     "cell_size",
     "frame_map",
-    "overrides",
     "wave_key",
-    "where",
 ]
 
 MAX_IMAGE_SIDE = 8192
@@ -86,30 +83,6 @@ def wave_key(
 PLAN_MEMO = 1024
 """Plans the engine keeps built (their arrays are the cache's: a plan adds its path and a few
 numbers), so that a warm step finds its plan with one look-up."""
-
-
-def where(value: list[int] | Point) -> Any:
-    """A request's cell (``[row, col]``) or point (``{"x", "y"}``, and ``"yaw"`` when given),
-    as the planner takes it."""
-    return value.model_dump(exclude_none=True) if isinstance(value, Point) else value
-
-
-def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:
-    """The planner parameters a request overrides: ``params``, with ``allow_narrow``,
-    ``robot_radius`` and ``unknown`` on top (given both ways, they must agree)."""
-    out = dict(body.params)
-    for name in ("allow_narrow", "robot_radius", "unknown"):
-        value = getattr(body, name)
-        if value is None:
-            continue
-        if name in out and out[name] != value:
-            msg = (
-                f"{name} {quote(value)} and params.{name} {quote(out[name])} disagree; "
-                "give one of them"
-            )
-            raise planner.InvalidInput(msg, field=name)
-        out[name] = value
-    return out
 
 
 def frame_map(frame: planner.MapFrame) -> planner.RobotMap:
