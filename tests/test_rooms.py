@@ -92,14 +92,8 @@ def test_no_private_name_crosses_a_folder() -> None:
     assert crossings == []
 
 
-# Modules still importing private names from a module beside them in their folder (issue 36,
-# "the house"): the Redis store's split by job will remove its own (service/stores/ was being
-# changed beside the work that removed the rest).
-KNOWN_PRIVATE_IMPORTS = frozenset(
-    {
-        "service/stores/redis.py",
-    }
-)
+# Modules still importing private names from a module beside them (none now: keep it so).
+KNOWN_PRIVATE_IMPORTS: frozenset[str] = frozenset()
 
 
 def test_no_private_name_crosses_a_module() -> None:

@@ -37,17 +37,9 @@ from service.stores.base import (
     unknown_map,
     unpack,
 )
-from service.stores.redis_fleets import (
-    _FLEET_DELETE,
-    _FLEET_PUT,
-    _FLEET_STEP,
-    FLEET_TRIES,
-    FleetSteps,
-    _CachedFleet,
-    _plans_of,
-    _split,
-)
-from service.stores.scripts import PUT, STEP
+from service.stores.redis_fleets import FLEET_TRIES, CachedFleet, FleetSteps
+from service.stores.redis_values import plans_of, split
+from service.stores.scripts import FLEET_DELETE, FLEET_PUT, FLEET_STEP, PUT, STEP
 from service.tenants import scoped
 
 __all__ = ["CACHED_PLANS", "FLEET_TRIES", "SOCKET_TIMEOUT", "STEP_TRIES", "RedisStore"]
@@ -105,14 +97,14 @@ class RedisStore(FleetSteps, Store):
         self._max_plans = max_plans or 0
         self._step = _Collector(self._redis, self._redis.register_script(STEP))
         self._put = self._redis.register_script(PUT)
-        self._fleet_step = _Collector(self._redis, self._redis.register_script(_FLEET_STEP))
-        self._fleet_put = self._redis.register_script(_FLEET_PUT)
-        self._fleet_delete = self._redis.register_script(_FLEET_DELETE)
+        self._fleet_step = _Collector(self._redis, self._redis.register_script(FLEET_STEP))
+        self._fleet_put = self._redis.register_script(FLEET_PUT)
+        self._fleet_delete = self._redis.register_script(FLEET_DELETE)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
         # Scoped fleet name -> (version, state or None: no fleet), as last read or written.
-        self._fleets: OrderedDict[str, _CachedFleet] = OrderedDict()
+        self._fleets: OrderedDict[str, CachedFleet] = OrderedDict()
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"
@@ -202,7 +194,7 @@ class RedisStore(FleetSteps, Store):
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         value = await self._get(f"planner:plan:{scoped(plan_id)}")
-        return None if value is None else dict(orjson.loads(_split(value)[1]))
+        return None if value is None else dict(orjson.loads(split(value)[1]))
 
     async def get_trajectory(self, plan_id: str) -> list[tuple[int, int]]:
         return unpack(await self._get(f"planner:path:{scoped(plan_id)}") or b"")
@@ -210,13 +202,13 @@ class RedisStore(FleetSteps, Store):
     async def delete_plan(self, plan_id: str) -> bool:
         key = scoped(plan_id)
         value = await self._get(f"planner:plan:{key}")
-        fleet = None if value is None else orjson.loads(_split(value)[1]).get("fleet")
+        fleet = None if value is None else orjson.loads(split(value)[1]).get("fleet")
         if fleet is not None:
             return await self._leave(plan_id, key, scoped(fleet))
         with self._reaching:
             async with self._redis.pipeline(transaction=True) as pipe:
                 pipe.delete(f"planner:plan:{key}", f"planner:path:{key}")
-                pipe.zrem(_plans_of(), key)
+                pipe.zrem(plans_of(), key)
                 gone, _ = await pipe.execute()
         self._plans.pop(key, None)
         return bool(gone)
@@ -227,7 +219,7 @@ class RedisStore(FleetSteps, Store):
         return len(self._locks)
 
     def _keys(self, key: str, record: PlanRecord) -> list[str]:
-        keys = [f"planner:plan:{key}", f"planner:path:{key}", _plans_of()]
+        keys = [f"planner:plan:{key}", f"planner:path:{key}", plans_of()]
         if "map_id" in record:
             keys.append(f"planner:map:{scoped(record['map_id'])}")
         return keys
@@ -261,7 +253,7 @@ class RedisStore(FleetSteps, Store):
 
     def _parse(self, key: str, value: object) -> _Cached:
         assert isinstance(value, bytes)  # no decode_responses
-        version, json = _split(value)
+        version, json = split(value)
         return self._remember(key, version, orjson.loads(json))
 
     def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached:

@@ -31,10 +31,10 @@ from service.stores.base import (
     too_many_plans,
     unknown_map,
 )
-from service.stores.scripts import PUT, STEP
-from service.tenants import TENANT, scoped
+from service.stores.redis_values import plans_of, split
+from service.tenants import scoped
 
-__all__ = ["FLEET_TRIES", "FleetSteps"]
+__all__ = ["FLEET_TRIES", "CachedFleet", "FleetSteps"]
 
 FLEET_TRIES = 64
 """Times a fleet robot's step decides before answering 503 when other replicas' steps of the
@@ -42,67 +42,10 @@ same fleet keep writing first (each lost try means another robot of the fleet wa
 CACHED_FLEETS = 4096
 """Fleet states each replica keeps of the fleets it read or wrote last."""
 _Cached = tuple[int, PlanRecord]
-_CachedFleet = tuple[int, FleetRecord | None]
+CachedFleet = tuple[int, FleetRecord | None]
 """A fleet as this replica last read or wrote it: its version and state (0, None: none)."""
 _FLEET = "\0fleet "
 """The prefix of a fleet's lock key (no plan id holds a NUL)."""
-
-
-# The fleet's version check, shared by the fleet scripts: KEYS[5] the fleet, ARGV[e] the version
-# prefix decided on ('': there was no fleet). Returns {4, value} ('' for none) when it moved on.
-def _fence(e: int) -> str:
-    return f"""
-local fleet = redis.call('GET', KEYS[5])
-if ARGV[{e}] == '' then
-  if fleet then return {{4, fleet}} end
-elseif not fleet then return {{4, ''}}
-elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{4, fleet}} end
-"""
-
-
-def _edit(script: str, old: str, new: str) -> str:
-    """``script`` with ``old`` (present exactly once) replaced."""
-    if script.count(old) != 1:
-        raise AssertionError(f"{old!r} is not in the script once")
-    return script.replace(old, new)
-
-
-# A fleet robot's step in one round trip: STEP's keys (the plan, its path, its tenant's plans,
-# its map) and arguments, then KEYS[5] the fleet, ARGV[9] the fleet's version prefix decided
-# on, ARGV[10] its new value. Besides STEP's answers, {4, value}: another robot of the fleet was
-# recorded first (the fleet's value now, to decide again on).
-_WRITE_FLEET = "redis.call('SET', KEYS[5], ARGV[10], 'PX', ARGV[3])\n"
-_FLEET_STEP = _edit(
-    _edit(STEP, "if map_gone(ARGV[5])", _fence(9) + "if map_gone(ARGV[5])"),
-    "if ARGV[6] ~= '' then",
-    _WRITE_FLEET + "if ARGV[6] ~= '' then",
-)
-
-# A new plan of a fleet, joining it: PUT's keys and arguments, then KEYS[5] the fleet, ARGV[7]
-# the fleet's version prefix, ARGV[8] its new value; PUT's answers as {answer}, or {4, value}.
-_FLEET_PUT = _fence(7) + _edit(
-    _edit(
-        _edit(PUT, "then return 0 end", "then return {0} end"),
-        "then return -held end",
-        "then return {-held} end",
-    ),
-    "return 1\n",
-    "redis.call('SET', KEYS[5], ARGV[8], 'PX', ARGV[2])\nreturn {1}\n",
-)
-
-# A fleet's plan deleted, leaving it: KEYS the plan, its path, its tenant's plans, (unused), the
-# fleet; ARGV[1] the fleet's version prefix, ARGV[2] its new value ('': the fleet goes with its
-# last robot), ARGV[3] the plan's member in its tenant's set. {1, deleted keys}, or {4, value}.
-_FLEET_DELETE = (
-    _fence(1)
-    + """
-local gone = redis.call('DEL', KEYS[1], KEYS[2])
-redis.call('ZREM', KEYS[3], ARGV[3])
-if ARGV[2] == '' then redis.call('DEL', KEYS[5])
-else redis.call('SET', KEYS[5], ARGV[2], 'KEEPTTL') end
-return {1, gone}
-"""
-)
 
 
 def _with_map(keys: list[str]) -> list[str]:
@@ -110,11 +53,6 @@ def _with_map(keys: list[str]) -> list[str]:
     if len(keys) != 4:
         raise ValueError("a fleet's plan record names its map_id")
     return keys
-
-
-def _plans_of() -> str:
-    """The key of the current tenant's set of live plans (scored by their expiry, in ms)."""
-    return f"planner:plans-of:{TENANT.get()}"
 
 
 class FleetSteps(ABC):
@@ -126,7 +64,7 @@ class FleetSteps(ABC):
     _max_plans: int
     _locks: PlanLocks
     _plans: OrderedDict[str, _Cached]
-    _fleets: OrderedDict[str, _CachedFleet]
+    _fleets: OrderedDict[str, CachedFleet]
     _reaching: AbstractContextManager[None]
     _fleet_step: Any  # the step script's collector
     _fleet_put: Callable[..., Awaitable[Any]]
@@ -283,23 +221,23 @@ class FleetSteps(ABC):
         value = await self._get(f"planner:fleet:{scoped(fleet)}")
         if value is None:
             return None
-        state = live_fleet(orjson.loads(_split(value)[1]), time.time())
+        state = live_fleet(orjson.loads(split(value)[1]), time.time())
         return state if state and state["robots"] else None
 
-    async def _read_fleet(self, fleet_key: str) -> _CachedFleet:
+    async def _read_fleet(self, fleet_key: str) -> CachedFleet:
         value = await self._get(f"planner:fleet:{fleet_key}")
         return self._parse_fleet(fleet_key, value or b"")
 
-    def _parse_fleet(self, fleet_key: str, value: object) -> _CachedFleet:
+    def _parse_fleet(self, fleet_key: str, value: object) -> CachedFleet:
         assert isinstance(value, bytes)  # no decode_responses
         if not value:
             return self._remember_fleet(fleet_key, 0, None)
-        version, json = _split(value)
+        version, json = split(value)
         return self._remember_fleet(fleet_key, version, orjson.loads(json))
 
     def _remember_fleet(
         self, fleet_key: str, version: int, state: FleetRecord | None
-    ) -> _CachedFleet:
+    ) -> CachedFleet:
         entry = self._fleets[fleet_key] = (version, state)
         self._fleets.move_to_end(fleet_key)
         if len(self._fleets) > CACHED_FLEETS:
@@ -309,7 +247,7 @@ class FleetSteps(ABC):
     async def _leave(self, plan_id: str, key: str, fleet_key: str) -> bool:
         """Delete a fleet's plan and its robot in the fleet at once."""
         keys = [
-            f"planner:plan:{key}", f"planner:path:{key}", _plans_of(), f"planner:plan:{key}",
+            f"planner:plan:{key}", f"planner:path:{key}", plans_of(), f"planner:plan:{key}",
             f"planner:fleet:{fleet_key}",
         ]  # fmt: skip
         async with self._locks.hold(_FLEET + fleet_key):
@@ -333,11 +271,3 @@ class FleetSteps(ABC):
                 fleet = self._parse_fleet(fleet_key, answer[1])
         msg = f"plan_id: the fleet of plan {quote(plan_id)} is busy; retry later"
         raise StoreUnavailable(msg, field="plan_id")
-
-
-def _split(value: bytes) -> tuple[int, bytes]:
-    """A stored plan's version and record (0 for a record written before versions)."""
-    if value[:1] == b"{":
-        return 0, value
-    version, _, json = value.partition(b" ")
-    return int(version), json

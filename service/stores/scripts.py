@@ -3,7 +3,7 @@ that the plan's map is still there and keeping its tenant's set of live plans.""
 
 from __future__ import annotations
 
-__all__ = ["PUT", "STEP"]
+__all__ = ["FLEET_DELETE", "FLEET_PUT", "FLEET_STEP", "PUT", "STEP"]
 
 # The time in Redis, in milliseconds: what the tenants' sets of plans are scored by.
 _NOW = """
@@ -71,5 +71,62 @@ redis.call('PEXPIRE', KEYS[2], ARGV[2])
 redis.call('ZADD', KEYS[3], ms + tonumber(ARGV[2]), ARGV[6])
 redis.call('PEXPIRE', KEYS[3], ARGV[2])
 return 1
+"""
+)
+
+
+# The fleet's version check, shared by the fleet scripts: KEYS[5] the fleet, ARGV[e] the version
+# prefix decided on ('': there was no fleet). Returns {4, value} ('' for none) when it moved on.
+def _fence(e: int) -> str:
+    return f"""
+local fleet = redis.call('GET', KEYS[5])
+if ARGV[{e}] == '' then
+  if fleet then return {{4, fleet}} end
+elseif not fleet then return {{4, ''}}
+elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{4, fleet}} end
+"""
+
+
+def _edit(script: str, old: str, new: str) -> str:
+    """``script`` with ``old`` (present exactly once) replaced."""
+    if script.count(old) != 1:
+        raise AssertionError(f"{old!r} is not in the script once")
+    return script.replace(old, new)
+
+
+# A fleet robot's step in one round trip: STEP's keys (the plan, its path, its tenant's plans,
+# its map) and arguments, then KEYS[5] the fleet, ARGV[9] the fleet's version prefix decided
+# on, ARGV[10] its new value. Besides STEP's answers, {4, value}: another robot of the fleet was
+# recorded first (the fleet's value now, to decide again on).
+_WRITE_FLEET = "redis.call('SET', KEYS[5], ARGV[10], 'PX', ARGV[3])\n"
+FLEET_STEP = _edit(
+    _edit(STEP, "if map_gone(ARGV[5])", _fence(9) + "if map_gone(ARGV[5])"),
+    "if ARGV[6] ~= '' then",
+    _WRITE_FLEET + "if ARGV[6] ~= '' then",
+)
+
+# A new plan of a fleet, joining it: PUT's keys and arguments, then KEYS[5] the fleet, ARGV[7]
+# the fleet's version prefix, ARGV[8] its new value; PUT's answers as {answer}, or {4, value}.
+FLEET_PUT = _fence(7) + _edit(
+    _edit(
+        _edit(PUT, "then return 0 end", "then return {0} end"),
+        "then return -held end",
+        "then return {-held} end",
+    ),
+    "return 1\n",
+    "redis.call('SET', KEYS[5], ARGV[8], 'PX', ARGV[2])\nreturn {1}\n",
+)
+
+# A fleet's plan deleted, leaving it: KEYS the plan, its path, its tenant's plans, (unused), the
+# fleet; ARGV[1] the fleet's version prefix, ARGV[2] its new value ('': the fleet goes with its
+# last robot), ARGV[3] the plan's member in its tenant's set. {1, deleted keys}, or {4, value}.
+FLEET_DELETE = (
+    _fence(1)
+    + """
+local gone = redis.call('DEL', KEYS[1], KEYS[2])
+redis.call('ZREM', KEYS[3], ARGV[3])
+if ARGV[2] == '' then redis.call('DEL', KEYS[5])
+else redis.call('SET', KEYS[5], ARGV[2], 'KEEPTTL') end
+return {1, gone}
 """
 )
