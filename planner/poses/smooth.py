@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
+from planner.parsing import number
 from planner.poses.clearance import Sight, threshold
 from planner.poses.polyline import BLOCKED, JUMP, OUTSIDE, Setting, polyline_of, poses_along
 
@@ -28,15 +29,6 @@ MAX_TURN = math.radians(15.0)
 """The most a pose's heading turns from the previous pose's."""
 
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
-
-
-def _number(value: Any, field: str, what: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field)
-    out = float(value)
-    if not math.isfinite(out):
-        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field)
-    return out
 
 
 def _point(value: Any, field: str) -> tuple[float, float]:
@@ -53,7 +45,7 @@ def _point(value: Any, field: str) -> tuple[float, float]:
         raise InvalidInput(msg, field=field)
     what = "a point (x, y) of finite numbers in meters"
     try:
-        return _number(pair[0], field, what), _number(pair[1], field, what)
+        return number(pair[0], field, what), number(pair[1], field, what)
     except InvalidInput:
         raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field) from None
 
@@ -150,20 +142,20 @@ step 0 goes from [0, 0] to [0, 2]
     ):
         raise InvalidInput(f"path must hold whole cells; got {quote(path)}", field="path")
     cells = _without_loops(np.ascontiguousarray(cells, dtype=np.int64))
-    res = _number(resolution, "resolution", "a number of meters > 0")
+    res = number(resolution, "resolution", "a number of meters > 0")
     if res <= 0:
         msg = f"resolution must be > 0 meters; got {quote(resolution)}"
         raise InvalidInput(msg, field="resolution")
     if isinstance(origin, str | bytes | Mapping) or len(origin) != 3:
         raise InvalidInput(f"origin must be (x, y, yaw); got {quote(origin)}", field="origin")
-    ox, oy, oyaw = (_number(v, "origin", "(x, y, yaw) of finite numbers") for v in origin)
-    radius = _number(robot_radius, "robot_radius", "a number of meters >= 0")
+    ox, oy, oyaw = (number(v, "origin", "(x, y, yaw) of finite numbers") for v in origin)
+    radius = number(robot_radius, "robot_radius", "a number of meters >= 0")
     if radius < 0:
         msg = f"robot_radius must be >= 0 meters; got {quote(robot_radius)}"
         raise InvalidInput(msg, field="robot_radius")
     yaws = []
     for name, yaw in (("start_yaw", start_yaw), ("goal_yaw", goal_yaw)):
-        yaws.append(None if yaw is None else _number(yaw, name, "a finite number of radians"))
+        yaws.append(None if yaw is None else number(yaw, name, "a finite number of radians"))
     cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
 
     def to_cells(point: Any, name: str) -> tuple[float, float]:
