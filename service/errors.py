@@ -35,7 +35,8 @@ from starlette.types import Message, Scope, Send
 
 import planner
 from planner import QUOTE_LIMIT
-from schemas import UNION_TAGS, ErrorPublic
+from schemas import FRAME_ID_PATTERN, UNION_TAGS, ErrorPublic
+from schemas.fleet_names import FLEET_PATTERN
 
 __all__ = [
     "BodyTimeout",
@@ -275,7 +276,7 @@ async def _validation_error(request: Request, exc: Exception) -> JSONResponse:
     if more > 0:
         parts.append(f"and {more} more errors")
     first = ("body", fields[0]) if fields else errors[0]["loc"] if errors else ()
-    field = ".".join(_cut(p) for p in first[1:] if isinstance(p, str)) or None
+    field = _path(first[1:]) or None
     return problem(422, "; ".join(parts), field=field, code="INVALID_INPUT")
 
 
@@ -303,18 +304,47 @@ def _body_fields(request: Request, errors: list[Any]) -> list[str]:
     return list(getattr(model, "model_fields", {}))
 
 
-def _describe(error: Any) -> str:
-    where = "".join(
+def _path(loc: Any) -> str:
+    """Where a value was, as the docs write it: ``keepout[0]``, ``agents[2].start``."""
+    return "".join(
         f"[{p}]" if isinstance(p, int) else (f".{_cut(p)}" if i else _cut(p))
-        for i, p in enumerate(error["loc"])
+        for i, p in enumerate(loc)
     )
+
+
+def _describe(error: Any) -> str:
+    where = _path(error["loc"])
     message = error["msg"]
     ctx = error.get("ctx") or {}
     if error["type"] == "json_invalid":
         return f"{where}: malformed JSON at character {error['loc'][-1]}: {ctx.get('error', '')}"
     if error["type"] == "extra_forbidden":
         return f"{where}: unknown field (fields are checked strictly: see the schema)"
+    words = _WORDS.get(error["type"])
+    if words is not None:
+        message = words.format(**ctx, actual=ctx.get("actual_length"))
+    if error["type"] == "string_pattern_mismatch":
+        message = PATTERN_WORDS.get(str(ctx.get("pattern")), message)
     return f"{where}: {message}; got {_quote_input(error.get('input'))}"
+
+
+_WORDS = {
+    "too_short": "needs at least {min_length} items",
+    "too_long": "takes at most {max_length} items",
+    "string_too_short": "needs at least {min_length} characters",
+    "string_too_long": "takes at most {max_length} characters",
+    "greater_than_equal": "must be at least {ge}",
+    "greater_than": "must be more than {gt}",
+    "less_than_equal": "must be at most {le}",
+    "less_than": "must be less than {lt}",
+}
+"""pydantic's constraint errors in the project's words (its other messages are kept)."""
+
+PATTERN_WORDS = {
+    FLEET_PATTERN: "must be 1 to 64 letters, digits, `_`, `.` or `-` (no space)",
+    FRAME_ID_PATTERN: "must be letters, digits, `_`, `.`, `/` or `-`",
+}
+"""The names' patterns in words: a client is never answered with a bare regex."""
 
 
 # A received value may be nested deeply (up to the body's depth limit): its repr goes only a

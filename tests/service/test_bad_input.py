@@ -378,3 +378,33 @@ def test_obstacles_checked_at_once_validate_as_item_by_item(given: Any) -> None:
             return exc.errors(include_url=False)
 
     assert outcome(StepCreate) == outcome(_ItemByItem)
+
+
+@pytest.mark.anyio
+async def test_constraint_errors_name_the_exact_path_in_words() -> None:
+    """A name against its pattern is answered in words, not a regex; a list too short names
+    the item's exact path (``keepout[0]``, as the docs write it); numbers out of range say the
+    bound in words."""
+    import httpx
+
+    from service.config import Settings
+    from service.main import create_app
+
+    app = create_app(Settings(pool_size=1))
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://s") as c:
+            made = await c.post("/maps", json={"rows": ["....", "....", "...."]})
+            map_id = made.json()["map_id"]
+            plan = {"map_id": map_id, "start": [0, 0], "goal": [2, 3]}
+            r = await c.post("/plan", json={**plan, "fleet": "has space"})
+            assert r.json()["field"] == "fleet"
+            assert "letters, digits" in r.json()["detail"]
+            assert "^[" not in r.json()["detail"]
+            two = [{"x": 0, "y": 0}, {"x": 1, "y": 1}]
+            r = await c.post(f"/maps/{map_id}/zones", json={"keepout": [two]})
+            assert r.json()["field"] == "keepout[0]"
+            assert "needs at least 3 items" in r.json()["detail"]
+            r = await c.post(f"/plan/{'0' * 32}/step", json={"seq": -1})
+            assert r.json()["field"] == "seq"
+            assert "must be at least 0" in r.json()["detail"]
