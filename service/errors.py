@@ -320,6 +320,8 @@ def _describe(error: Any) -> str:
         return f"{where}: malformed JSON at character {error['loc'][-1]}: {ctx.get('error', '')}"
     if error["type"] == "extra_forbidden":
         return f"{where}: unknown field (fields are checked strictly: see the schema)"
+    if error["type"] == "value_error":  # a model's own check: its message is ours already
+        message = message.removeprefix("Value error, ")
     words = _WORDS.get(error["type"])
     if words is not None:
         message = words.format(**ctx, actual=ctx.get("actual_length"))
@@ -354,8 +356,25 @@ _REPR.maxlevel, _REPR.maxstring, _REPR.maxother, _REPR.maxlong = 4, QUOTE_LIMIT,
 
 
 def _quote_input(value: object) -> str:
+    """A received value, shortened; bytes (a multipart part) only counted, never quoted."""
+    if isinstance(value, bytes | bytearray):
+        return f"<{len(value)} bytes>"
+    if isinstance(value, dict) and any(isinstance(v, bytes | bytearray) for v in value.values()):
+        value = {
+            k: _Counted(v) if isinstance(v, bytes | bytearray) else v for k, v in value.items()
+        }
     text = _REPR.repr(value)
     return text if len(text) <= QUOTE_LIMIT else f"{text[: QUOTE_LIMIT - 14]}... ({len(text)} ch)"
+
+
+class _Counted:
+    """Bytes in a quoted value: their length only."""
+
+    def __init__(self, data: bytes | bytearray) -> None:
+        self.size = len(data)
+
+    def __repr__(self) -> str:
+        return f"<{self.size} bytes>"
 
 
 def _cut(name: object) -> str:

@@ -408,3 +408,9 @@ async def test_constraint_errors_name_the_exact_path_in_words() -> None:
             r = await c.post(f"/plan/{'0' * 32}/step", json={"seq": -1})
             assert r.json()["field"] == "seq"
             assert "must be at least 0" in r.json()["detail"]
+            yaml = b"image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+            r = await c.post("/maps", files={"yaml": ("m.yaml", yaml)})
+            assert r.status_code == 422
+            assert "needs its 'image' part" in r.json()["detail"]
+            assert "b'" not in r.json()["detail"]  # the part's bytes are counted, not quoted
+            assert "Value error" not in r.json()["detail"]
