@@ -23,9 +23,9 @@ FleetName = Annotated[
         max_length=64,
         pattern=FLEET_PATTERN,
         description="The fleet the robot belongs to (1-64 characters of `[A-Za-z0-9_.-]`, the "
-        "API key's own): each step of a fleet robot keeps clear of the fleet's other robots "
-        "and takes the narrow passages one robot at a time (docs/fleets.md). Every plan of a "
-        "fleet is on one map (else `422` `FLEET_MAP_MISMATCH`).",
+        "API key's own): the fleet's robots are planned together on a roadmap of the map and "
+        "each step answers the moves of the joint plan it may make now (docs/fleets.md). Every "
+        "plan of a fleet is on one map (else `422` `FLEET_MAP_MISMATCH`).",
         examples=["warehouse-a"],
     ),
 ]
