@@ -155,6 +155,7 @@ class StepPublic(BaseModel):
     )
     waiting_for: str | None = Field(
         default=None,
-        description="A fleet robot waiting: the `plan_id` of the robot it waits for (standing on "
-        "its goal, or holding a passage it needs); else null.",
+        description="A fleet robot waiting: the `plan_id` of the robot whose move of the joint "
+        "plan it waits for (null when no robot holds it up: the client's obstacles, or a fleet "
+        "whose solve failed); else null.",
     )
