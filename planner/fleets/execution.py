@@ -12,11 +12,13 @@ dependency points from an earlier plan time to a later one, so waits never form 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 
 __all__ = ["Move", "Schedule", "schedule", "segment_distances", "timed_moves"]
 
@@ -142,47 +144,63 @@ def _wait_for_off_roadmap(
 
 
 def segment_distances(
-    p: npt.NDArray[np.float64],
-    q: npt.NDArray[np.float64],
-    a: npt.NDArray[np.float64],
-    b: npt.NDArray[np.float64],
+    p: npt.ArrayLike, q: npt.ArrayLike, a: npt.ArrayLike, b: npt.ArrayLike
 ) -> npt.NDArray[np.float64]:
     """The distance between segment ``p``-``q`` and each segment ``a[i]``-``b[i]`` (points
     ``(2,)``, ``(2,)``, ``(m, 2)``, ``(m, 2)``; a segment may be a point), exactly: the closest
     points by clamped parameters (Ericson, "Real-Time Collision Detection", 5.1.9).
 
-    >>> import numpy as np
-    >>> segment_distances(np.array([0.0, 0.0]), np.array([2.0, 0.0]),
-    ...                   np.array([[1.0, 1.0], [3.0, 0.0]]), np.array([[1.0, 3.0], [4.0, 0.0]]))
+    >>> ends = [[1.0, 3.0], [4.0, 0.0]]
+    >>> segment_distances([0.0, 0.0], [2.0, 0.0], [[1.0, 1.0], [3.0, 0.0]], ends)
     array([1., 1.])
     """
-    p = np.asarray(p, dtype=np.float64)
-    q = np.asarray(q, dtype=np.float64)
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 2)
-    b = np.asarray(b, dtype=np.float64).reshape(-1, 2)
-    d1 = q - p
-    d2 = b - a
-    r = p - a
-    aa = float(d1 @ d1)
-    e = np.einsum("ij,ij->i", d2, d2)
-    f = np.einsum("ij,ij->i", d2, r)
-    c = r @ d1
-    bb = d2 @ d1
+    p_ = np.asarray(p, dtype=np.float64).reshape(2)
+    q_ = np.asarray(q, dtype=np.float64).reshape(2)
+    a_ = np.ascontiguousarray(a, dtype=np.float64).reshape(-1, 2)
+    b_ = np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 2)
+    if a_.shape != b_.shape:
+        msg = f"a and b: segments' ends of one shape expected; {a_.shape!r} and {b_.shape!r} given"
+        raise ValueError(msg)
+    out: npt.NDArray[np.float64] = _segment_distances(p_[0], p_[1], q_[0], q_[1], a_, b_)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _segment_distances(
+    px: float,
+    py: float,
+    qx: float,
+    qy: float,
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+) -> npt.NDArray[np.float64]:
+    out = np.empty(a.shape[0], dtype=np.float64)
+    d1x, d1y = qx - px, qy - py
+    aa = d1x * d1x + d1y * d1y
     eps = 1e-12
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if aa <= eps:
-            s = np.zeros(len(a))
-            t = np.where(e > eps, np.clip(f / e, 0.0, 1.0), 0.0)
+    for i in range(a.shape[0]):
+        d2x, d2y = b[i, 0] - a[i, 0], b[i, 1] - a[i, 1]
+        rx, ry = px - a[i, 0], py - a[i, 1]
+        e = d2x * d2x + d2y * d2y
+        f = d2x * rx + d2y * ry
+        if aa <= eps and e <= eps:
+            s, t = 0.0, 0.0
+        elif aa <= eps:
+            s, t = 0.0, min(max(f / e, 0.0), 1.0)
         else:
-            denom = aa * e - bb * bb
-            s = np.where(denom > eps, np.clip((bb * f - c * e) / denom, 0.0, 1.0), 0.0)
-            t = np.where(e > eps, (bb * s + f) / e, 0.0)
-            low, high = t < 0.0, t > 1.0
-            s = np.where(low, np.clip(-c / aa, 0.0, 1.0), s)
-            s = np.where(high, np.clip((bb - c) / aa, 0.0, 1.0), s)
-            t = np.clip(t, 0.0, 1.0)
-            s = np.where(e <= eps, np.clip(-c / aa, 0.0, 1.0), s)
-    closest1 = p + s[:, None] * d1
-    closest2 = a + t[:, None] * d2
-    distances: npt.NDArray[np.float64] = np.linalg.norm(closest1 - closest2, axis=1)
-    return distances
+            c = d1x * rx + d1y * ry
+            if e <= eps:
+                s, t = min(max(-c / aa, 0.0), 1.0), 0.0
+            else:
+                bb = d1x * d2x + d1y * d2y
+                denom = aa * e - bb * bb
+                s = min(max((bb * f - c * e) / denom, 0.0), 1.0) if denom > eps else 0.0
+                t = (bb * s + f) / e
+                if t < 0.0:
+                    t, s = 0.0, min(max(-c / aa, 0.0), 1.0)
+                elif t > 1.0:
+                    t, s = 1.0, min(max((bb - c) / aa, 0.0), 1.0)
+        dx = (px + s * d1x) - (a[i, 0] + t * d2x)
+        dy = (py + s * d1y) - (a[i, 1] + t * d2y)
+        out[i] = math.sqrt(dx * dx + dy * dy)
+    return out

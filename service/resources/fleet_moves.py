@@ -58,6 +58,7 @@ def advance(
     horizon = max(float(plan.params.horizon_m) / graph.resolution, 1.0)
     blocked = _dilated(obstacles, plan.params.dynamic_margin, graph.shape)
     allowed, length, held = told, 0.0, False
+    places = _places(plan_id, state, fmap, extras) if end > told else None
     for k in range(told, end):
         a = np.array(node_cell(moves[k][0], me, extras, graph), dtype=np.float64)
         b = np.array(node_cell(moves[k][1], me, extras, graph), dtype=np.float64)
@@ -66,7 +67,8 @@ def advance(
         if blocked and _crosses(a, b, blocked, graph.shape):
             held = k == told
             break
-        other = _too_close(plan_id, a, b, robots, fmap, extras)
+        assert places is not None
+        other = _too_close(a, b, places)
         if other is not None:
             waiting_for = other
             break
@@ -208,26 +210,47 @@ def _crosses(
     return any(int(f) in blocked for f in np.unique(flat))
 
 
-def _too_close(
-    plan_id: str,
-    a: npt.NDArray[np.float64],
-    b: npt.NDArray[np.float64],
-    robots: dict[str, Any],
-    fmap: FleetMap,
-    extras: list[list[int]],
-) -> str | None:
-    """The first other robot that may be within both radii of the move from ``a`` to ``b``
-    (anywhere on its own told moves): one the joint plan does not order against this move (a
-    robot parked, or outside a failed solve), since the plan keeps the others apart."""
+def _places(
+    plan_id: str, state: FleetRecord, fmap: FleetMap, extras: list[list[int]]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], list[str]]:
+    """The places of the other robots that the joint plan does not order against this one
+    (parked, or outside the last solve: the plan keeps the others apart): the segments of
+    their told moves, or the points they stand on, as arrays of starts, ends, the distance each
+    must keep from this robot (both radii, in cells) and whose each is."""
+    robots = state["robots"]
     me = robots[plan_id]
     res = fmap.graph.resolution
+    planned = set(state.get("agents", ())) if me.get("agent", -1) >= 0 else set()
+    starts, ends, reach, owner = [], [], [], []
     for k, other in robots.items():
-        if k == plan_id:
+        if k == plan_id or (k in planned and not other.get("parked")):
             continue
-        reach = (float(me["radius"]) + float(other["radius"])) / res
-        nodes = chain(other)
-        cells = np.array([node_cell(n, other, extras, fmap.graph) for n in nodes], np.float64)
-        starts, ends = (cells[:-1], cells[1:]) if len(cells) > 1 else (cells, cells)
-        if float(segment_distances(a, b, starts, ends).min()) < reach - 1e-9:
-            return k
-    return None
+        cells = [node_cell(n, other, extras, fmap.graph) for n in chain(other)]
+        pairs = list(itertools.pairwise(cells)) if len(cells) > 1 else [(cells[0], cells[0])]
+        for a, b in pairs:
+            starts.append(a)
+            ends.append(b)
+            reach.append((float(me["radius"]) + float(other["radius"])) / res)
+            owner.append(k)
+    return (
+        np.array(starts, dtype=np.float64).reshape(-1, 2),
+        np.array(ends, dtype=np.float64).reshape(-1, 2),
+        np.array(reach, dtype=np.float64),
+        owner,
+    )
+
+
+def _too_close(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    places: tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64], list[str]
+    ],
+) -> str | None:
+    """The first of ``places``' robots that may be within both radii of the move from ``a``
+    to ``b`` (anywhere on its own told moves)."""
+    starts, ends, reach, owner = places
+    if not len(owner):
+        return None
+    close = np.nonzero(segment_distances(a, b, starts, ends) < reach - 1e-9)[0]
+    return owner[int(close[0])] if len(close) else None
