@@ -3,6 +3,7 @@ pauses, never put two robots where they may meet and never deadlock."""
 
 from __future__ import annotations
 
+import itertools
 import random
 
 import numpy as np
@@ -143,3 +144,67 @@ def test_segment_distances_match_a_dense_sampling() -> None:
             sampled = np.min(np.linalg.norm(first[:, None] - second[None], axis=2))
             assert exact[i] <= sampled + 1e-9
             assert sampled - exact[i] < 0.05
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_robots_on_a_roadmap_executed_in_any_order_keep_their_radii_apart(seed: int) -> None:
+    """The roadmap's separation and the schedule's order together: robots of 0.25 m on a room
+    with pillars, executed in random orders with pauses; at every moment the places each robot
+    may be (its first move not done, through every move it was told) keep 2r from every other
+    robot's, measured exactly between segments."""
+    import planner
+    from planner.fleets import build_roadmap
+
+    rng = np.random.default_rng(seed)
+    occ = np.zeros((80, 80), dtype=np.int8)
+    for _ in range(12):
+        r, c = rng.integers(8, 72, size=2)
+        occ[r - 2 : r + 3, c - 2 : c + 3] = 1
+    robot_map = planner.grid_map(occ, resolution=0.05)
+    analysis = planner.analyse_map(
+        robot_map, planner.resolve_params("wide", robot_radius=0.25, unknown="free")
+    )
+    graph = build_roadmap(analysis, radius=0.25)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    source = np.repeat(np.arange(graph.nodes), np.diff(graph.indptr))
+    matrix = coo_matrix((np.ones(len(source)), (source, graph.indices)), shape=(graph.nodes,) * 2)
+    _, labels = connected_components(matrix, directed=False)
+    largest = np.nonzero(labels == np.argmax(np.bincount(labels)))[0]
+    k = min(10, len(largest) // 3)
+    nodes = rng.permutation(largest)
+    solution = solve(graph, nodes[:k].tolist(), nodes[k : 2 * k].tolist(), time_limit_s=5.0)
+    assert solution.status == "solved"
+    moves = timed_moves(solution.paths, [[] for _ in range(k)])
+    points = graph.cells.astype(float)
+    plan = schedule(moves, points, roadmap_nodes=graph.nodes, reach=2 * 0.25 / 0.05)
+    reach = 2 * 0.25 / 0.05 - 1e-6
+    for order in range(10):
+        random_ = random.Random(order)
+        done, told = [0] * k, [0] * k
+        for _ in range(5000):
+            if all(d == len(m) for d, m in zip(done, plan.moves, strict=True)):
+                break
+            j = random_.randrange(k)
+            done[j] = told[j]
+            end, _ = plan.ready(j, told[j], done)
+            told[j] = min(end, told[j] + random_.randint(1, 3))
+            chains = []
+            for i in range(k):
+                own = plan.moves[i]
+                if not own:
+                    chains.append([int(nodes[i])] * 2)
+                elif done[i] >= len(own):
+                    chains.append([own[-1][1]] * 2)
+                else:
+                    chain = [own[done[i]][0], *(own[m][1] for m in range(done[i], told[i]))]
+                    chains.append(chain if len(chain) > 1 else chain * 2)
+            for a in range(k):
+                pa = points[chains[a]]
+                for b in range(a + 1, k):
+                    pb = points[chains[b]]
+                    for p, q in itertools.pairwise(pa):
+                        assert segment_distances(p, q, pb[:-1], pb[1:]).min() >= reach
+        else:
+            raise AssertionError("a deadlock")
