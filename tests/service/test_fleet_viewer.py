@@ -109,3 +109,54 @@ def test_the_fleet_page_shows_robots_routes_and_whom_they_wait_for_in_chromium(
         finally:
             browser.close()
     assert outside == []
+
+
+def test_the_fleet_page_on_a_real_map_fills_the_window_with_a_scale_and_no_label_overlapping(
+    live_url: str, ros: Path
+) -> None:
+    """Sixteen robots of 0.3 m on depot (604 x 307 cells) at 1400 x 1000: the map scaled to
+    fill the window beside the robots' list (>= 60 %), a scale bar in meters, a legend of every
+    layer, the robots numbered in their discs and listed aside, no two labels overlapping."""
+    import planner
+
+    depot = planner.read_ros_map(ros / "depot.yaml")
+    scenario = F.random_scenario(depot, 16, 0, radius=0.3)
+    with (
+        httpx.Client(base_url=live_url, trust_env=False, timeout=60) as client,
+        sync_playwright() as playwright,
+    ):
+        map_id = client.post("/maps", json=F.map_body(depot)).json()["map_id"]
+        for start, goal in scenario.robots:
+            body = {"map_id": map_id, "start": list(start), "goal": list(goal),
+                    "robot_radius": 0.3, "fleet": "depot-page"}  # fmt: skip
+            assert client.post("/plan", json=body).status_code == 201
+        browser = playwright.chromium.launch(
+            executable_path=chromium(), args=[f for f in FLAGS if f != "--headless"]
+        )
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 1000})
+            page.goto(f"{live_url}/fleets/depot-page/view")
+            page.wait_for_function("document.body.dataset.live === 'true'", timeout=10_000)
+            box = page.locator("#frame").bounding_box()
+            assert box is not None
+            assert box["width"] * box["height"] >= 0.6 * 1400 * 1000, box
+            assert box["x"] + box["width"] <= 1400.5
+            assert page.locator("#scale-bar text").count() == 1
+            assert (page.text_content("#scale-bar text") or "").endswith(" m")
+            legend = page.text_content("#legend") or ""
+            for layer in ("robot", "waiting", "arrived", "path ahead", "route", "goal", "scale"):
+                assert layer in legend, layer
+            assert page.locator("#list tbody tr").count() == 16
+            boxes = [
+                b for b in (label.bounding_box() for label in page.locator(".label").all()) if b
+            ]
+            assert len(boxes) == 16
+            for i, a in enumerate(boxes):
+                for b in boxes[i + 1 :]:
+                    apart = (
+                        a["x"] + a["width"] <= b["x"] or b["x"] + b["width"] <= a["x"]
+                        or a["y"] + a["height"] <= b["y"] or b["y"] + b["height"] <= a["y"]
+                    )  # fmt: skip
+                    assert apart, (a, b)
+        finally:
+            browser.close()

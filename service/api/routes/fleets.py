@@ -54,8 +54,10 @@ async def get_fleet(
 async def view(fleet: FleetPath, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the fleet's map, every robot (`.robot`, its cell in `data-cell`, its
     `data-status` and `data-waiting-for`), its heading (`.heading`, `data-yaw`), its path ahead
-    (`.ahead`), its route left (`.route`) and goal, read from `/fleets/{fleet}?ahead=true` a
-    few times a second (from any replica).
+    (`.ahead`), its route left (`.route`) and goal, numbered in its disc and listed below the
+    map (`#list`: status, whom it waits for, moves done), read from
+    `/fleets/{fleet}?ahead=true` a few times a second (from any replica). The map fills the
+    window, zooms with the wheel and pans with a drag; a scale bar says its meters.
     Everything it loads comes from the service."""
     view_ = await fleets.get_fleet(engine, fleet, ahead=True)
     height, width = view_.shape
