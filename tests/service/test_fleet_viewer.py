@@ -147,9 +147,12 @@ def test_the_fleet_page_on_a_real_map_fills_the_window_with_a_scale_and_no_label
             for layer in ("robot", "waiting", "arrived", "path ahead", "route", "goal", "scale"):
                 assert layer in legend, layer
             assert page.locator("#list tbody tr").count() == 16
-            boxes = [
-                b for b in (label.bounding_box() for label in page.locator(".label").all()) if b
-            ]
+            # Read at once (the page redraws a few times a second).
+            boxes = page.evaluate(
+                "[...document.querySelectorAll('.label')].map((e) => {"
+                " const r = e.getBoundingClientRect();"
+                " return {x: r.x, y: r.y, width: r.width, height: r.height}; })"
+            )
             assert len(boxes) == 16
             for i, a in enumerate(boxes):
                 for b in boxes[i + 1 :]:
