@@ -15,20 +15,14 @@ from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     PRESET_NAMES,
-    UNION_TAGS,
     AnalysisPublic,
-    Cell,
-    CellOrPoint,
-    Circle,
-    Obstacle,
     PlanDetail,
     PlanPublic,
-    Point,
-    Pose,
     Preset,
     PreviewPublic,
     TrajectoryMetrics,
 )
+from schemas.points import UNION_TAGS, Cell, CellOrPoint, Circle, Obstacle, Point, Pose
 from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
 from schemas.steps import StepCreate, StepPublic

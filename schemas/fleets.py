@@ -6,7 +6,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import XY, Cell, Pose, Status
+from schemas.plans import Status
+from schemas.points import XY, Cell, Pose
 
 __all__ = ["FleetPublic", "FleetRobotPublic", "FleetSolvePublic"]
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import STRICT, Cell, CellOrPoint, Preset
+from schemas.plans import Preset
+from schemas.points import STRICT, Cell, CellOrPoint
 
 __all__ = ["MapfAgent", "MapfCreate", "MapfPublic", "PlanGoalUpdate"]
 

@@ -12,12 +12,11 @@ from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     EXAMPLE_PLAN,
-    STRICT,
-    CellOrPoint,
     PlanOptions,
     PlanPublic,
     Waypoints,
 )
+from schemas.points import STRICT, CellOrPoint
 from schemas.zones import ZonesPublic
 
 __all__ = ["MULTIPART_FIELDS", "MapCreate", "MapEncoding", "MapPublic"]

@@ -6,7 +6,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from schemas.plans import Cell, PlanEnds, PlanOptions, Status, TrajectoryMetrics
+from schemas.plans import PlanEnds, PlanOptions, Status, TrajectoryMetrics
+from schemas.points import Cell
 
 __all__ = ["ObstacleMotion", "SimulationCreate", "SimulationMetrics", "SimulationPublic"]
 

@@ -6,7 +6,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
-from schemas.plans import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose, Status
+from schemas.plans import Status
+from schemas.points import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 

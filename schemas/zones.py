@@ -8,7 +8,7 @@ from typing import Annotated, Any, ClassVar
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from schemas.parts import MapParts, multipart_form
-from schemas.plans import STRICT, XYPublic
+from schemas.points import STRICT, XYPublic
 
 __all__ = [
     "ZONES_MULTIPART",

@@ -10,7 +10,7 @@ import pytest
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from schemas import StepCreate
-from schemas.plans import STRICT, Obstacle
+from schemas.points import STRICT, Obstacle
 from service.main import create_app
 from tests.service.conftest import SMALL
 
