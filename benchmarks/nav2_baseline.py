@@ -170,7 +170,8 @@ def compare(name: str, folder: Path, count: int, seed: int, params: dict[str, An
 
 def figure(folder: Path, seed: int) -> None:
     """Both planners' paths between a few seeded pairs on depot, drawn over its C-space."""
-    from planner.render import COLOURS, draw
+    from planner.render import draw
+    from planner.render_legend import COLOURS
 
     robot_map = planner.read_ros_map(folder / "depot.yaml")
     cs = configuration_space(robot_map, robot_radius=RADIUS)

@@ -17,7 +17,8 @@ from common import ROOT, ros_maps
 sys.path.insert(0, str(ROOT))
 
 import planner
-from planner.render import COLOURS, draw, draw_poses
+from planner.render import draw, draw_poses
+from planner.render_legend import COLOURS
 
 RADIUS = 0.22
 

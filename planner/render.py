@@ -19,25 +19,24 @@ from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageDraw
 
 from planner.analysis.analyse import Analysis
 from planner.analysis.passages import Passage
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_legend import COLOURS, legend_entries, with_legend
 from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
-from planner.render_zones import draw_zone_outlines, paint_zones, zone_legend
+from planner.render_zones import draw_zone_outlines, paint_zones
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
 
 __all__ = [
-    "COLOURS",
     "Field",
     "auto_cell",
     "draw",
     "draw_poses",
-    "legend_entries",
     "render_episode",
     "render_map",
     "render_plan",
@@ -45,25 +44,6 @@ __all__ = [
 
 Field = Literal["clean", "kw"]
 
-#: RGB colour of each thing drawn.
-COLOURS: dict[str, tuple[int, int, int]] = {
-    "free": (255, 255, 255),
-    "obstacle": (0, 0, 0),
-    "tunnel": (255, 140, 0),
-    "gate": (220, 0, 0),
-    "dynamic": (0, 60, 255),
-    "path": (0, 170, 0),
-    "preview": (170, 225, 170),
-    "poses": (0, 120, 220),
-    "start": (230, 0, 230),
-    "goal": (255, 210, 0),
-    "robot": (0, 90, 0),
-    "grid": (225, 225, 225),
-    "heat": (150, 100, 210),
-    "unreachable": (200, 200, 200),
-    "unknown": (160, 170, 185),
-    "margin": (255, 200, 200),
-}
 
 MAX_CELL = 64
 OPTIMIZE_PIXELS = 1 << 20
@@ -197,88 +177,8 @@ def draw(
         keys = legend_entries(path_label=path_label, preview=preview is not None, named=named)
         if passages:
             keys.append((PASSAGE_COLOUR, "narrow passage (width)"))
-        image = _with_legend(image, analysis, cell, keys)
+        image = with_legend(image, analysis, cell, keys)
     return image
-
-
-LEGEND_NAMES = {
-    "free": "free",
-    "obstacle": "blocked",
-    "unknown": "unknown",
-    "margin": "C-space margin",
-    "tunnel": "tight tunnel (sealed)",
-    "gate": "gate",
-    "path": "path",
-    "preview": "planned path",
-    "poses": "poses (smooth path)",
-    "robot": "robot (footprint)",
-    "dynamic": "dynamic obstacle",
-    "start": "start",
-    "goal": "goal",
-}
-
-
-Key = tuple[tuple[int, int, int], str]
-
-
-def legend_entries(
-    *, path_label: str = "path", preview: bool = False, named: Sequence[Key] = ()
-) -> list[Key]:
-    """A picture's key: each colour and what it stands for. The green cells are
-    ``path_label`` (a robot's trajectory, drawn over its plan); the pale green ones the planned
-    path, when a ``preview`` is drawn; ``named`` paths stand in for the green one.
-
-    >>> [label for _, label in legend_entries(path_label="trajectory", preview=True)][6:8]
-    ['trajectory', 'planned path']
-    """
-    names = {**LEGEND_NAMES, "path": path_label}
-    skip = {"preview"} if not preview else set()
-    if named:
-        skip.add("path")
-    return [(COLOURS[k], label) for k, label in names.items() if k not in skip] + list(named)
-
-
-def _with_legend(
-    image: Image.Image, analysis: Analysis, cell: int, entries: list[Key]
-) -> Image.Image:
-    """The image with a key of its colours (``entries``) and a scale bar in meters below it."""
-    font = ImageFont.load_default(size=14)
-    entries = [*entries, *zone_legend(analysis)]
-    width = max(image.width, 520)
-    pad, box, row = 8, 14, 22
-    x = y = pad
-    placed = []
-    for colour, label in entries:
-        w = box + 6 + int(font.getlength(label)) + 16
-        if x + w > width - pad:
-            x, y = pad, y + row
-        placed.append((x, y, colour, label))
-        x += w
-    height = y + row + 34
-    out = Image.new("RGB", (width, image.height + height), (255, 255, 255))
-    out.paste(image, (0, 0))
-    pen = ImageDraw.Draw(out)
-    top = image.height
-    for x, y, colour, label in placed:
-        pen.rectangle((x, top + y, x + box, top + y + box), fill=colour, outline=(90, 90, 90))
-        pen.text((x + box + 6, top + y - 1), label, fill=(0, 0, 0), font=font)
-    # The scale bar: a round number of meters, about a fifth of the picture.
-    meters_per_px = analysis.frame.resolution / cell
-    target = width / 5 * meters_per_px
-    step = 10 ** math.floor(math.log10(target))
-    length = max(m * step for m in (1, 2, 5) if m * step <= target)
-    px = length / meters_per_px
-    y0 = top + y + row + 12
-    pen.rectangle((pad, y0, pad + px, y0 + 5), fill=(0, 0, 0))
-    pen.text((pad + px + 8, y0 - 6), f"{length:g} m", fill=(0, 0, 0), font=font)
-    res = analysis.frame.resolution
-    pen.text(
-        (pad + px + 70, y0 - 6),
-        f"{analysis.shape[1]} x {analysis.shape[0]} cells of {res:g} m",
-        fill=(90, 90, 90),
-        font=font,
-    )
-    return out
 
 
 def render_map(

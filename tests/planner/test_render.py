@@ -13,14 +13,8 @@ from PIL import Image
 import planner
 from planner.cli import main
 from planner.experiment.environments import environment
-from planner.render import (
-    COLOURS,
-    draw,
-    legend_entries,
-    render_episode,
-    render_map,
-    render_plan,
-)
+from planner.render import draw, render_episode, render_map, render_plan
+from planner.render_legend import COLOURS, legend_entries
 from tests.conftest import grid_from
 
 CELL = 8

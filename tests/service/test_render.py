@@ -8,7 +8,7 @@ import httpx
 import pytest
 from PIL import Image
 
-from planner.render import COLOURS
+from planner.render_legend import COLOURS
 
 pytestmark = pytest.mark.anyio
 
