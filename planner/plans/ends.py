@@ -8,13 +8,13 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import point_xy
 from planner.maps.grids import as_cell
-from planner.plans.whole_wave import goal_wave
 from planner.poses.smooth import smooth_path
 
 __all__ = [
@@ -198,7 +198,8 @@ def nearest_reachable(
 ) -> tuple[int, int] | None:
     """The traversable cell whose center is nearest to ``goal_xy`` (ties: row, then column),
     within ``tolerance`` meters, that the robot at ``start`` can reach (over the sealed grid, or
-    through tight tunnels when ``allow_narrow``); None when there is none."""
+    through tight tunnels when ``allow_narrow``); None when there is none. ``diagonal_cost``
+    does not change what is reached."""
     frame = analysis.frame
     H, W = analysis.shape
     res = frame.resolution
@@ -219,8 +220,13 @@ def nearest_reachable(
     reached = np.zeros(len(cells), dtype=bool)
     grids = [False, True] if analysis.sealed and allow_narrow else [False]
     for narrow in grids:
-        k = goal_wave(analysis, start, diagonal_cost=diagonal_cost, narrow=narrow).k
-        reached |= np.isfinite(k[cells[:, 0], cells[:, 1]])
+        # Reachable over the grid: a diagonal move needs both its orthogonal cells passable, so
+        # the cells a wave from the start reaches are its 4-connected piece of the grid (found
+        # by labelling, without a cost field over the whole map).
+        passable = analysis.passable(narrow=narrow)
+        passable[start] = 1
+        labels, _ = ndimage.label(passable)
+        reached |= labels[cells[:, 0], cells[:, 1]] == labels[start]
     if not reached.any():
         return None
     order = np.lexsort((cells[:, 1], cells[:, 0], dist))

@@ -220,3 +220,35 @@ def test_a_cell_cannot_carry_a_yaw() -> None:
     with pytest.raises(InvalidInput) as e:
         planner.plan(GRID, [5, 0], [0, 9, 1.0])
     assert e.value.field == "goal"
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_the_tolerance_search_reaches_what_a_wave_reaches(seed: int) -> None:
+    """The cells a goal tolerance may take are those a wave from the start reaches (the slow
+    obvious reference: a whole cost field), found by labelling the grid's pieces instead."""
+    from planner.plans.ends import nearest_reachable
+    from planner.plans.whole_wave import goal_wave
+
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((30, 40)) < 0.3).astype(np.int8)
+    robot_map = planner.grid_map(grid, resolution=0.1)
+    analysis = planner.analyse_map(robot_map, planner.resolve_params("wfs-mmas", unknown="free"))
+    free = np.argwhere(analysis.state != 1)
+    start = tuple(int(v) for v in free[rng.integers(len(free))])
+    for _ in range(20):
+        xy = (float(rng.uniform(0, 4)), float(rng.uniform(0, 3)))
+        for allow in (False, True):
+            got = nearest_reachable(
+                analysis, start, xy, 0.6, diagonal_cost=1.4, allow_narrow=allow
+            )  # fmt: skip
+            # The reference: the nearest cell within 0.6 m whose cost from the start is finite.
+            grids = [False, True] if analysis.sealed and allow else [False]
+            ks = [goal_wave(analysis, start, diagonal_cost=1.4, narrow=n).k for n in grids]
+            best = None
+            for r, c in np.argwhere(analysis.state != 1):
+                x, y = analysis.frame.centers([[r, c]])[0]
+                d = float(np.hypot(x - xy[0], y - xy[1]))
+                if d <= 0.6 * (1 + 1e-12) and any(np.isfinite(k[r, c]) for k in ks):
+                    key = (d, int(r), int(c))
+                    best = key if best is None or key < best else best
+            assert got == (None if best is None else (best[1], best[2]))
