@@ -234,7 +234,8 @@ def test_the_tolerance_search_reaches_what_a_wave_reaches(seed: int) -> None:
     robot_map = planner.grid_map(grid, resolution=0.1)
     analysis = planner.analyse_map(robot_map, planner.resolve_params("wfs-mmas", unknown="free"))
     free = np.argwhere(analysis.state != 1)
-    start = tuple(int(v) for v in free[rng.integers(len(free))])
+    sr, sc = free[rng.integers(len(free))]
+    start = (int(sr), int(sc))
     for _ in range(20):
         xy = (float(rng.uniform(0, 4)), float(rng.uniform(0, 3)))
         for allow in (False, True):
@@ -251,4 +252,9 @@ def test_the_tolerance_search_reaches_what_a_wave_reaches(seed: int) -> None:
                 if d <= 0.6 * (1 + 1e-12) and any(np.isfinite(k[r, c]) for k in ks):
                     key = (d, int(r), int(c))
                     best = key if best is None or key < best else best
-            assert got == (None if best is None else (best[1], best[2]))
+            if best is None or got is None:
+                assert got is None and best is None
+                continue
+            if got != (best[1], best[2]):  # a tie within rounding: the same distance
+                x, y = analysis.frame.centers([list(got)])[0]
+                assert float(np.hypot(x - xy[0], y - xy[1])) == pytest.approx(best[0], rel=1e-6)
