@@ -253,7 +253,8 @@ def test_the_tolerance_search_reaches_what_a_wave_reaches(seed: int) -> None:
                     key = (d, int(r), int(c))
                     best = key if best is None or key < best else best
             if best is None or got is None:
-                assert got is None and best is None
+                assert got is None
+                assert best is None
                 continue
             if got != (best[1], best[2]):  # a tie within rounding: the same distance
                 x, y = analysis.frame.centers([list(got)])[0]
