@@ -181,7 +181,7 @@ def _near(cells: np.ndarray, path: Any, reach: float) -> bool:
         ({"keepout": [points(ZONE)], "keepuot": []}, "keepuot", "unknown field"),
         ({"keepout": [[{"x": 1, "y": 1, "z": 0}, *TWO]]}, "keepout[0][0].z", "unknown field"),
         ({"keepout": [[{"x": "1", "y": 1}, *TWO]]}, "keepout[0][0].x", "valid number"),
-        ({"keepout": [[{"x": 1e300, "y": 1}, *TWO]]}, "keepout[0][0].x", "less than"),
+        ({"keepout": [[{"x": 1e300, "y": 1}, *TWO]]}, "keepout[0][0].x", "must be at most"),
         ({}, "body", "give 'keepout', 'speed', or a keepout mask"),
         ({"keepout": [points(FAR)]}, "keepout[0]", "holds no cell"),
     ],
