@@ -15,16 +15,23 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
-__all__ = ["Move", "Schedule", "schedule", "segment_distances", "timed_moves"]
+__all__ = ["Done", "Move", "Schedule", "schedule", "segment_distances", "timed_moves"]
 
 Move = tuple[int, int, int]
 """A move: its source node, its target node and the plan time it starts at (negative for the
 moves a robot was already told when the fleet was solved)."""
+
+
+class Done(Protocol):
+    """How many moves each robot has done, by its index in the schedule (a list will do)."""
+
+    def __getitem__(self, robot: int, /) -> int: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,7 +42,7 @@ class Schedule:
     after: tuple[tuple[tuple[tuple[int, int], ...], ...], ...]
     """``after[j][k]``: the ``(robot, move)`` pairs robot ``j``'s move ``k`` waits for."""
 
-    def blocker(self, robot: int, move: int, done: Sequence[int]) -> int | None:
+    def blocker(self, robot: int, move: int, done: Done) -> int | None:
         """The first robot whose move robot ``robot``'s move ``move`` still waits for (None: it
         may go), given how many moves each robot has done."""
         for other, index in self.after[robot][move]:
@@ -43,7 +50,7 @@ class Schedule:
                 return other
         return None
 
-    def ready(self, robot: int, start: int, done: Sequence[int]) -> tuple[int, int | None]:
+    def ready(self, robot: int, start: int, done: Done) -> tuple[int, int | None]:
         """How far robot ``robot`` may go from its move ``start`` on: the index after its last
         move whose predecessors are all done, and the robot it then waits for (None: none, its
         moves are all allowed)."""

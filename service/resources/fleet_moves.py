@@ -49,10 +49,9 @@ def advance(
     agents = state.get("agents", [])
     end, waiting_for = told, None
     if plan_of is not None and me.get("agent", -1) >= 0 and plan_id in agents:
-        j = agents.index(plan_id)
+        j = int(me["agent"])
         if j < len(plan_of.moves) and len(plan_of.moves[j]) == len(moves):
-            done = [robots[k]["done"] if k in robots else _GONE for k in agents]
-            end, blocker = plan_of.ready(j, told, done)
+            end, blocker = plan_of.ready(j, told, _Done(robots, agents))
             waiting_for = None if blocker is None else agents[blocker]
     cell = np.array(here if here is not None else session.state.position, dtype=np.float64)
     horizon = max(float(plan.params.horizon_m) / graph.resolution, 1.0)
@@ -104,6 +103,22 @@ def advance(
     return step, waiting_for
 
 
+class _Done:
+    """The moves each agent has done, read as the schedule asks (a robot gone: all of them)."""
+
+    __slots__ = ("_agents", "_robots")
+
+    def __init__(self, robots: dict[str, Any], agents: list[str]) -> None:
+        self._robots, self._agents = robots, agents
+
+    def __getitem__(self, agent: int) -> int:
+        robot = self._robots.get(self._agents[agent])
+        return _GONE if robot is None else int(robot["done"])
+
+    def __len__(self) -> int:
+        return len(self._agents)
+
+
 def _answer(
     session: planner.Session,
     position: Any,
@@ -138,11 +153,7 @@ def _answer(
         points[0] = (float(position["x"]), float(position["y"]))
         yaw = position.get("yaw")
     poses = _poses(points, frame.resolution, yaw, st.last_step)
-    rest = 0.0
-    for u, v, _ in later:
-        a = node_cell(u, me, extras, fmap.graph)
-        b = node_cell(v, me, extras, fmap.graph)
-        rest += math.hypot(b[0] - a[0], b[1] - a[1])
+    rest = _length(later, me, extras, fmap)
     along = sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in itertools.pairwise(poses))
     step = planner.Step(
         seq, previous, (r, c), _compass(previous, (r, c)), status,  # type: ignore[arg-type]
@@ -152,6 +163,23 @@ def _answer(
     st.last_seq = seq
     st.last_step = step
     return step
+
+
+def _length(
+    moves: list[list[int]], me: dict[str, Any], extras: list[list[int]], fmap: FleetMap
+) -> float:
+    """The length of ``moves`` in cells (their nodes' cells looked up at once)."""
+    if not moves:
+        return 0.0
+    ends = np.asarray(moves, dtype=np.int64)[:, :2]
+    graph = fmap.graph
+    if ends.min() >= 0 and ends.max() < graph.nodes:
+        cells = graph.cells[ends].astype(np.float64)
+    else:
+        cells = np.array(
+            [[node_cell(int(n), me, extras, graph) for n in pair] for pair in ends], np.float64
+        )
+    return float(np.hypot(*(cells[:, 1] - cells[:, 0]).T).sum())
 
 
 def _poses(

@@ -276,7 +276,8 @@ async def step_in_fleet(
         raise planner.SequenceConflict(msg, field="seq")
     fmap = await fleet_map(engine, fleet)
     now = time.time()
-    state: FleetRecord = {**fleet, "robots": {k: dict(v) for k, v in fleet["robots"].items()}}
+    # Copied on write: the robots this step changes are copied, the others shared.
+    state: FleetRecord = {**fleet, "robots": dict(fleet["robots"])}
     robots = state["robots"]
     if plan_id not in robots:  # its fleet expired meanwhile: it joins again, last
         robot = _new_robot(state, plan, fmap)
@@ -285,7 +286,7 @@ async def step_in_fleet(
         robots[plan_id] = robot
         state["next"] = int(state["next"]) + 1
         state["dirty"] = True
-    me = robots[plan_id]
+    me = robots[plan_id] = dict(robots[plan_id])
     here = None if position is None else cell_of(plan.analysis, position, "position")
     if _progress(me, here, fmap, state, plan):
         state["dirty"] = True
@@ -294,10 +295,14 @@ async def step_in_fleet(
         state["dirty"] = True
     me["seen"] = now
     lease = engine.settings.fleet_lease_seconds
-    for k, other in robots.items():
-        if k != plan_id and not other.get("parked") and now - float(other.get("seen", now)) > lease:
-            other["parked"] = True
-            state["dirty"] = True
+    if now - float(state.get("leases_at", 0.0)) >= min(1.0, lease / 10):
+        # The others' leases, looked at most once a second (a step must not read every robot).
+        state["leases_at"] = now
+        for k, other in list(robots.items()):
+            seen = float(other.get("seen", now))
+            if k != plan_id and not other.get("parked") and now - seen > lease:
+                robots[k] = {**other, "parked": True}
+                state["dirty"] = True
     blocked = {n: t for n, t in state.get("blocked", {}).items() if t > now}
     state["blocked"] = blocked
     if state.get("dirty") and _may_solve(state, now, engine.settings.fleet_solve_seconds):

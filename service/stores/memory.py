@@ -161,10 +161,11 @@ class MemoryStore(Store):
         now = self._fleets.get(fleet_key)
         if plan_id not in fleet["robots"] or now is None:
             return
-        robots = {k: v for k, v in fleet["robots"].items() if k in now["robots"] or k == plan_id}
-        if len(robots) < len(fleet["robots"]):
-            fleet = {**fleet, "dirty": True}
-        self._fleets[fleet_key] = {**fleet, "robots": robots}
+        gone = fleet["robots"].keys() - now["robots"].keys() - {plan_id}
+        if gone:
+            robots = {k: v for k, v in fleet["robots"].items() if k not in gone}
+            fleet = {**fleet, "robots": robots, "dirty": True}
+        self._fleets[fleet_key] = fleet
 
     async def put_fleet_plan(
         self, plan_id: str, record: PlanRecord, join: FleetJoin, *, append: Cells = ()
