@@ -258,7 +258,8 @@ def _places(
         for a, b in pairs:
             starts.append(a)
             ends.append(b)
-            reach.append((float(me["radius"]) + float(other["radius"])) / res)
+            # Both radii apart; robots of radius 0 at least half a cell (never one cell).
+            reach.append(max((float(me["radius"]) + float(other["radius"])) / res, 0.5))
             owner.append(k)
     return (
         np.array(starts, dtype=np.float64).reshape(-1, 2),

@@ -24,7 +24,7 @@ from service.errors import NotFound
 from service.resources.fleet_moves import advance
 from service.resources.fleet_solve import FleetMap, chain, node_cell, resolve
 from service.resources.mapf_size import check_size
-from service.stores.base import FleetRecord
+from service.stores.base import FleetRecord, Update
 from service.tenants import scoped
 from service.work.engine import Engine
 
@@ -37,6 +37,7 @@ __all__ = [
     "join",
     "moved_away",
     "retarget",
+    "solve_now",
     "step_in_fleet",
 ]
 
@@ -316,6 +317,24 @@ async def step_in_fleet(
         now=now, lease=lease,
     )  # fmt: skip
     return Moved(step, waiting_for, state)
+
+
+async def solve_now(engine: Engine, plan_id: str) -> None:
+    """Solve the plan's fleet again at once if it changed (a robot joining): its robots'
+    next steps then find the joint plan made, rather than the first of them making it while
+    the others wait behind it. Written with the plan's record as a step's would be."""
+
+    async def decide(record: dict[str, Any], fleet: FleetRecord | None) -> Update[None]:
+        now = time.time()
+        budget = engine.settings.fleet_solve_seconds
+        if fleet is None or not fleet.get("dirty") or not _may_solve(fleet, now, budget):
+            return Update(None)
+        fmap = await fleet_map(engine, fleet)
+        seed = int(fleet["next"])
+        state = await engine.pool.run(resolve, fleet, fmap, time_limit_s=budget, seed=seed)
+        return Update(None, record, fleet=state)
+
+    await engine.store.step_plan(plan_id, decide)
 
 
 def _may_solve(state: FleetRecord, now: float, budget: float) -> bool:

@@ -106,7 +106,8 @@ async def test_a_waiting_robot_names_whom_it_waits_for(client: httpx.AsyncClient
                      robot_radius=0.325)).json()["plan_id"]  # fmt: skip
     fleet = (await client.get("/fleets/d")).json()
     assert fleet["robot_radius"] == 0.325
-    assert fleet["solve"]["status"] == "pending"
+    assert fleet["solve"]["status"] == "solved"  # solved as each robot joined
+    assert fleet["solve"]["agents"] == 2
     assert fleet["roadmap"]["nodes"] > 10
     waited_for: set[str] = set()
     for seq in range(200):

@@ -142,11 +142,16 @@ async def test_an_unsolvable_fleet_says_so_and_its_robots_wait(client: httpx.Asy
     body = {"map_id": map_id, "fleet": "line"}
     a = (await client.post("/plan", json={**body, "start": [0, 0], "goal": [0, 4]})).json()
     b = (await client.post("/plan", json={**body, "start": [0, 4], "goal": [0, 0]})).json()
-    for seq in range(3):
+    # The first robot's plan (made when it joined alone) is kept: it may go on, but never onto
+    # the second robot, which waits where it is, outside any plan.
+    for seq in range(6):
         for plan in (a, b):
             step = await client.post(f"/plan/{plan['plan_id']}/step", json={"seq": seq})
             assert step.status_code == 200, step.text
-            assert step.json()["status"] == "waiting"
-            assert step.json()["position"] == plan["start"]
+            if plan is b:
+                assert step.json()["status"] == "waiting"
+                assert step.json()["position"] == b["start"]
+            else:
+                assert step.json()["position"] != b["start"]
     fleet = (await client.get("/fleets/line")).json()
     assert fleet["solve"]["status"] in ("unsolvable", "timeout")
