@@ -46,8 +46,8 @@ def resolve(
     """The fleet with a new joint plan for its robots that step (the parked ones stand where
     they are, as obstacles), or, when the solver fails within its budget, its old plan kept
     with the failure in ``solve``."""
-    graph, _analysis = fleet_map.graph, fleet_map.analysis
-    robots = fleet["robots"]
+    graph = fleet_map.graph
+    robots = dict(fleet["robots"])  # its own: a failed solve hands the fleet back unchanged
     extras: list[list[int]] = []
     order = sorted(robots, key=lambda k: robots[k]["rank"])
     agents = [k for k in order if not robots[k].get("parked")]

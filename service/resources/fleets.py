@@ -200,13 +200,15 @@ def _new_robot(state: FleetRecord, plan: planner.Plan, fmap: FleetMap) -> dict[s
     }
 
 
-def _check_free(fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: FleetMap) -> None:
-    """``FLEET_GOAL_TAKEN`` when another robot's goal is the same roadmap node or within both
-    radii; ``FLEET_START_TAKEN`` when another robot may be within both radii of the start."""
+def _check_free(
+    fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: FleetMap, *, start: bool = True
+) -> None:
+    """``FLEET_GOAL_TAKEN`` when another robot's goal is within both radii of the robot's; with
+    ``start``, ``FLEET_START_TAKEN`` when another robot may be within both radii of its cell."""
     res = fmap.graph.resolution
     extras = state.get("extras", [])
     goal = np.array(robot["goal"], dtype=np.float64)
-    start = np.array(robot["cell"], dtype=np.float64)
+    here = np.array(robot["cell"], dtype=np.float64)
     for plan_id, other in state["robots"].items():
         reach = (robot["radius"] + float(other["radius"])) / res
         if np.linalg.norm(np.array(other["goal"], dtype=np.float64) - goal) < reach:
@@ -218,9 +220,7 @@ def _check_free(fleet: str, state: FleetRecord, robot: dict[str, Any], fmap: Fle
         cells = np.array(
             [node_cell(n, other, extras, fmap.graph) for n in chain(other)], dtype=np.float64
         )
-        if robot["cell"][0] >= 0 and np.min(np.linalg.norm(cells - start, axis=1)) < max(
-            reach, 1e-9
-        ):
+        if start and np.min(np.linalg.norm(cells - here, axis=1)) < max(reach, 1e-9):
             msg = (
                 f"start {robot['cell']} is taken: robot {quote(plan_id)} of fleet "
                 f"{quote(fleet)} stands there (within the sum of both radii); delete its plan "
@@ -244,7 +244,7 @@ def retarget(
         msg = f"goal {goal} has no node of the fleet's roadmap in reach by a straight move"
         raise planner.InvalidInput(msg, field="goal", code="NO_VALID_PATH")
     me.update(goal=goal, goal_node=node, arrived=False)
-    _check_free(fleet_name, {**state, "robots": robots}, {**me, "cell": [-(10**9), 0]}, fmap)
+    _check_free(fleet_name, {**state, "robots": robots}, me, fmap, start=False)
     return {**state, "dirty": True, "robots": {**state["robots"], plan_id: me}}
 
 
