@@ -19,7 +19,10 @@ from planner.fleets.distances import cost_distances, step_distances
 from planner.fleets.pibt import Pibt, tie_breaker
 from tests import naive_mapf
 
-MAPF = Path(__file__).resolve().parents[2].parent / "shared" / "maps" / "mapf"
+# The shared Moving AI MAPF maps: beside the repository, or beside the folder holding it.
+_ROOT = Path(__file__).resolve().parents[2]
+_FOUND = [b / "shared" / "maps" / "mapf" for b in (_ROOT.parent, _ROOT.parent.parent)]
+MAPF = next((p for p in _FOUND if p.is_dir()), _FOUND[0])
 
 
 def _random_graph(seed: int, size: int = 7, density: float = 0.75) -> Graph:
