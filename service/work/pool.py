@@ -62,13 +62,16 @@ class Pool:
                 f"(PLANNER_MAX_QUEUED_JOBS is {self.max_queued}); retry later"
             )
             raise Busy(msg)
+        call = _in_context(fn, *args, **kwargs)
+        if not self.fair:
+            self.jobs += 1
+            try:
+                return await self._submit(call)
+            finally:
+                self.jobs -= 1
         tenant = TENANT.get()
         turn, users = self._turns.get(tenant, (None, 0))
-        if (
-            self.fair
-            and self.max_queued is not None
-            and users >= self.share + max(1, self.max_queued // 2)
-        ):
+        if self.max_queued is not None and users >= self.share + max(1, self.max_queued // 2):
             msg = (
                 f"the service is busy: this API key has {users} heavy jobs running or queued, "
                 f"its share of PLANNER_MAX_QUEUED_JOBS ({self.max_queued}); retry later"
@@ -78,21 +81,33 @@ class Pool:
             turn = asyncio.Semaphore(self.share)
         self._turns[tenant] = (turn, users + 1)
         self.jobs += 1
+        with self._counts:
+            self.queued += 1  # waiting for its tenant's turn is waiting for a worker too
+        waiting = True
         try:
             async with turn:
                 with self._counts:
-                    self.queued += 1
-                future = self._executor.submit(self._call, _in_context(fn, *args, **kwargs))
-                # A call cancelled before it started (its client gone) never reaches _call.
-                future.add_done_callback(self._dequeue_cancelled)
-                return await asyncio.wrap_future(future)
+                    self.queued -= 1
+                waiting = False
+                return await self._submit(call)
         finally:
+            if waiting:
+                with self._counts:
+                    self.queued -= 1
             self.jobs -= 1
             turn, users = self._turns[tenant]
             if users > 1:
                 self._turns[tenant] = (turn, users - 1)
             else:
                 del self._turns[tenant]
+
+    async def _submit(self, call: Callable[[], R]) -> R:
+        with self._counts:
+            self.queued += 1
+        future = self._executor.submit(self._call, call)
+        # A call cancelled before it started (its client gone) never reaches _call.
+        future.add_done_callback(self._dequeue_cancelled)
+        return await asyncio.wrap_future(future)
 
     async def run_step(self, fn: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> R:
         """``fn`` on a step worker: never queued behind heavy jobs."""
