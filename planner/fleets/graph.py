@@ -8,8 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
-__all__ = ["Graph", "grid_graph"]
+__all__ = ["Graph", "grid_graph", "pieces"]
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -47,6 +49,11 @@ class Graph:
     def neighbours(self, node: int) -> npt.NDArray[np.int64]:
         return self.indices[self.indptr[node] : self.indptr[node + 1]]
 
+    def pieces(self) -> npt.NDArray[np.int64]:
+        """The connected piece of each node (robots move within one): :func:`pieces`' labels."""
+        source = np.repeat(np.arange(self.nodes), np.diff(self.indptr))
+        return pieces(self.nodes, source, self.indices)[1]
+
     def node_of(self, cells: npt.ArrayLike) -> npt.NDArray[np.int64]:
         """The node at each of ``cells`` (``(k, 2)``), -1 where none is."""
         query = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
@@ -59,6 +66,21 @@ class Graph:
         found = order[at] if len(keys) else np.zeros(len(wanted), dtype=np.int64)
         hit = len(keys) > 0 and (keys[found] == wanted)
         return np.where(hit, found, -1).astype(np.int64)
+
+
+def pieces(
+    nodes: int, source: npt.ArrayLike, target: npt.ArrayLike
+) -> tuple[int, npt.NDArray[np.int64]]:
+    """How many connected pieces ``nodes`` nodes joined by the edges ``source[i]``-``target[i]``
+    make, and the piece of each node (scipy's labels).
+
+    >>> pieces(4, [0, 2], [1, 3])[0]
+    2
+    """
+    ends = np.asarray(source, dtype=np.int64), np.asarray(target, dtype=np.int64)
+    matrix = coo_matrix((np.ones(len(ends[0])), ends), shape=(nodes, nodes))
+    count, labels = connected_components(matrix, directed=False)
+    return int(count), labels.astype(np.int64)
 
 
 def grid_graph(free: npt.ArrayLike, *, resolution: float = 1.0) -> Graph:

@@ -7,11 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from planner.fleets.execution import segment_distances
+from planner.fleets.graph import pieces as graph_pieces
 from planner.fleets.segments import segment_free
 
 __all__ = ["join_pieces"]
@@ -56,10 +55,7 @@ def join_pieces(
 
 
 def _pieces(count: int, edges: npt.NDArray[np.int64]) -> tuple[int, npt.NDArray[np.int64]]:
-    ones = np.ones(len(edges))
-    matrix = coo_matrix((ones, (edges[:, 0], edges[:, 1])), shape=(count, count))
-    pieces, labels = connected_components(matrix, directed=False)
-    return int(pieces), labels.astype(np.int64)
+    return graph_pieces(count, edges[:, 0], edges[:, 1])
 
 
 def _join(

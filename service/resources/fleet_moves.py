@@ -48,11 +48,11 @@ def advance(
     told = me["told"] = max(me["told"], me["done"])
     agents = state.get("agents", [])
     end, waiting_for = told, None
-    if plan_of is not None and me.get("agent", -1) >= 0 and plan_id in agents:
-        j = int(me["agent"])
-        if j < len(plan_of.moves) and len(plan_of.moves[j]) == len(moves):
-            end, blocker = plan_of.ready(j, told, _Done(robots, agents))
-            waiting_for = None if blocker is None else agents[blocker]
+    j = int(me.get("agent", -1))
+    planned = plan_of is not None and 0 <= j < len(agents) and agents[j] == plan_id
+    if planned and plan_of is not None and len(plan_of.moves[j]) == len(moves):
+        end, blocker = plan_of.ready(j, told, _Done(robots, agents))
+        waiting_for = None if blocker is None else agents[blocker]
     cell = np.array(here if here is not None else session.state.position, dtype=np.float64)
     horizon = max(float(plan.params.horizon_m) / graph.resolution, 1.0)
     blocked = _dilated(obstacles, plan.params.dynamic_margin, graph.shape)

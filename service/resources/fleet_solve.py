@@ -128,11 +128,12 @@ def resolve(
                     for u, v, t in robots[k]["moves"]
                 ],
             }  # fmt: skip
+    index = {k: j for j, k in enumerate(agents)}
     new = {}
     for k in order:
         robot = dict(robots[k])
-        if k in agents:
-            j = agents.index(k)
+        if k in index:
+            j = index[k]
             moves = [list(m) for m in timed[j]]
             robot["moves"] = moves
             robot["told"] = sum(1 for m in moves if m[2] < 0) - (j in joins)

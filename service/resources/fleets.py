@@ -12,13 +12,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 import planner
 from planner import quote
-from planner.fleets import Graph, Schedule, attach, build_roadmap, schedule, segment_distances
+from planner.fleets import Schedule, attach, build_roadmap, schedule, segment_distances
 from planner.plans.ends import cell_of
 from service.errors import NotFound
 from service.resources.fleet_moves import advance
@@ -88,22 +85,12 @@ async def fleet_map(engine: Engine, fleet: FleetRecord) -> FleetMap:
         graph = await engine.pool.run(
             build_roadmap, analysis, radius=params.robot_radius, wide=wide
         )
-        return _Sized(FleetMap(graph, analysis, _pieces(graph)), int(graph.cells.nbytes * 5))
+        return _Sized(FleetMap(graph, analysis, graph.pieces()), int(graph.cells.nbytes * 5))
 
     key = ("roadmap", scoped(fleet["map_id"]), analysis.params_key, params.robot_radius, wide)
     found, _ = await engine.cache.get_or_compute(key, compute)
     assert isinstance(found.value, FleetMap)
     return found.value
-
-
-def _pieces(graph: Graph) -> npt.NDArray[np.int64]:
-    """The connected piece of each node (scipy's labels)."""
-    source = np.repeat(np.arange(graph.nodes), np.diff(graph.indptr))
-    shape = (graph.nodes, graph.nodes)
-    matrix = coo_matrix((np.ones(len(source)), (source, graph.indices)), shape=shape)
-    _, labels = connected_components(matrix, directed=False)
-    out: npt.NDArray[np.int64] = labels.astype(np.int64)
-    return out
 
 
 @dataclass(frozen=True, slots=True)

@@ -165,12 +165,7 @@ def test_robots_on_a_roadmap_executed_in_any_order_keep_their_radii_apart(seed: 
         robot_map, planner.resolve_params("wide", robot_radius=0.25, unknown="free")
     )
     graph = build_roadmap(analysis, radius=0.25)
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    source = np.repeat(np.arange(graph.nodes), np.diff(graph.indptr))
-    matrix = coo_matrix((np.ones(len(source)), (source, graph.indices)), shape=(graph.nodes,) * 2)
-    _, labels = connected_components(matrix, directed=False)
+    labels = graph.pieces()
     largest = np.nonzero(labels == np.argmax(np.bincount(labels)))[0]
     k = min(10, len(largest) // 3)
     nodes = rng.permutation(largest)

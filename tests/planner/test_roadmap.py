@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import ndimage
 
 import planner
 from planner.fleets.graph import Graph, grid_graph
@@ -140,16 +139,14 @@ def test_every_corridor_a_robot_fits_through_joins_the_rooms(radius: float, extr
 
 
 def _pairs(analysis: planner.Analysis, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    free = analysis.state != 1
-    labels, _ = ndimage.label(free, np.ones((3, 3), dtype=bool))
-    cells = np.argwhere(free)
-    rng = np.random.default_rng(seed)
-    starts = cells[rng.integers(len(cells), size=count)]
-    goals = np.empty_like(starts)
-    for k, (r, c) in enumerate(starts.tolist()):
-        same = np.argwhere(labels == labels[r, c])
-        goals[k] = same[rng.integers(len(same))]
-    return starts, goals
+    """Random pairs of cells in one region of free cells: benchmarks/roadmap.py's."""
+    from tests.scripts import load_benchmark
+
+    bench = load_benchmark("roadmap")
+    pairs: tuple[np.ndarray, np.ndarray] = bench.reachable_pairs(
+        analysis, count, np.random.default_rng(seed)
+    )
+    return pairs
 
 
 @pytest.mark.parametrize("radius", [0.22, 0.3])
@@ -266,9 +263,6 @@ def test_bad_input_is_refused() -> None:
 def test_random_rooms_and_corridors_are_one_piece() -> None:
     """Two rooms joined by a corridor 2r + 0.05 m to 4r wide (benchmarks/fleet_scenarios.py):
     the roadmap joins them, through the corridor, on every geometry."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     from tests.scripts import load_benchmark
 
     scenarios = load_benchmark("fleet_scenarios")
@@ -277,7 +271,5 @@ def test_random_rooms_and_corridors_are_one_piece() -> None:
         params = planner.resolve_params("wide", robot_radius=scenario.radius)
         analysis = planner.analyse_map(scenario.robot_map, params)
         g = build_roadmap(analysis, radius=scenario.radius)
-        source = np.repeat(np.arange(g.nodes), np.diff(g.indptr))
-        matrix = coo_matrix((np.ones(len(source)), (source, g.indices)), shape=(g.nodes,) * 2)
-        pieces, _ = connected_components(matrix, directed=False)
+        pieces = len(set(naive_roadmap.components(g).tolist()))
         assert pieces == 1, (seed, pieces)
