@@ -27,6 +27,76 @@ _NO_TILES = (
 
 
 @njit(cache=True, nogil=True)
+def _exact(
+    r: int, c: int, W: int, field: np.ndarray, tiles: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> float:
+    """The wave's ``kw`` at (r, c) of a map ``W`` wide where it is known exactly (the whole
+    ``field``, else the resumable search's settled ``tiles``), else +inf."""
+    if field.shape[0] > 0:
+        return float(field[r, c])
+    tile_of, g_kw, status_kw = tiles
+    if tile_of.shape[0] == 0:
+        return np.inf
+    s = tile_of[(r >> SHIFT) * ((W + TILE_MASK) >> SHIFT) + (c >> SHIFT)]
+    o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+    if s >= 0 and status_kw[s, o] == SETTLED:
+        return float(g_kw[s, o])
+    return np.inf
+
+
+@njit(cache=True, nogil=True)
+def _descends_clear(
+    codes: np.ndarray,
+    open_: int,
+    goal: int,
+    clean: np.ndarray,
+    field: np.ndarray,
+    tiles: tuple[np.ndarray, np.ndarray, np.ndarray],
+    diagonal_cost: float,
+    own: np.ndarray,
+    blocked: np.ndarray,
+    x: int,
+    steps: int,
+) -> bool:
+    """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
+    kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
+    own tiles (``own``, ``blocked``) in its first ``steps`` moves."""
+    W = codes.shape[1]
+    own_w = (W + _MASK) >> _SHIFT
+    r = x // W
+    c = x - r * W
+    here = _exact(r, c, W, field, tiles)
+    for _ in range(steps):
+        if r * W + c == goal:
+            return True
+        best = np.inf
+        br, bc = -1, -1
+        for i in range(8):
+            yr = r + DR[i]
+            yc = c + DC[i]
+            if not on_grid(codes, open_, goal, yr, yc):
+                continue
+            if i & 1:
+                a = (i + 7) & 7
+                b = (i + 1) & 7
+                if not on_grid(codes, open_, goal, r + DR[a], c + DC[a]):
+                    continue
+                if not on_grid(codes, open_, goal, r + DR[b], c + DC[b]):
+                    continue
+            kw = _exact(yr, yc, W, field, tiles)
+            v = (diagonal_cost if i & 1 else 1.0) + clean[yr, yc] + kw
+            if kw < here and v < best:
+                best, br, bc = v, yr, yc
+        if br < 0:
+            return True  # no known way down from here: nothing more to check
+        s = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
+        if s >= 0 and blocked[s * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK))]:
+            return False
+        r, c, here = br, bc, _exact(br, bc, W, field, tiles)
+    return True
+
+
+@njit(cache=True, nogil=True)
 def _detour(
     codes: np.ndarray,
     open_: int,
@@ -40,9 +110,16 @@ def _detour(
     obstacles: np.ndarray,
     margin: int,
     limit: int,
+    within: int,
 ) -> tuple[np.ndarray, bool]:
     """A* from ``start`` to ``goal`` over the grid (``codes``, ``open_``: see ``moves``) with
     every cell within Chebyshev ``margin`` of a dynamic obstacle blocked.
+
+    With ``within`` >= 0 the search is bounded to the window of cells within Chebyshev
+    ``within`` of ``start`` and hands over to the wave beyond it: a cell outside the window
+    whose heuristic is the wave's exact cost-to-go ends the search when popped (its ``g`` plus
+    that cost is then the least of any way out), and the cells returned end there. A blocked
+    goal outside the window does not end it.
 
     The heuristic is ``kw`` without dynamic obstacles: the whole ``field`` when given (cells it
     marks unreachable are skipped), else a resumable search's ``tiles`` (index, values, states)
@@ -58,6 +135,9 @@ def _detour(
     tiles_w = (W + TILE_MASK) >> SHIFT
     gr = goal // W
     gc = goal - gr * W
+    sr = start // W
+    sc = start - sr * W
+    end = goal
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
     # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
@@ -120,7 +200,8 @@ def _detour(
             if j < marked:
                 blocked[at[8]] = 1
             elif x == goal and blocked[at[8]]:
-                return np.empty(0, dtype=np.int64), False
+                if within < 0 or max(abs(gr - sr), abs(gc - sc)) <= within:
+                    return np.empty(0, dtype=np.int64), False
             elif x == start:
                 g[at[8]] = 0.0
                 size = heap_push(keys, cells, 0, 0.0, 0.0, start)
@@ -130,6 +211,19 @@ def _detour(
             continue  # stale: reached more cheaply since
         if x == goal:
             found = True
+            break
+        # Out of the window, the wave takes over where its cost-to-go is exact and its descent
+        # from there meets no blocked cell for a while (else the search goes on).
+        if (
+            within >= 0
+            and max(abs(xr - sr), abs(xc - sc)) > within
+            and _exact(xr, xc, W, field, tiles) < np.inf
+            and _descends_clear(
+                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, x,
+                2 * within + 8,
+            )
+        ):  # fmt: skip
+            end, found = x, True
             break
         expansions += 1
         if expansions > limit:
@@ -169,7 +263,7 @@ def _detour(
                 size = heap_push(keys, cells, size, ng + h, ng, yr * W + yc)
     if not found:
         return np.empty(0, dtype=np.int64), expansions > limit
-    path = [goal]
+    path = [end]
     while path[-1] != start:
         r = path[-1] // W
         c = path[-1] - r * W
@@ -196,9 +290,13 @@ def detour_cells(
     | None = None,
     exhausted: bool = False,
     limit: int | None = None,
+    within: int | None = None,
 ) -> tuple[npt.NDArray[np.int64], bool]:
     """The detour from flat cell ``start`` to flat ``goal`` (see ``_detour``): (the cells after
     ``start``, flat; whether it gave up after ``limit`` expansions, default the map's cells).
+    With ``within`` (cells), the search stays in the window of that Chebyshev radius round
+    ``start`` and the cells end at the first cell beyond it where the wave's cost-to-go is
+    exact (the wave's own descent goes on from there), or at the goal.
 
     ``field`` is a whole-map ``kw``; ``tiles`` a resumable search's ``(tile_of, g, status)``
     (with ``exhausted``); neither: the octile heuristic.
@@ -211,9 +309,11 @@ def detour_cells(
         raise ValueError(f"start {start} and goal {goal} must be cells of the {H} x {W} map.")
     if field is not None and field.shape != codes.shape:
         raise TypeError(f"field must have the map's shape; {field.shape!r} given.")
+    if within is not None and within < 0:
+        raise ValueError(f"within must be a number of cells >= 0; {within!r} given.")
     obstacles = np.ascontiguousarray(obstacles, dtype=np.int64).reshape(-1, 2)
     return _detour(
         codes, open_, goal, clean, _NO_FIELD if field is None else field,
         _NO_TILES if tiles is None else tiles, exhausted, start, float(diagonal_cost), obstacles,
-        int(margin), H * W if limit is None else int(limit),
+        int(margin), H * W if limit is None else int(limit), -1 if within is None else int(within),
     )  # fmt: skip

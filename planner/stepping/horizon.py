@@ -13,10 +13,9 @@ import numpy.typing as npt
 from planner.plans.decide import MOVE, Rule, decide
 from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan
-from planner.plans.resumable_wave import ResumableWave
-from planner.plans.walk import walk_fields
 from planner.poses.blocked import reachable
 from planner.poses.route_poses import poses_ahead
+from planner.stepping.ahead import horizon_cells, route_ahead, walk
 from planner.stepping.state import Pose, SessionState, Step
 
 __all__ = ["path_ahead"]
@@ -58,7 +57,7 @@ def path_ahead(
     if moved:
         head.append(step.position[0] * W + step.position[1])
     goal = plan.goal[0] * W + plan.goal[1]
-    steps = math.ceil(p.horizon_m / res) + 2
+    steps = horizon_cells(plan)
     # The plan's goal point as given (or the one it planned to instead): the poses end there.
     end = plan.goal_used if plan.goal_used is not None else plan.goal_point
     for _ in range(_EXTEND):
@@ -112,52 +111,34 @@ def _round_obstacles(
             break
         cell = (r + int(DR[i]), c + int(DC[i]))
         budget = steps - (n - first) - 1
-        more = _walk(plan, cell, budget)[1:] if budget > 0 else np.empty(0, dtype=np.int64)
+        more = walk(plan, cell, budget)[1:] if budget > 0 else np.empty(0, dtype=np.int64)
         route = np.concatenate((route[:n], np.array([cell[0] * W + cell[1]]), more))
     return route
 
 
 def _ahead_of(plan: Plan, state: SessionState, step: Step, steps: int) -> npt.NDArray[np.int64]:
-    """The route's cells after the step's ``position`` (flat), at most ``steps`` of them."""
+    """The route's cells after the step's ``position`` (flat): its detour, then the wave's walk,
+    ``steps`` of them at least (unless at the goal)."""
     if step.move == "WAIT" or step.position == plan.goal:
         return np.empty(0, dtype=np.int64)
-    if state.detour:
-        return np.array(state.detour[:steps], dtype=np.int64)
-    return _walk(plan, step.position, steps)[1:]
-
-
-def _walk(plan: Plan, cell: tuple[int, int], steps: int) -> npt.NDArray[np.int64]:
-    """The wide decision's walk from ``cell`` with no dynamic obstacles (flat, ``cell`` first),
-    at most ``steps`` moves. The wide one whatever the plan's: the paper's next moves depend on
-    the cells the robot has visited, which a step does not read."""
-    a = plan.analysis
-    W = a.shape[1]
-    r, c = cell
-    if cell == plan.goal:
-        return np.array([r * W + c], dtype=np.int64)
-    wave, rule = plan.wave, Rule.of(plan.params, wide=True)
-    if isinstance(wave, ResumableWave):
-        way = wave.walk((r, c), rule, steps, partial=True)
-    else:
-        view = wave.view(r, c, a.clean)
-        goal = plan.goal[0] * W + plan.goal[1]
-        way = walk_fields(view, r * W + c, goal, rule, max_steps=steps, partial=True)
-    if way.size == 0:  # no way down the wave from there (a sealed pocket): the cell alone
-        return np.array([r * W + c], dtype=np.int64)
-    return way
+    return route_ahead(plan, state, step.position, steps)[1:]
 
 
 def _meters_to_go(plan: Plan, state: SessionState, flat: int) -> float:
-    """Meters from a route cell to the goal along the grid: ``k`` (moves of 1 and
-    ``diagonal_cost`` cells) times the resolution; off the wave's grid, along the detour."""
+    """Meters from a route cell to the goal along the route: on the session's detour, along it
+    to its end, then ``k`` from there (where the wave takes over); else ``k`` (moves of 1 and
+    ``diagonal_cost`` cells) times the resolution."""
     W = plan.analysis.shape[1]
     r, c = divmod(flat, W)
     if (r, c) == plan.goal:
         return 0.0
-    k = plan.wave.k_at(r, c)
-    if not math.isfinite(k) and flat in state.detour:
+    k = 0.0
+    if flat in state.detour:
         rest = np.array([flat, *state.detour[state.detour.index(flat) + 1 :]])
         rows, cols = np.divmod(rest, W)
         diagonal = (np.diff(rows) != 0) & (np.diff(cols) != 0)
         k = float(np.count_nonzero(~diagonal) + np.count_nonzero(diagonal) * math.sqrt(2.0))
+        r, c = divmod(int(rest[-1]), W)
+    if (r, c) != plan.goal:
+        k += plan.wave.k_at(r, c)
     return k * plan.analysis.frame.resolution

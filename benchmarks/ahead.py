@@ -1,0 +1,261 @@
+"""The path ahead goes around (docs/api.md, "Stepping"): steps with a circle just ahead.
+
+On each shared ROS map (beside the repository), robots of radius 0.22 m on a few far-apart
+routes; at points along each route a first step reports the robot there (off its cell's
+center, heading along the route) with a 0.3 m circle on the route 0.6-1.6 m ahead. Counted are
+the cases with a way round (the plan's detour from the robot's cell exists): how many answers
+have poses of at least ``horizon_m`` (or to the goal) that keep the circle plus the radius
+clear, how many wait, and the step's time on a warm map, in-process (``Session.step``) and,
+with ``--http``, over HTTP (the server's own time from its ``Server-Timing`` header, and the
+client's round trip)::
+
+    .venv/bin/python benchmarks/ahead.py [--routes 4] [--every 25] [--http]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from common import ROOT, ros_maps
+
+sys.path.insert(0, str(ROOT))
+
+import planner
+
+NAMES = ("depot", "tb3_sandbox", "smoothers_world")
+ROBOT_RADIUS = 0.22
+CIRCLE_RADIUS = 0.3
+
+
+@dataclass(frozen=True, slots=True)
+class Case:
+    """One step to ask: the robot's point and heading, and the circle ahead of it."""
+
+    cell: tuple[int, int]
+    position: dict[str, float]
+    circle: dict[str, float]
+    obstacles: list[list[int]]
+
+
+@dataclass(slots=True)
+class Tally:
+    cases: int = 0
+    good: int = 0
+    waiting: int = 0
+    short: list[float] = field(default_factory=list)
+    times_ms: list[float] = field(default_factory=list)
+
+
+def routes(
+    robot_map: planner.RobotMap, analysis: planner.Analysis, count: int, seed: int
+) -> list[tuple[list[int], list[int]]]:
+    """``count`` start and goal cells far apart: the farthest of a few random goals."""
+    cells = np.argwhere(analysis.passable() == 1)
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        start = cells[rng.integers(len(cells))]
+        goals = cells[rng.choice(len(cells), size=64)]
+        goal = goals[np.argmax(np.abs(goals - start).sum(axis=1))]
+        out.append((start.tolist(), goal.tolist()))
+    return out
+
+
+def cases(
+    plan: planner.Plan, robot_map: planner.RobotMap, every: int, rng: np.random.Generator
+) -> list[Case]:
+    """Every ``every`` cells along the plan's path: a circle 0.6-1.6 m ahead on the path, kept
+    when a way round exists."""
+    frame = robot_map.frame
+    res = frame.resolution
+    path = plan.path
+    xy = frame.centers(path.tolist())
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
+    out = []
+    for i in range(0, len(path) - 1, every):
+        ahead = along[i] + rng.uniform(0.6, 1.6)
+        j = int(np.searchsorted(along, ahead))
+        if j >= len(path) - 1:
+            break
+        cx, cy = xy[j]
+        circle = {"x": float(cx), "y": float(cy), "radius": CIRCLE_RADIUS}
+        cells = planner.circle_cells(robot_map, [circle], robot_radius=ROBOT_RADIUS)
+        cell = (int(path[i, 0]), int(path[i, 1]))
+        if len(planner.detour(plan, cell, cells)) == 0:
+            continue  # no way round
+        x, y = xy[i] + rng.uniform(-0.3, 0.3, size=2) * res
+        dx, dy = xy[min(i + 4, len(path) - 1)] - xy[i]
+        position = {"x": float(x), "y": float(y), "yaw": math.atan2(dy, dx)}
+        out.append(Case(cell, position, circle, cells.tolist()))
+    return out
+
+
+def judge(
+    end: tuple[float, float], horizon: float, case: Case, poses: Any, status: str, tally: Tally
+) -> None:
+    """Counts one answer: good when its poses reach ``horizon_m`` (or the goal) and every
+    segment keeps more than the circle's radius plus the robot's from its center."""
+    P = np.array(poses, dtype=np.float64)[:, :2]
+    length = float(np.hypot(*np.diff(P, axis=0).T).sum()) if len(P) > 1 else 0.0
+    to_goal = bool(np.hypot(*(P[-1] - np.array(end))) < 1e-6)
+    c = np.array([case.circle["x"], case.circle["y"]])
+    a, b = P[:-1], P[1:]
+    d = b - a
+    t = np.clip(((c - a) * d).sum(axis=1) / np.maximum((d * d).sum(axis=1), 1e-30), 0.0, 1.0)
+    near = float(np.hypot(*(a + t[:, None] * d - c).T).min()) if len(P) > 1 else math.inf
+    clear = near > CIRCLE_RADIUS + ROBOT_RADIUS
+    long_enough = length >= horizon - 1e-9 or to_goal
+    tally.cases += 1
+    tally.good += long_enough and clear
+    tally.waiting += status == "waiting"
+    if not long_enough:
+        tally.short.append(length)
+
+
+def in_process(plan: planner.Plan, todo: list[Case], tally: Tally) -> None:
+    for case in todo:
+        session = planner.Session(plan)
+        t0 = time.perf_counter()
+        step = session.step(case.obstacles, position=case.position, seq=0)
+        tally.times_ms.append((time.perf_counter() - t0) * 1e3)
+        end = plan.goal_used if plan.goal_used is not None else plan.goal_point
+        judge(end, plan.params.horizon_m, case, step.poses, step.status, tally)
+
+
+def over_http(work: list[tuple[str, list[int], list[int], list[Case]]]) -> None:
+    """The same steps over HTTP, on one server: a plan a route, a step a case (the robot
+    reported at the case's point); the server's time from its request-duration histogram
+    (mean, and the bucket holding the p99), and the client's round trip."""
+    import httpx
+    from common import service
+
+    folder = ros_maps()
+    tally, trips = Tally(), []
+    with service({"PLANNER_LOG_LEVEL": "warning"}) as server:
+        server.wait("/healthz")
+        with httpx.Client(base_url=server.url, timeout=120, trust_env=False) as client:
+            maps: dict[str, str] = {}
+            for name, start, goal, todo in work:
+                if name not in maps:
+                    text = (folder / f"{name}.yaml").read_text()
+                    image = next(
+                        v
+                        for k, v in (
+                            line.split(":", 1) for line in text.splitlines() if ":" in line
+                        )
+                        if k.strip() == "image"
+                    )
+                    files = {
+                        "yaml": ("m.yaml", text.encode()),
+                        "image": ("m.pgm", (folder / image.strip()).read_bytes()),
+                    }
+                    r = client.post("/maps", files=files)
+                    r.raise_for_status()
+                    maps[name] = r.json()["map_id"]
+                body = {"map_id": maps[name], "start": start, "goal": goal,
+                        "params": {"robot_radius": ROBOT_RADIUS}}  # fmt: skip
+                r = client.post("/plan", json=body)
+                r.raise_for_status()
+                answer = r.json()
+                plan_id = answer["plan_id"]
+                last = answer["preview"]["poses"][-1]
+                end = (float(last["x"]), float(last["y"]))
+                for seq, case in enumerate(todo):
+                    step = {"seq": seq, "dynamic_obstacles": [case.circle],
+                            "position": case.position}  # fmt: skip
+                    t0 = time.perf_counter()
+                    r = client.post(f"/plan/{plan_id}/step", json=step)
+                    trips.append((time.perf_counter() - t0) * 1e3)
+                    r.raise_for_status()
+                    got = r.json()
+                    poses = [[p["x"], p["y"]] for p in got["poses"]]
+                    judge(end, 2.0, case, poses, got["status"], tally)
+            metrics = client.get("/metrics").text
+    count, total, buckets = _step_histogram(metrics)
+    share = 100.0 * tally.good / max(tally.cases, 1)
+    p99 = next((bound for bound, n in buckets if n >= 0.99 * count), math.inf)
+    print("\nOver HTTP (one server, `POST /plan/{id}/step` with the circle):\n")
+    print("| steps | poses >= horizon (or to goal) and clear | waiting | server ms mean "
+          "| server p99 within | round trip ms median / p99 |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
+    print(
+        f"| {tally.cases} | {tally.good} ({share:.1f} %) | {tally.waiting} | "
+        f"{1e3 * total / max(count, 1):.2f} | <= {1e3 * p99:g} ms | "
+        f"{percentile(trips, 50):.2f} / {percentile(trips, 99):.2f} |"
+    )
+
+
+def _step_histogram(text: str) -> tuple[float, float, list[tuple[float, float]]]:
+    """The step route's request count, seconds in all and cumulative buckets (``le``, count),
+    from the service's Prometheus text."""
+    buckets: dict[float, float] = {}
+    count = total = 0.0
+    for line in text.splitlines():
+        if not line.startswith("planner_http_request_duration_seconds") or "/step" not in line:
+            continue
+        name, value = line.rsplit(" ", 1)
+        if "_bucket" in name:
+            le = name.split('le="', 1)[1].split('"', 1)[0]
+            bound = math.inf if le == "+Inf" else float(le)
+            buckets[bound] = buckets.get(bound, 0.0) + float(value)
+        elif name.startswith("planner_http_request_duration_seconds_count"):
+            count += float(value)
+        elif name.startswith("planner_http_request_duration_seconds_sum"):
+            total += float(value)
+    return count, total, sorted(buckets.items())
+
+
+def percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(values, q)) if values else math.nan
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--routes", type=int, default=4, help="routes a map")
+    parser.add_argument("--every", type=int, default=25, help="cells between cases on a route")
+    parser.add_argument("--http", action="store_true", help="over HTTP too")
+    args = parser.parse_args()
+    folder = ros_maps()
+    params = {"robot_radius": ROBOT_RADIUS}
+    total = Tally()
+    rows = []
+    work: list[tuple[str, list[int], list[int], list[Case]]] = []
+    for name in NAMES:
+        robot_map = planner.read_ros_map(folder / f"{name}.yaml")
+        analysis = planner.analyse_map(robot_map, planner.resolve_params("wide", **params))
+        tally = Tally()
+        rng = np.random.default_rng(1)
+        for start, goal in routes(robot_map, analysis, args.routes, 0):
+            plan = planner.plan(
+                robot_map, start, goal, analysis=analysis, robot_radius=ROBOT_RADIUS
+            )
+            todo = cases(plan, robot_map, args.every, rng)
+            in_process(plan, todo[:3], Tally())  # compiled, the wave warm where it is read
+            in_process(plan, todo, tally)
+            work.append((name, start, goal, todo))
+        rows.append((name, tally))
+        total.cases += tally.cases
+        total.good += tally.good
+        total.waiting += tally.waiting
+        total.times_ms += tally.times_ms
+    print("In-process (`Session.step`, a first step with the circle), AMD EPYC 2 vCPU:\n")
+    print("| map | steps | poses >= horizon (or to goal) and clear | waiting | ms median / p99 |")
+    print("|---|---|---|---|---|")
+    for name, t in [*rows, ("all", total)]:
+        share = 100.0 * t.good / max(t.cases, 1)
+        print(
+            f"| {name} | {t.cases} | {t.good} ({share:.1f} %) | {t.waiting} | "
+            f"{percentile(t.times_ms, 50):.2f} / {percentile(t.times_ms, 99):.2f} |"
+        )
+    if args.http:
+        over_http(work)
+
+
+if __name__ == "__main__":
+    main()
