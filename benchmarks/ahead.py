@@ -125,6 +125,7 @@ def in_process(plan: planner.Plan, todo: list[Case], tally: Tally) -> None:
         step = session.step(case.obstacles, position=case.position, seq=0)
         tally.times_ms.append((time.perf_counter() - t0) * 1e3)
         end = plan.goal_used if plan.goal_used is not None else plan.goal_point
+        assert end is not None
         judge(end, plan.params.horizon_m, case, step.poses, step.status, tally)
 
 

@@ -146,8 +146,9 @@ class SessionState:
 
 
 def _point(value: Any) -> tuple[float, float] | None:
-    """A stored ``[x, y]`` (a JSON array) as a tuple; None stays None."""
+    """A stored ``[x, y]`` (a JSON array, or an answer's ``{"x", "y"}``) as a tuple; None
+    stays None."""
     if value is None:
         return None
-    x, y = value
+    x, y = (value["x"], value["y"]) if isinstance(value, dict) else value
     return (float(x), float(y))
