@@ -44,6 +44,9 @@ def _exact(
     return np.inf
 
 
+_FAR = 1 << 30  # a descent's distance to a blocked cell when it meets none
+
+
 @njit(cache=True, nogil=True)
 def _descends_clear(
     codes: np.ndarray,
@@ -55,20 +58,34 @@ def _descends_clear(
     diagonal_cost: float,
     own: np.ndarray,
     blocked: np.ndarray,
+    down: np.ndarray,
     x: int,
     steps: int,
 ) -> bool:
     """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
     kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
-    own tiles (``own``, ``blocked``) in its first ``steps`` moves."""
+    own tiles (``own``, ``blocked``) in its first ``steps`` moves.
+
+    ``down`` remembers, for the cells of the own tiles, the moves of their descent to its
+    first blocked cell (``_FAR``: none; -1: not known yet): descents merge, so each cell is
+    walked down about once per search."""
     W = codes.shape[1]
     own_w = (W + _MASK) >> _SHIFT
     r = x // W
     c = x - r * W
     here = _exact(r, c, W, field, tiles)
-    for _ in range(steps):
+    walked = np.empty(steps + 1, dtype=np.int64)  # the own-tile slots of the cells walked
+    walked[0] = own[(r >> _SHIFT) * own_w + (c >> _SHIFT)] * _CELLS + (
+        ((r & _MASK) << _SHIFT) | (c & _MASK)
+    )
+    if down[walked[0]] >= 0:
+        return down[walked[0]] > steps
+    n = 0
+    far = -1  # moves from x to the first blocked cell; -1: not found within the steps
+    while n < steps:
         if r * W + c == goal:
-            return True
+            far = _FAR
+            break
         best = np.inf
         br, bc = -1, -1
         for i in range(8):
@@ -88,12 +105,24 @@ def _descends_clear(
             if kw < here and v < best:
                 best, br, bc = v, yr, yc
         if br < 0:
-            return True  # no known way down from here: nothing more to check
+            far = _FAR  # no known way down from here: nothing more to check
+            break
+        n += 1
         s = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
-        if s >= 0 and blocked[s * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK))]:
-            return False
+        slot = s * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK)) if s >= 0 else -1
+        walked[n] = slot
+        if slot >= 0 and blocked[slot]:
+            far = n
+            break
+        if slot >= 0 and down[slot] >= 0:
+            far = min(n + down[slot], _FAR)
+            break
         r, c, here = br, bc, _exact(br, bc, W, field, tiles)
-    return True
+    if far >= 0:
+        for i in range(n if far < _FAR and n == far else n + 1):
+            if walked[i] >= 0:
+                down[walked[i]] = far - i if far < _FAR else _FAR
+    return far < 0 or far > steps
 
 
 @njit(cache=True, nogil=True)
@@ -140,12 +169,14 @@ def _detour(
     end = goal
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
-    # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
+    # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags,
+    # the descents' distances to a blocked cell.
     own_w = (W + _MASK) >> _SHIFT
     own = np.full(((H + _MASK) >> _SHIFT) * own_w, -1, dtype=np.int32)
     g = np.empty(16 * _CELLS, dtype=np.float64)  # tile s holds cells s * _CELLS + offset
     parent = np.empty(16 * _CELLS, dtype=np.int64)
     blocked = np.empty(16 * _CELLS, dtype=np.uint8)
+    down = np.empty(16 * _CELLS, dtype=np.int64)  # see _descends_clear
     used = 0
     # The cells to touch first: each obstacle's square, then the goal and the start.
     first = []
@@ -169,6 +200,7 @@ def _detour(
             g = np.concatenate((g, np.empty_like(g)))
             parent = np.concatenate((parent, np.empty_like(parent)))
             blocked = np.concatenate((blocked, np.empty_like(blocked)))
+            down = np.concatenate((down, np.empty_like(down)))
         if j < len(first):  # touching the first cells, one a turn
             x = first[j]
             gx = 0.0
@@ -195,6 +227,7 @@ def _detour(
                 g[s * _CELLS : (s + 1) * _CELLS] = np.inf
                 parent[s * _CELLS : (s + 1) * _CELLS] = -1
                 blocked[s * _CELLS : (s + 1) * _CELLS] = 0
+                down[s * _CELLS : (s + 1) * _CELLS] = -1
             at[k] = s * _CELLS + (((yr & _MASK) << _SHIFT) | (yc & _MASK))
         if j < len(first):
             if j < marked:
@@ -219,7 +252,7 @@ def _detour(
             and max(abs(xr - sr), abs(xc - sc)) > within
             and _exact(xr, xc, W, field, tiles) < np.inf
             and _descends_clear(
-                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, x,
+                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, down, x,
                 2 * within + 8,
             )
         ):  # fmt: skip
