@@ -44,9 +44,6 @@ def _exact(
     return np.inf
 
 
-_FAR = 1 << 30  # a descent's distance to a blocked cell when it meets none
-
-
 @njit(cache=True, nogil=True)
 def _descends_clear(
     codes: np.ndarray,
@@ -58,34 +55,30 @@ def _descends_clear(
     diagonal_cost: float,
     own: np.ndarray,
     blocked: np.ndarray,
-    down: np.ndarray,
+    seen: np.ndarray,
     x: int,
-    steps: int,
+    start: int,
 ) -> bool:
     """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
     kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
-    own tiles (``own``, ``blocked``) in its first ``steps`` moves.
+    own tiles (``own``, ``blocked``) before it leaves ``seen``, the square of Chebyshev radius
+    ``outer`` round ``start`` (or reaches the goal, or finds no known way down).
 
-    ``down`` remembers, for the cells of the own tiles, the moves of their descent to its
-    first blocked cell (``_FAR``: none; -1: not known yet): descents merge, so each cell is
-    walked down about once per search."""
+    ``seen`` remembers the answer for the cells of the square it walks (-1: not known yet, 0:
+    clear, 1: not): descents merge, so each cell is walked down at most once a search."""
     W = codes.shape[1]
     own_w = (W + _MASK) >> _SHIFT
+    outer = (seen.shape[0] - 1) // 2
+    top = start // W - outer
+    left = start - (start // W) * W - outer
     r = x // W
     c = x - r * W
+    if seen[r - top, c - left] >= 0:
+        return seen[r - top, c - left] == 0
+    walked = [(r - top) * seen.shape[1] + c - left]
     here = _exact(r, c, W, field, tiles)
-    walked = np.empty(steps + 1, dtype=np.int64)  # the own-tile slots of the cells walked
-    walked[0] = own[(r >> _SHIFT) * own_w + (c >> _SHIFT)] * _CELLS + (
-        ((r & _MASK) << _SHIFT) | (c & _MASK)
-    )
-    if down[walked[0]] >= 0:
-        return down[walked[0]] > steps
-    n = 0
-    far = -1  # moves from x to the first blocked cell; -1: not found within the steps
-    while n < steps:
-        if r * W + c == goal:
-            far = _FAR
-            break
+    verdict = 0
+    while r * W + c != goal:
         best = np.inf
         br, bc = -1, -1
         for i in range(8):
@@ -105,24 +98,22 @@ def _descends_clear(
             if kw < here and v < best:
                 best, br, bc = v, yr, yc
         if br < 0:
-            far = _FAR  # no known way down from here: nothing more to check
+            break  # no known way down from here: nothing more to check
+        if not (0 <= br - top < seen.shape[0] and 0 <= bc - left < seen.shape[1]):
+            break  # out of the square: clear so far
+        t = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
+        if t >= 0 and blocked[t * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK))]:
+            verdict = 1
             break
-        n += 1
-        s = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
-        slot = s * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK)) if s >= 0 else -1
-        walked[n] = slot
-        if slot >= 0 and blocked[slot]:
-            far = n
+        if seen[br - top, bc - left] >= 0:
+            verdict = seen[br - top, bc - left]
             break
-        if slot >= 0 and down[slot] >= 0:
-            far = min(n + down[slot], _FAR)
-            break
+        walked.append((br - top) * seen.shape[1] + bc - left)
         r, c, here = br, bc, _exact(br, bc, W, field, tiles)
-    if far >= 0:
-        for i in range(n if far < _FAR and n == far else n + 1):
-            if walked[i] >= 0:
-                down[walked[i]] = far - i if far < _FAR else _FAR
-    return far < 0 or far > steps
+    flat = seen.ravel()
+    for i in walked:
+        flat[i] = verdict
+    return verdict == 0
 
 
 @njit(cache=True, nogil=True)
@@ -144,11 +135,14 @@ def _detour(
     """A* from ``start`` to ``goal`` over the grid (``codes``, ``open_``: see ``moves``) with
     every cell within Chebyshev ``margin`` of a dynamic obstacle blocked.
 
-    With ``within`` >= 0 the search is bounded to the window of cells within Chebyshev
-    ``within`` of ``start`` and hands over to the wave beyond it: a cell outside the window
-    whose heuristic is the wave's exact cost-to-go ends the search when popped (its ``g`` plus
+    With ``within`` >= 0 the search is bounded to the square of Chebyshev radius ``2 *
+    within`` round ``start`` (the dynamic obstacles beyond it are not read) and hands over to
+    the wave beyond the window of radius ``within``: a cell outside that window whose
+    heuristic is the wave's exact cost-to-go, and whose descent meets no blocked cell before
+    it leaves the square (:func:`_descends_clear`), ends the search when popped (its ``g`` plus
     that cost is then the least of any way out), and the cells returned end there. A blocked
-    goal outside the window does not end it.
+    goal outside the window does not end it. No such cell: no cells (the caller may search
+    the whole map).
 
     The heuristic is ``kw`` without dynamic obstacles: the whole ``field`` when given (cells it
     marks unreachable are skipped), else a resumable search's ``tiles`` (index, values, states)
@@ -169,21 +163,26 @@ def _detour(
     end = goal
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
-    # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags,
-    # the descents' distances to a blocked cell.
+    # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
     own_w = (W + _MASK) >> _SHIFT
     own = np.full(((H + _MASK) >> _SHIFT) * own_w, -1, dtype=np.int32)
     g = np.empty(16 * _CELLS, dtype=np.float64)  # tile s holds cells s * _CELLS + offset
     parent = np.empty(16 * _CELLS, dtype=np.int64)
     blocked = np.empty(16 * _CELLS, dtype=np.uint8)
-    down = np.empty(16 * _CELLS, dtype=np.int64)  # see _descends_clear
     used = 0
-    # The cells to touch first: each obstacle's square, then the goal and the start.
+    outer = 2 * within if within >= 0 else H + W  # the bounded search's square
+    # The descents' verdicts over that square (see _descends_clear).
+    seen = np.full((2 * outer + 1, 2 * outer + 1) if within >= 0 else (0, 0), -1, dtype=np.int8)
+    # The cells to touch first: each obstacle's square (in the bounded search's), then the
+    # goal and the start.
     first = []
     for j in range(obstacles.shape[0]):
         for r in range(max(obstacles[j, 0] - margin, 0), min(obstacles[j, 0] + margin + 1, H)):
+            if abs(r - sr) > outer + 1:
+                continue
             for c in range(max(obstacles[j, 1] - margin, 0), min(obstacles[j, 1] + margin + 1, W)):
-                first.append(r * W + c)
+                if abs(c - sc) <= outer + 1:
+                    first.append(r * W + c)
     marked = len(first)
     first.append(goal)
     first.append(start)
@@ -200,7 +199,6 @@ def _detour(
             g = np.concatenate((g, np.empty_like(g)))
             parent = np.concatenate((parent, np.empty_like(parent)))
             blocked = np.concatenate((blocked, np.empty_like(blocked)))
-            down = np.concatenate((down, np.empty_like(down)))
         if j < len(first):  # touching the first cells, one a turn
             x = first[j]
             gx = 0.0
@@ -227,7 +225,6 @@ def _detour(
                 g[s * _CELLS : (s + 1) * _CELLS] = np.inf
                 parent[s * _CELLS : (s + 1) * _CELLS] = -1
                 blocked[s * _CELLS : (s + 1) * _CELLS] = 0
-                down[s * _CELLS : (s + 1) * _CELLS] = -1
             at[k] = s * _CELLS + (((yr & _MASK) << _SHIFT) | (yc & _MASK))
         if j < len(first):
             if j < marked:
@@ -252,8 +249,8 @@ def _detour(
             and max(abs(xr - sr), abs(xc - sc)) > within
             and _exact(xr, xc, W, field, tiles) < np.inf
             and _descends_clear(
-                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, down, x,
-                2 * within + 8,
+                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, seen, x,
+                start,
             )
         ):  # fmt: skip
             end, found = x, True
@@ -269,6 +266,8 @@ def _detour(
                 continue
             yr = xr + DR[i]
             yc = xc + DC[i]
+            if max(abs(yr - sr), abs(yc - sc)) > outer:
+                continue  # beyond the bounded search's square
             if has_field:
                 h = field[yr, yc]
                 if h == np.inf:

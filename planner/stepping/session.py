@@ -304,8 +304,8 @@ class Session:
         *,
         windowed: bool = False,
     ) -> tuple[npt.NDArray[np.int64], bool] | None:
-        """The replan: a detour over the plan's grid (``windowed``: a search of the window round
-        the robot, ending where the wave takes over), else one through the sealed tunnels (the
+        """The replan: a detour over the plan's grid (``windowed``: first a search of the window
+        round the robot, ending where the wave takes over), else one through the sealed tunnels (the
         narrow fallback, applied from here). Returns (cells, narrow), with no cells when the
         dynamic obstacles cut every way for now, or None when no way exists at all."""
         plan = self.plan
@@ -316,6 +316,10 @@ class Session:
             # Over the plan's own wave: a resumable one searches what it has settled.
             within = window_cells(plan) if windowed else None
             cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin, within)
+            if not cells.size and windowed and self.state.held_up >= self.state.replan_at:
+                # No way round near the robot: a longer one, over the whole map (as a held-up
+                # robot searches, every `patience` steps while none is found).
+                cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
             if cells.size:
                 return cells, False
         if not (a.sealed and not wave.narrow):

@@ -110,19 +110,21 @@ def _slow_best(
     within: int,
     diagonal_cost: float,
 ) -> float:
-    """In float64 throughout (a float32 sum breaks the descent's ties otherwise), the least
-    ``g(x) + kw(x)`` over the cells ``x`` a Dijkstra from ``start`` reaches
-    outside the window (or the goal, ``kw`` 0) whose steepest descent of ``kw`` enters no
-    blocked cell in ``2 * within + 8`` moves: what the windowed detour's answer costs."""
+    """The least ``g(x) + kw(x)`` over the cells ``x`` a Dijkstra from ``start`` reaches within
+    Chebyshev ``2 * within`` of it, outside ``within`` (or the goal, ``kw`` 0), whose steepest
+    descent of ``kw`` enters no blocked cell before it leaves that square: what the windowed
+    detour's answer costs. In float64 throughout (a float32 sum breaks the descent's ties)."""
     H, W = passable.shape
+    outer = 2 * within
 
     def ok(r: int, c: int) -> bool:
         return 0 <= r < H and 0 <= c < W and bool(passable[r, c])
 
+    def away(r: int, c: int) -> int:
+        return max(abs(r - start[0]), abs(c - start[1]))
+
     def descends_clear(r: int, c: int) -> bool:
-        for _ in range(2 * within + 8):
-            if kw[r, c] == 0:
-                return True
+        while kw[r, c] > 0 and away(r, c) <= outer:
             best, nxt = math.inf, None
             for i in range(8):
                 yr, yc = r + int(DR[i]), c + int(DC[i])
@@ -149,7 +151,7 @@ def _slow_best(
         d, (r, c) = heapq.heappop(queue)
         if d > g[(r, c)]:
             continue
-        outside = max(abs(r - start[0]), abs(c - start[1])) > within
+        outside = away(r, c) > within
         if kw[r, c] == 0 or (outside and descends_clear(r, c)):
             best = min(best, d + kw[r, c])
             if outside:
@@ -160,6 +162,8 @@ def _slow_best(
             if not free[i] or (i & 1 and not (free[i - 1] and free[(i + 1) & 7])):
                 continue
             y = (r + int(DR[i]), c + int(DC[i]))
+            if away(*y) > outer:
+                continue
             ng = d + (diagonal_cost if i & 1 else 1.0) + float(clean[y])
             if ng < g.get(y, math.inf):
                 g[y] = ng
