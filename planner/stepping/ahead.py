@@ -17,7 +17,7 @@ from planner.plans.walk import walk_fields
 from planner.poses.blocked import reachable
 from planner.stepping.state import SessionState
 
-__all__ = ["blocked_ahead", "horizon_cells", "route_ahead", "walk", "window_cells"]
+__all__ = ["blocked_ahead", "horizon_cells", "route_ahead", "window_cells"]
 
 
 def horizon_cells(plan: Plan) -> int:
@@ -41,11 +41,11 @@ def route_ahead(
     W = plan.analysis.shape[1]
     here = np.array([cell[0] * W + cell[1]], dtype=np.int64)
     if not state.detour:
-        return walk(plan, cell, steps)
+        return _walk(plan, cell, steps)
     detour = np.array(state.detour[:steps], dtype=np.int64)
     if detour.size < steps and detour[-1] != plan.goal[0] * W + plan.goal[1]:
         end = divmod(int(detour[-1]), W)
-        detour = np.concatenate((detour, walk(plan, end, steps - detour.size)[1:]))
+        detour = np.concatenate((detour, _walk(plan, end, steps - detour.size)[1:]))
     return np.concatenate((here, detour))
 
 
@@ -63,7 +63,7 @@ def blocked_ahead(
     return int(route[n]) if n < len(route) else -1
 
 
-def walk(plan: Plan, cell: tuple[int, int], steps: int) -> npt.NDArray[np.int64]:
+def _walk(plan: Plan, cell: tuple[int, int], steps: int) -> npt.NDArray[np.int64]:
     """The wide decision's walk from ``cell`` with no dynamic obstacles (flat, ``cell`` first),
     at most ``steps`` moves. The wide one whatever the plan's: the paper's next moves depend on
     the cells the robot has visited, which a step does not read."""

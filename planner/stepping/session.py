@@ -316,12 +316,16 @@ class Session:
             # Over the plan's own wave: a resumable one searches what it has settled.
             within = window_cells(plan) if windowed else None
             cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin, within)
-            if not cells.size and windowed and self.state.held_up >= self.state.replan_at:
-                # No way round near the robot: a longer one, over the whole map (as a held-up
-                # robot searches, every `patience` steps while none is found).
-                cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
             if cells.size:
                 return cells, False
+            if windowed:
+                # No way round near the robot: a longer one over the whole map, searched as a
+                # held-up robot searches (every `patience` steps while none is found).
+                if self.state.held_up < self.state.replan_at:
+                    return np.empty(0, dtype=np.int64), False
+                cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
+                if cells.size:
+                    return cells, False
         if not (a.sealed and not wave.narrow):
             return (np.empty(0, dtype=np.int64), False) if on_plan else None
         # Over the unsealed grid with the octile heuristic: the wave's fields are not read (a
