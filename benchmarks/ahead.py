@@ -1,12 +1,14 @@
 """The path ahead goes around (docs/api.md, "Stepping"): steps with a circle just ahead.
 
 On each shared ROS map (beside the repository), robots of radius 0.22 m on a few far-apart
-routes; at points along each route a first step reports the robot there (off its cell's
-center, heading along the route) with a 0.3 m circle on the route 0.6-1.6 m ahead. Counted are
-the cases with a way round (the plan's detour from the robot's cell exists): how many answers
-have poses of at least ``horizon_m`` (or to the goal) that keep the circle plus the radius
-clear, how many wait, and the step's time on a warm map, in-process (``Session.step``) and,
-with ``--http``, over HTTP (the server's own time from its ``Server-Timing`` header, and the
+routes (a plan each, as the service makes it, warmed by a drive along its route); at points
+along each route a step reports the robot there (off its cell's center, heading along the
+route) with a 0.3 m circle on the route 0.6-1.6 m ahead. Counted are the cases with a way round
+(a whole-map detour from the robot's cell exists): how many answers have poses of at least
+``horizon_m`` (or to the goal) that keep the circle plus the radius clear, how many wait, and
+the step's time: in-process (``Session.step``, wall and the thread's CPU time) and, with
+``--http``, over HTTP (each step's server time from the growth of the server's request-duration
+histogram's sum, the same points without the circle beside it, the server's CPU a step, and the
 client's round trip)::
 
     .venv/bin/python benchmarks/ahead.py [--routes 4] [--every 25] [--http]
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -50,6 +53,7 @@ class Tally:
     waiting: int = 0
     short: list[float] = field(default_factory=list)
     times_ms: list[float] = field(default_factory=list)
+    cpu_ms: list[float] = field(default_factory=list)
 
 
 def routes(
@@ -121,8 +125,9 @@ def judge(
 def in_process(plan: planner.Plan, todo: list[Case], tally: Tally) -> None:
     for case in todo:
         session = planner.Session(plan)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         step = session.step(case.obstacles, position=case.position, seq=0)
+        tally.cpu_ms.append((time.thread_time() - c0) * 1e3)
         tally.times_ms.append((time.perf_counter() - t0) * 1e3)
         end = plan.goal_used if plan.goal_used is not None else plan.goal_point
         assert end is not None
@@ -141,15 +146,17 @@ def over_http(work: list[tuple[str, list[int], list[int], list[Case]]]) -> None:
     folder = ros_maps()
     tally = Tally()
     times: dict[str, list[float]] = {"circle": [], "none": [], "trip": []}
+    cpu: dict[str, float] = {"circle": 0.0, "none": 0.0}
     with service({"PLANNER_LOG_LEVEL": "warning"}) as server:
         server.wait("/healthz")
         with httpx.Client(base_url=server.url, timeout=120, trust_env=False) as client:
 
             def step(plan_id: str, body: dict[str, Any], kind: str) -> dict[str, Any]:
                 before = _step_seconds(client.get("/metrics").text)
-                t0 = time.perf_counter()
+                c0, t0 = server.cpu_seconds(), time.perf_counter()
                 r = client.post(f"/plan/{plan_id}/step", json=body)
                 trip = (time.perf_counter() - t0) * 1e3
+                cpu[kind] += server.cpu_seconds() - c0
                 r.raise_for_status()
                 times[kind].append(1e3 * (_step_seconds(client.get("/metrics").text) - before))
                 if kind == "circle":
@@ -190,16 +197,19 @@ def over_http(work: list[tuple[str, list[int], list[int], list[Case]]]) -> None:
                     step(plan_id, {**at, "seq": seq + 1}, "none")
                     seq += 2
     share = 100.0 * tally.good / max(tally.cases, 1)
-    print("\nOver HTTP (one server; a step reporting the robot's point, warm plans):\n")
+    print("\nOver HTTP (one server; a step reporting the robot's point, warm plans; "
+          f"load average {os.getloadavg()[0]:.1f}):\n")  # fmt: skip
     print("| steps | poses >= horizon (or to goal) and clear | waiting "
           "| server ms with the circle (median / p99) | without it (same points) "
+          "| server CPU ms a step, with / without (mean) "
           "| round trip ms with it (median / p99) |")  # fmt: skip
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     c, n, t = times["circle"], times["none"], times["trip"]
     print(
         f"| {tally.cases} | {tally.good} ({share:.1f} %) | {tally.waiting} | "
         f"{percentile(c, 50):.2f} / {percentile(c, 99):.2f} | "
         f"{percentile(n, 50):.2f} / {percentile(n, 99):.2f} | "
+        f"{1e3 * cpu['circle'] / max(len(c), 1):.2f} / {1e3 * cpu['none'] / max(len(n), 1):.2f} | "
         f"{percentile(t, 50):.2f} / {percentile(t, 99):.2f} |"
     )
 
@@ -259,18 +269,22 @@ def main() -> None:
         total.good += tally.good
         total.waiting += tally.waiting
         total.times_ms += tally.times_ms
+        total.cpu_ms += tally.cpu_ms
+    load = os.getloadavg()[0]
     print(
         "In-process (`Session.step`, a step reporting the robot's point, with the circle; "
         f"waves handed over to the whole-map one: {handed_over} of {len(work)}), "
-        "AMD EPYC 2 vCPU:\n"
+        f"AMD EPYC 2 vCPU, load average {load:.1f}; wall time, and the thread's CPU time):\n"
     )
-    print("| map | steps | poses >= horizon (or to goal) and clear | waiting | ms median / p99 |")
-    print("|---|---|---|---|---|")
+    print("| map | steps | poses >= horizon (or to goal) and clear | waiting "
+          "| wall ms median / p99 | CPU ms median / p99 |")  # fmt: skip
+    print("|---|---|---|---|---|---|")
     for name, t in [*rows, ("all", total)]:
         share = 100.0 * t.good / max(t.cases, 1)
         print(
             f"| {name} | {t.cases} | {t.good} ({share:.1f} %) | {t.waiting} | "
-            f"{percentile(t.times_ms, 50):.2f} / {percentile(t.times_ms, 99):.2f} |"
+            f"{percentile(t.times_ms, 50):.2f} / {percentile(t.times_ms, 99):.2f} | "
+            f"{percentile(t.cpu_ms, 50):.2f} / {percentile(t.cpu_ms, 99):.2f} |"
         )
     if args.http:
         over_http(work)

@@ -98,3 +98,25 @@ async def test_a_corridor_cut_for_good_answers_waiting_and_blocked_at(
     freed = (await client.post(f"/plan/{plan_id}/step", json={"seq": 30})).json()
     assert freed["status"] == "moving"
     assert freed["blocked_at"] is None
+
+
+async def test_with_no_obstacle_the_steps_follow_the_plan_as_before(
+    client: httpx.AsyncClient,
+) -> None:
+    grid = np.zeros((12, 30), dtype=np.uint8)
+    grid[3:9, 10] = 1
+    body = {"grid": grid.tolist(), "resolution": 0.1, "start": [6, 0], "goal": [6, 29]}
+    made = (await client.post("/maps", json=body)).json()
+    plan_id = made["plan"]["plan_id"]
+    local = planner.plan(planner.grid_map(grid, resolution=0.1), [6, 0], [6, 29])
+    grid_session = planner.Session(local, poses=False)  # the grid decision alone
+    for seq in range(40):
+        answer = (await client.post(f"/plan/{plan_id}/step", json={"seq": seq})).json()
+        want = grid_session.step([])
+        assert (answer["position"], answer["move"], answer["status"]) == (
+            list(want.position), want.move, want.status,
+        )  # fmt: skip
+        assert answer["blocked_at"] is None
+        if want.status == "arrived":
+            break
+    assert want.status == "arrived"
