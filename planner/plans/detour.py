@@ -140,9 +140,9 @@ def _detour(
     the wave beyond the window of radius ``within``: a cell outside that window whose
     heuristic is the wave's exact cost-to-go, and whose descent meets no blocked cell before
     it leaves the square (:func:`_descends_clear`), ends the search when popped (its ``g`` plus
-    that cost is then the least of any way out), and the cells returned end there. A blocked
-    goal outside the window does not end it. No such cell: no cells (the caller may search
-    the whole map).
+    that cost is then the least of any way out), and the cells returned end there. A goal
+    blocked in the square ends the search with no cells (no way exists now), one beyond it
+    does not. No such cell: no cells (the caller may search the whole map).
 
     The heuristic is ``kw`` without dynamic obstacles: the whole ``field`` when given (cells it
     marks unreachable are skipped), else a resumable search's ``tiles`` (index, values, states)
@@ -230,7 +230,7 @@ def _detour(
             if j < marked:
                 blocked[at[8]] = 1
             elif x == goal and blocked[at[8]]:
-                if within < 0 or max(abs(gr - sr), abs(gc - sc)) <= within:
+                if max(abs(gr - sr), abs(gc - sc)) <= outer:  # the goal cut off
                     return np.empty(0, dtype=np.int64), False
             elif x == start:
                 g[at[8]] = 0.0
