@@ -60,10 +60,16 @@ def test_a_circle_just_ahead_is_gone_round_in_that_same_step(ros: Path, name: st
         assert length(step.poses) >= plan.params.horizon_m or to_goal, (i, circle)
         assert step.status == "replanned"
         assert step.blocked_at is None
-        # remaining_m follows the route the poses start: at least the straight line to the goal.
+        # remaining_m follows the route the poses start: no longer than the whole-map detour
+        # from the robot's cell (the wide one; the grid's k from where the step's detour ends
+        # is the shortest way on), no shorter than the straight line.
         assert step.remaining_m is not None
+        way = np.vstack((plan.path[i], planner.detour(plan, cell, cells)))
+        moves = np.abs(np.diff(way, axis=0)).sum(axis=1)
+        way_m = float(np.where(moves == 2, math.sqrt(2.0), 1.0).sum()) * robot_map.resolution
         assert plan.goal_point is not None
-        assert step.remaining_m >= math.dist(point, plan.goal_point) - 1e-9
+        straight = math.dist(point, plan.goal_point)
+        assert straight - 1e-9 <= step.remaining_m <= way_m + 0.1, (i, step.remaining_m, way_m)
     assert tried >= 5
 
 
