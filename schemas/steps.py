@@ -77,7 +77,7 @@ class StepPublic(BaseModel):
                     "position": [1, 0],
                     "position_xy": [0.5, 3.5],
                     "move": "S",
-                    "status": "moving",
+                    "status": "replanned",
                     "iteration": 1,
                     "path_length": 1.0,
                     "arc_cost": 6.828427,

@@ -56,21 +56,20 @@ def _descends_clear(
     own: np.ndarray,
     blocked: np.ndarray,
     seen: np.ndarray,
+    top: int,
+    left: int,
     x: int,
-    start: int,
 ) -> bool:
     """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
     kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
-    own tiles (``own``, ``blocked``) before it leaves ``seen``, the square of Chebyshev radius
-    ``outer`` round ``start`` (or reaches the goal, or finds no known way down).
+    own tiles (``own``, ``blocked``) before it leaves ``seen``, the cells of the map in the
+    bounded search's square (its corner at ``top``, ``left``), or reaches the goal, or finds no
+    known way down.
 
     ``seen`` remembers the answer for the cells of the square it walks (-1: not known yet, 0:
     clear, 1: not): descents merge, so each cell is walked down at most once a search."""
     W = codes.shape[1]
     own_w = (W + _MASK) >> _SHIFT
-    outer = (seen.shape[0] - 1) // 2
-    top = start // W - outer
-    left = start - (start // W) * W - outer
     r = x // W
     c = x - r * W
     if seen[r - top, c - left] >= 0:
@@ -171,8 +170,10 @@ def _detour(
     blocked = np.empty(16 * _CELLS, dtype=np.uint8)
     used = 0
     outer = 2 * within if within >= 0 else H + W  # the bounded search's square
-    # The descents' verdicts over that square (see _descends_clear).
-    seen = np.full((2 * outer + 1, 2 * outer + 1) if within >= 0 else (0, 0), -1, dtype=np.int8)
+    # The descents' verdicts over that square's cells of the map (see _descends_clear).
+    top, left = max(sr - outer, 0), max(sc - outer, 0)
+    seen_shape = (min(sr + outer, H - 1) - top + 1, min(sc + outer, W - 1) - left + 1)
+    seen = np.full(seen_shape if within >= 0 else (0, 0), -1, dtype=np.int8)
     # The cells to touch first: each obstacle's square (in the bounded search's), then the
     # goal and the start.
     first = []
@@ -249,8 +250,8 @@ def _detour(
             and max(abs(xr - sr), abs(xc - sc)) > within
             and _exact(xr, xc, W, field, tiles) < np.inf
             and _descends_clear(
-                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, seen, x,
-                start,
+                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, seen, top,
+                left, x,
             )
         ):  # fmt: skip
             end, found = x, True

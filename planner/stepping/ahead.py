@@ -28,8 +28,8 @@ def horizon_cells(plan: Plan) -> int:
 def window_cells(plan: Plan) -> int:
     """The Chebyshev radius (cells) of the window a step searches for a way round: the horizon
     and the obstacles' margin on both sides of the way, so that the detour, which leaves the
-    window, covers the horizon."""
-    return horizon_cells(plan) + 2 * plan.params.dynamic_margin + 2
+    window, covers the horizon (no wider than the map)."""
+    return min(horizon_cells(plan) + 2 * plan.params.dynamic_margin + 2, max(plan.analysis.shape))
 
 
 def route_ahead(
