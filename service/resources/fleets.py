@@ -283,14 +283,10 @@ async def step_in_fleet(
         state["dirty"] = True
     me["seen"] = now
     lease = engine.settings.fleet_lease_seconds
-    if now - float(state.get("leases_at", 0.0)) >= min(1.0, lease / 10):
-        # The others' leases, looked at most once a second (a step must not read every robot).
-        state["leases_at"] = now
-        for k, other in list(robots.items()):
-            seen = float(other.get("seen", now))
-            if k != plan_id and not other.get("parked") and now - seen > lease:
-                robots[k] = {**other, "parked": True}
-                state["dirty"] = True
+    for k, other in list(robots.items()):  # the others' leases
+        if k != plan_id and not other.get("parked") and now - float(other.get("seen", now)) > lease:
+            robots[k] = {**other, "parked": True}
+            state["dirty"] = True
     blocked = {n: t for n, t in state.get("blocked", {}).items() if t > now}
     state["blocked"] = blocked
     if state.get("dirty") and _may_solve(state, now, engine.settings.fleet_solve_seconds):

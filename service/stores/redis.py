@@ -2,7 +2,7 @@
 
 Keys live under ``planner:`` (``map:``, ``plan:``, ``path:``); a step is one version-fenced
 script call, so no lock is held in Redis. redis-py's errors become :class:`StoreUnavailable`
-(or :class:`InsufficientStorage` at Redis's ``maxmemory``) here. Design: docs/architecture-redis.md.
+(or :class:`InsufficientStorage` at Redis's ``maxmemory``) here. Design: docs/redis-store.md.
 """
 
 from __future__ import annotations
@@ -105,6 +105,7 @@ class RedisStore(FleetSteps, Store):
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
         # Scoped fleet name -> (version, state or None: no fleet), as last read or written.
         self._fleets: OrderedDict[str, CachedFleet] = OrderedDict()
+        self._progress = {}  # scoped fleet name -> its robots' progress as last read
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"
