@@ -287,8 +287,9 @@ async def step_in_fleet(
         if k != plan_id and not other.get("parked") and now - float(other.get("seen", now)) > lease:
             robots[k] = {**other, "parked": True}
             state["dirty"] = True
-    blocked = {n: t for n, t in state.get("blocked", {}).items() if t > now}
-    state["blocked"] = blocked
+    blocked = state.get("blocked", {})
+    if any(t <= now for t in blocked.values()):
+        state["blocked"] = {n: t for n, t in blocked.items() if t > now}
     if state.get("dirty") and _may_solve(state, now, engine.settings.fleet_solve_seconds):
         state = await engine.pool.run(
             resolve, state, fmap, time_limit_s=engine.settings.fleet_solve_seconds,

@@ -138,13 +138,18 @@ class FleetSteps(ABC):
             try:
                 update = await decide(record, live_fleet(state, time.time()))
             except Exception:
-                # Refused on this replica's copies, which other replicas may have outdated?
-                now, again = await self._read(key), await self._read_fleet(fleet_key)
+                # Refused on this replica's copies, which other replicas may have outdated? Its
+                # plan first (a robot's steps on two replicas: its record is the other's).
+                now = await self._read(key)
                 if now is None:
                     return None
-                if now[0] == version and again[0] == fleet[0]:
+                if now[0] != version:
+                    cached, fresh = now, True
+                    continue
+                again = await self._read_fleet(fleet_key)
+                if again[0] == fleet[0]:
                     raise
-                cached, fleet, fresh = now, again, True
+                fleet, fresh = again, True
                 continue
             if update.record is None:  # a replay: only checked
                 if fresh:
@@ -285,6 +290,9 @@ class FleetSteps(ABC):
         if not value:
             return self._remember_fleet(fleet_key, 0, None)
         version, json = split(value)
+        known = self._fleets.get(fleet_key)
+        if known is not None and known[0] == version and version:  # parsed already
+            return self._remember_fleet(fleet_key, version, known[1])
         return self._remember_fleet(fleet_key, version, orjson.loads(json))
 
     def _remember_fleet(
