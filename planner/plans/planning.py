@@ -284,6 +284,7 @@ def plan(
     whole: bool = False,
     goal_tolerance: Any = 0.0,
     waypoints: Any = None,
+    bounded: bool = True,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -295,7 +296,9 @@ def plan(
     With ``goal_tolerance`` (meters, >= 0) a goal that cannot be stood on or reached gives way to
     the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
-    passes through each in order, each leg planned on its own (``Plan.route``).
+    passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
+    plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
+    a route's legs: one set of effective parameters holds for the whole route.
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -348,7 +351,7 @@ def plan(
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
             return plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
-                goal_tolerance=tolerance, **params,
+                goal_tolerance=tolerance, bounded=False, **params,
             )  # fmt: skip
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
@@ -406,7 +409,7 @@ def plan(
         goal_used=goal_used,
         goal_tolerance=tolerance,
     )
-    if p.decision == "wide" and (analysis.penalised or analysis.sealed):
+    if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
         return bound_detour(result, whole=whole, t0=t0)
     return result
 
