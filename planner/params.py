@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, deviation_m, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, nominal_speed, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, deviation_m, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, max_detour, nominal_speed, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
 """
 
 from __future__ import annotations
@@ -91,6 +91,9 @@ class Params:
     nominal_speed: float = 0.5
     """The robot's speed in m/s outside speed zones: a plan's ``duration_s`` drives its poses at
     it, capped by each speed zone's ``max_speed``."""
+    max_detour: float = 1.3
+    """The ``wide`` route is at most this many times as long as the shortest route on the same
+    configuration space: width is given up first (docs/algorithm.md, "Bounded detours")."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -113,6 +116,7 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "horizon_m": (0.0, 100.0),
     "nominal_speed": (0.0, 100.0),
     "deviation_m": (0.0, 100.0),
+    "max_detour": (1.0, 100.0),
 }
 
 _PAPER = Params(
@@ -186,6 +190,13 @@ def _check(name: str, value: Any) -> Any:
         kind = "an integer" if integral else "a number"
         raise InvalidInput(f"{name} must be {kind}; got {quote(value)}", field=field)
     low, high = PARAMETER_RANGES[name]
+    if name == "max_detour" and not (math.isfinite(value) and low <= value <= high):
+        msg = (
+            f"max_detour must be a finite number from {low:g} to {high:g} (how many times as "
+            "long as the shortest route the wide route may be; 1: the shortest route); got "
+            f"{quote(value)}"
+        )
+        raise InvalidInput(msg, field=field)
     if name == "nominal_speed" and value == 0:
         raise InvalidInput(f"{name} must be > 0 m/s; got {quote(value)}", field=field)
     if not (math.isfinite(value) and low <= value <= high):

@@ -16,6 +16,7 @@ __all__ = [
     "MAX_WAYPOINTS",
     "PRESET_NAMES",
     "AnalysisPublic",
+    "DetourPublic",
     "PlanCreate",
     "PlanDetail",
     "PlanEnds",
@@ -85,7 +86,9 @@ PARAMS_DESCRIPTION = (
     "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
     "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
     "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
-    "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve)."
+    "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve), "
+    "`max_detour` (a finite number from 1 to 100, default 1.3: the `wide` route is at most that "
+    "many times as long as the shortest route; the preview's `detour`)."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -125,6 +128,7 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "horizon_m": 2.0,
         "deviation_m": 0.5,
         "nominal_speed": 0.5,
+        "max_detour": 1.3,
     },
     "status": "ready",
     "position": [0, 0],
@@ -159,6 +163,8 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "goal_used": None,
         "goal_offset_m": 0.0,
         "waypoint_indices": [],
+        "detour": {"shortest_m": 7.828427, "ratio": 1.0, "width_kept": 1.0,
+                   "tunnels_opened": False},
     },
     "waypoints": [],
 }  # fmt: skip
@@ -250,6 +256,25 @@ class AnalysisPublic(BaseModel):
     analysis_ms: float = Field(ge=0, description="Time the analysis took when it was computed.")
 
 
+class DetourPublic(BaseModel):
+    """How the ``wide`` route compares with the shortest route (``params.max_detour``)."""
+
+    shortest_m: float = Field(
+        ge=0, description="The shortest route's length on the same configuration space, meters "
+        "(cell centers to centers; tight tunnels open).",
+    )  # fmt: skip
+    ratio: float = Field(ge=0, description="The route's `length` over the shortest's.")
+    width_kept: float = Field(
+        ge=0, le=1, description="The share of the wall term (`clean_weight` / `wide_weight`) the "
+        "route was planned with: 1 when no width was given up, 0 for the shortest route on the "
+        "sealed grid; `params` holds the weights used.",
+    )  # fmt: skip
+    tunnels_opened: bool = Field(
+        description="Even that was longer than the bound: the route is the shortest one, "
+        "through tight tunnels sealing would shut."
+    )
+
+
 class PreviewPublic(BaseModel):
     """The path the robot would follow with no dynamic obstacles."""
 
@@ -301,6 +326,11 @@ class PreviewPublic(BaseModel):
     passages: list[int] | None = Field(
         default=None, description="The ids of the passages (`GET /maps/{map_id}/passages`, its "
         "`robot_radius`) the path crosses, in order (null on a plain grid).",
+    )  # fmt: skip
+    detour: DetourPublic | None = Field(
+        default=None, description="How much longer than the shortest route a `wide` route is, "
+        "and how much width it gave up to stay within `params.max_detour` (null for the `paper` "
+        "decision, a route through waypoints, or a plan that is the shortest by construction).",
     )  # fmt: skip
 
 

@@ -17,7 +17,8 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.params import PARAMETER_RANGES, SQRT2, Params, resolve_params
+from planner.params import PARAMETER_RANGES, Params, resolve_params
+from planner.plans.bounded import Detour, bound_detour
 from planner.plans.decide import Rule, cost_here
 from planner.plans.ends import (
     cell_of,
@@ -28,6 +29,7 @@ from planner.plans.ends import (
     stand_on,
     tolerance_m,
 )
+from planner.plans.metrics import clearance_metrics, path_cost
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
@@ -77,6 +79,8 @@ class Plan:
     route: Route[Plan] | None = None
     """The legs of a plan through waypoints (the plan's ``wave`` is then the last leg's), else
     None."""
+    detour: Detour | None = None
+    """How the ``wide`` route compares with the shortest (``params.max_detour``), else None."""
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
@@ -254,10 +258,19 @@ class Plan:
             "goal_offset_m": round(self.goal_offset_m, 6),
             "waypoints": [list(cell) for cell in self.waypoints],
             "waypoint_indices": self.waypoint_indices,
+            "detour": self._detour(),
             "analysis_ms": round(self.analysis.elapsed_ms, 3),
             "wave_ms": round(self.wave.elapsed_ms, 3),
             "elapsed_ms": round(self.elapsed_ms, 3),
         }
+
+    def _detour(self) -> dict[str, Any] | None:
+        d, res = self.detour, self.analysis.frame.resolution
+        if d is None:
+            return None
+        ratio = self.length / d.shortest if d.shortest > 0 else 1.0
+        return {"shortest_m": round(d.shortest * res, 6), "ratio": round(ratio, 6),
+                "width_kept": d.width_kept, "tunnels_opened": d.tunnels_opened}  # fmt: skip
 
 
 def plan(
@@ -271,6 +284,7 @@ def plan(
     whole: bool = False,
     goal_tolerance: Any = 0.0,
     waypoints: Any = None,
+    bounded: bool = True,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -282,7 +296,9 @@ def plan(
     With ``goal_tolerance`` (meters, >= 0) a goal that cannot be stood on or reached gives way to
     the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
-    passes through each in order, each leg planned on its own (``Plan.route``).
+    passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
+    plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
+    a route's legs: one set of effective parameters holds for the whole route.
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -335,7 +351,7 @@ def plan(
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
             return plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
-                goal_tolerance=tolerance, **params,
+                goal_tolerance=tolerance, bounded=False, **params,
             )  # fmt: skip
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
@@ -377,7 +393,7 @@ def plan(
         goal_used = (float(x), float(y))
     if p.dynamic_margin_m is not None:
         p = dataclasses.replace(p, dynamic_margin=_margin_cells(p.dynamic_margin_m, analysis))
-    return Plan(
+    result = Plan(
         start=s,
         goal=g,
         preset=preset,
@@ -393,6 +409,9 @@ def plan(
         goal_used=goal_used,
         goal_tolerance=tolerance,
     )
+    if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
+        return bound_detour(result, whole=whole, t0=t0)
+    return result
 
 
 def _wave_to(
@@ -455,25 +474,6 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     v = wave.view(r, c, analysis.clean)
     here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
     return bool(np.isfinite(here))
-
-
-def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
-    """(length, arc cost) of a path of cells. The length counts a diagonal sqrt 2 cells (one
-    rule for every length the planner reports); the arc cost is the paper's ``PathCost``: the
-    sum of ``k`` over the cells entered after the start."""
-    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * SQRT2)
-    return length, float(wave.k_along(path[1:]).sum())
-
-
-def clearance_metrics(
-    path: npt.NDArray[np.int64], analysis: Analysis
-) -> tuple[float, float, float]:
-    """(min clearance, mean clearance, contact ratio) of a path of cells: distances to the
-    nearest static obstacle, and the share of cells below 1.5 (touching one, diagonally too)."""
-    clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
-    contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
-    return float(clearance.min()), float(clearance.mean()), contact
 
 
 def route(

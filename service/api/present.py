@@ -252,6 +252,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
             "waypoint_indices": s["waypoint_indices"],
             "narrowest": _narrowest(view.record.get("narrowest")),
             "passages": view.record.get("passages"),
+            "detour": s["detour"] if s["detour"] is not None else view.record.get("detour"),
         },
         "waypoints": s["waypoints"],
     }

@@ -333,8 +333,8 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def passages(
         self, map_id: str, robot_radius: float, max_width: float | None = None
     ) -> Passages:
-        """The map's narrow passages for a robot of ``robot_radius`` meters (narrower than
-        ``max_width``, by default the server's ``2 * robot_radius + 0.3``)."""
+        """The map's narrow passages for a robot of ``robot_radius`` meters (at most
+        ``max_width`` wide, by default the server's ``2 * robot_radius + 0.3``)."""
         return self._call(_passages(map_id, robot_radius, max_width))
 
     def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:

@@ -92,6 +92,7 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
+        "detour": plan.summary()["detour"],  # a plan rebuilt from its record has none
         **await passages.crossings(engine, body.map_id, plan),
     }
     append = stored.pop("trajectory")
