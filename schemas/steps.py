@@ -7,7 +7,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler, WrapValidator
 
 from schemas.plans import Status
-from schemas.points import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose
+from schemas.points import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose, XYPublic
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
@@ -153,6 +153,11 @@ class StepPublic(BaseModel):
         default=None,
         description="Meters to the goal: along `poses`, then the grid's cost-to-go `k` in meters "
         "from where they end; null when out of reach.",
+    )
+    blocked_at: XYPublic | None = Field(
+        default=None,
+        description="Where the way ahead is cut when no way round exists (the center of the "
+        "route's first blocked cell, meters); null when the poses go on, round any obstacle.",
     )
     waiting_for: str | None = Field(
         default=None,

@@ -27,6 +27,96 @@ _NO_TILES = (
 
 
 @njit(cache=True, nogil=True)
+def _exact(
+    r: int, c: int, W: int, field: np.ndarray, tiles: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> float:
+    """The wave's ``kw`` at (r, c) of a map ``W`` wide where it is known exactly (the whole
+    ``field``, else the resumable search's settled ``tiles``), else +inf."""
+    if field.shape[0] > 0:
+        return float(field[r, c])
+    tile_of, g_kw, status_kw = tiles
+    if tile_of.shape[0] == 0:
+        return np.inf
+    s = tile_of[(r >> SHIFT) * ((W + TILE_MASK) >> SHIFT) + (c >> SHIFT)]
+    o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+    if s >= 0 and status_kw[s, o] == SETTLED:
+        return float(g_kw[s, o])
+    return np.inf
+
+
+@njit(cache=True, nogil=True)
+def _descends_clear(
+    codes: np.ndarray,
+    open_: int,
+    goal: int,
+    clean: np.ndarray,
+    field: np.ndarray,
+    tiles: tuple[np.ndarray, np.ndarray, np.ndarray],
+    diagonal_cost: float,
+    own: np.ndarray,
+    blocked: np.ndarray,
+    seen: np.ndarray,
+    x: int,
+    start: int,
+) -> bool:
+    """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
+    kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
+    own tiles (``own``, ``blocked``) before it leaves ``seen``, the square of Chebyshev radius
+    ``outer`` round ``start`` (or reaches the goal, or finds no known way down).
+
+    ``seen`` remembers the answer for the cells of the square it walks (-1: not known yet, 0:
+    clear, 1: not): descents merge, so each cell is walked down at most once a search."""
+    W = codes.shape[1]
+    own_w = (W + _MASK) >> _SHIFT
+    outer = (seen.shape[0] - 1) // 2
+    top = start // W - outer
+    left = start - (start // W) * W - outer
+    r = x // W
+    c = x - r * W
+    if seen[r - top, c - left] >= 0:
+        return seen[r - top, c - left] == 0
+    walked = [(r - top) * seen.shape[1] + c - left]
+    here = _exact(r, c, W, field, tiles)
+    verdict = 0
+    while r * W + c != goal:
+        best = np.inf
+        br, bc = -1, -1
+        for i in range(8):
+            yr = r + DR[i]
+            yc = c + DC[i]
+            if not on_grid(codes, open_, goal, yr, yc):
+                continue
+            if i & 1:
+                a = (i + 7) & 7
+                b = (i + 1) & 7
+                if not on_grid(codes, open_, goal, r + DR[a], c + DC[a]):
+                    continue
+                if not on_grid(codes, open_, goal, r + DR[b], c + DC[b]):
+                    continue
+            kw = _exact(yr, yc, W, field, tiles)
+            v = (diagonal_cost if i & 1 else 1.0) + clean[yr, yc] + kw
+            if kw < here and v < best:
+                best, br, bc = v, yr, yc
+        if br < 0:
+            break  # no known way down from here: nothing more to check
+        if not (0 <= br - top < seen.shape[0] and 0 <= bc - left < seen.shape[1]):
+            break  # out of the square: clear so far
+        t = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
+        if t >= 0 and blocked[t * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK))]:
+            verdict = 1
+            break
+        if seen[br - top, bc - left] >= 0:
+            verdict = seen[br - top, bc - left]
+            break
+        walked.append((br - top) * seen.shape[1] + bc - left)
+        r, c, here = br, bc, _exact(br, bc, W, field, tiles)
+    flat = seen.ravel()
+    for i in walked:
+        flat[i] = verdict
+    return verdict == 0
+
+
+@njit(cache=True, nogil=True)
 def _detour(
     codes: np.ndarray,
     open_: int,
@@ -40,9 +130,19 @@ def _detour(
     obstacles: np.ndarray,
     margin: int,
     limit: int,
+    within: int,
 ) -> tuple[np.ndarray, bool]:
     """A* from ``start`` to ``goal`` over the grid (``codes``, ``open_``: see ``moves``) with
     every cell within Chebyshev ``margin`` of a dynamic obstacle blocked.
+
+    With ``within`` >= 0 the search is bounded to the square of Chebyshev radius ``2 *
+    within`` round ``start`` (the dynamic obstacles beyond it are not read) and hands over to
+    the wave beyond the window of radius ``within``: a cell outside that window whose
+    heuristic is the wave's exact cost-to-go, and whose descent meets no blocked cell before
+    it leaves the square (:func:`_descends_clear`), ends the search when popped (its ``g`` plus
+    that cost is then the least of any way out), and the cells returned end there. A goal
+    blocked in the square ends the search with no cells (no way exists now), one beyond it
+    does not. No such cell: no cells (the caller may search the whole map).
 
     The heuristic is ``kw`` without dynamic obstacles: the whole ``field`` when given (cells it
     marks unreachable are skipped), else a resumable search's ``tiles`` (index, values, states)
@@ -58,6 +158,9 @@ def _detour(
     tiles_w = (W + TILE_MASK) >> SHIFT
     gr = goal // W
     gc = goal - gr * W
+    sr = start // W
+    sc = start - sr * W
+    end = goal
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
     # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
@@ -67,12 +170,19 @@ def _detour(
     parent = np.empty(16 * _CELLS, dtype=np.int64)
     blocked = np.empty(16 * _CELLS, dtype=np.uint8)
     used = 0
-    # The cells to touch first: each obstacle's square, then the goal and the start.
+    outer = 2 * within if within >= 0 else H + W  # the bounded search's square
+    # The descents' verdicts over that square (see _descends_clear).
+    seen = np.full((2 * outer + 1, 2 * outer + 1) if within >= 0 else (0, 0), -1, dtype=np.int8)
+    # The cells to touch first: each obstacle's square (in the bounded search's), then the
+    # goal and the start.
     first = []
     for j in range(obstacles.shape[0]):
         for r in range(max(obstacles[j, 0] - margin, 0), min(obstacles[j, 0] + margin + 1, H)):
+            if abs(r - sr) > outer + 1:
+                continue
             for c in range(max(obstacles[j, 1] - margin, 0), min(obstacles[j, 1] + margin + 1, W)):
-                first.append(r * W + c)
+                if abs(c - sc) <= outer + 1:
+                    first.append(r * W + c)
     marked = len(first)
     first.append(goal)
     first.append(start)
@@ -120,7 +230,8 @@ def _detour(
             if j < marked:
                 blocked[at[8]] = 1
             elif x == goal and blocked[at[8]]:
-                return np.empty(0, dtype=np.int64), False
+                if max(abs(gr - sr), abs(gc - sc)) <= outer:  # the goal cut off
+                    return np.empty(0, dtype=np.int64), False
             elif x == start:
                 g[at[8]] = 0.0
                 size = heap_push(keys, cells, 0, 0.0, 0.0, start)
@@ -130,6 +241,19 @@ def _detour(
             continue  # stale: reached more cheaply since
         if x == goal:
             found = True
+            break
+        # Out of the window, the wave takes over where its cost-to-go is exact and its descent
+        # from there meets no blocked cell for a while (else the search goes on).
+        if (
+            within >= 0
+            and max(abs(xr - sr), abs(xc - sc)) > within
+            and _exact(xr, xc, W, field, tiles) < np.inf
+            and _descends_clear(
+                codes, open_, goal, clean, field, tiles, diagonal_cost, own, blocked, seen, x,
+                start,
+            )
+        ):  # fmt: skip
+            end, found = x, True
             break
         expansions += 1
         if expansions > limit:
@@ -142,6 +266,8 @@ def _detour(
                 continue
             yr = xr + DR[i]
             yc = xc + DC[i]
+            if max(abs(yr - sr), abs(yc - sc)) > outer:
+                continue  # beyond the bounded search's square
             if has_field:
                 h = field[yr, yc]
                 if h == np.inf:
@@ -169,7 +295,7 @@ def _detour(
                 size = heap_push(keys, cells, size, ng + h, ng, yr * W + yc)
     if not found:
         return np.empty(0, dtype=np.int64), expansions > limit
-    path = [goal]
+    path = [end]
     while path[-1] != start:
         r = path[-1] // W
         c = path[-1] - r * W
@@ -196,9 +322,13 @@ def detour_cells(
     | None = None,
     exhausted: bool = False,
     limit: int | None = None,
+    within: int | None = None,
 ) -> tuple[npt.NDArray[np.int64], bool]:
     """The detour from flat cell ``start`` to flat ``goal`` (see ``_detour``): (the cells after
     ``start``, flat; whether it gave up after ``limit`` expansions, default the map's cells).
+    With ``within`` (cells), the search stays in the window of that Chebyshev radius round
+    ``start`` and the cells end at the first cell beyond it where the wave's cost-to-go is
+    exact (the wave's own descent goes on from there), or at the goal.
 
     ``field`` is a whole-map ``kw``; ``tiles`` a resumable search's ``(tile_of, g, status)``
     (with ``exhausted``); neither: the octile heuristic.
@@ -211,9 +341,11 @@ def detour_cells(
         raise ValueError(f"start {start} and goal {goal} must be cells of the {H} x {W} map.")
     if field is not None and field.shape != codes.shape:
         raise TypeError(f"field must have the map's shape; {field.shape!r} given.")
+    if within is not None and within < 0:
+        raise ValueError(f"within must be a number of cells >= 0; {within!r} given.")
     obstacles = np.ascontiguousarray(obstacles, dtype=np.int64).reshape(-1, 2)
     return _detour(
         codes, open_, goal, clean, _NO_FIELD if field is None else field,
         _NO_TILES if tiles is None else tiles, exhausted, start, float(diagonal_cost), obstacles,
-        int(margin), H * W if limit is None else int(limit),
+        int(margin), H * W if limit is None else int(limit), -1 if within is None else int(within),
     )  # fmt: skip

@@ -257,10 +257,18 @@ class ResumableWave(Wave):
         return view
 
     @_locked
-    def detour(self, start: int, obstacles: Cells, clean: Clean, margin: int = 0) -> Cells:
+    def detour(
+        self,
+        start: int,
+        obstacles: Cells,
+        clean: Clean,
+        margin: int = 0,
+        within: int | None = None,
+    ) -> Cells:
         """The replan over what the searches have settled (:mod:`planner.plans.detour`); past
         the budget of expansions, or on a map no larger than the budget (whose whole-map wave
-        takes no more memory than the searches may), over the whole-map wave."""
+        takes no more memory than the searches may), over the whole-map wave. With ``within``,
+        bounded to that window round ``start`` (see :meth:`Wave.detour`)."""
         H, W = self.analysis.shape
         if self._whole is None:
             self._searching()
@@ -271,10 +279,11 @@ class ResumableWave(Wave):
                 self.analysis.state, self._open, self._flat_goal, self.analysis.clean, start,
                 obstacles, margin=margin, diagonal_cost=self.diagonal_cost,
                 tiles=(kw.tile_of, kw.g, kw.status), exhausted=kw.exhausted, limit=self.budget,
+                within=within,
             )  # fmt: skip
             if not gave_up:
                 return out
-        return self.whole().detour(start, obstacles, clean, margin)
+        return self.whole().detour(start, obstacles, clean, margin, within)
 
     @_locked
     def k_at(self, r: int, c: int) -> float:

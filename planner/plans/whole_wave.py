@@ -211,15 +211,24 @@ class Wave:
             view = self._view = WaveView(self.passable, self.k, self.kw, clean, 0, 0)
         return view
 
-    def detour(self, start: int, obstacles: Cells, clean: Clean, margin: int = 0) -> Cells:
+    def detour(
+        self,
+        start: int,
+        obstacles: Cells,
+        clean: Clean,
+        margin: int = 0,
+        within: int | None = None,
+    ) -> Cells:
         """The replan of docs/algorithm.md, "Dynamic obstacles and stepping" from ``start`` (a flat
         index) over the wave's grid with
         every cell within Chebyshev ``margin`` of a dynamic obstacle blocked: the cells after
-        ``start`` up to the goal, empty when cut off."""
+        ``start`` up to the goal, empty when cut off. With ``within`` (cells), a search of the
+        window round ``start`` whose cells end where the wave takes over, beyond it."""
         W = self.shape[1]
         out, _ = detour_cells(
             self.passable, OPEN_PASSABLE, self.goal[0] * W + self.goal[1], clean, start,
             obstacles, margin=margin, diagonal_cost=self.diagonal_cost, field=self.kw,
+            within=within,
         )  # fmt: skip
         return out
 

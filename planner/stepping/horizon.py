@@ -1,7 +1,7 @@
 """A step's horizon (docs/api.md, "Stepping with poses"): which cells of the robot's route lie
-ahead of it, from where it is, as far as the horizon needs and round this step's dynamic
-obstacles where the decision would go; their poses (by :func:`~planner.poses.route_poses.
-poses_ahead`), and the meters left to the goal."""
+ahead of it, from where it is, as far as the horizon needs (its detour round this step's
+dynamic obstacles, found by the step, then the walk down the wave); their poses (by
+:func:`~planner.poses.route_poses.poses_ahead`), and the meters left to the goal."""
 
 from __future__ import annotations
 
@@ -10,19 +10,14 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from planner.plans.decide import MOVE, Rule, decide
-from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan
-from planner.plans.resumable_wave import ResumableWave
-from planner.plans.walk import walk_fields
-from planner.poses.blocked import reachable
 from planner.poses.route_poses import poses_ahead
+from planner.stepping.ahead import horizon_cells, route_ahead
 from planner.stepping.state import Pose, SessionState, Step
 
 __all__ = ["path_ahead"]
 
 _EXTEND = 4  # times the route ahead is lengthened when its poses fall short of the horizon
-_SIDESTEPS = 8  # decisions among the obstacles where the walk ahead meets them, at most
 
 
 def path_ahead(
@@ -39,13 +34,12 @@ def path_ahead(
 
     The route starts at the robot's cell when the step ``reported`` it (from ``point``, else
     its cell's center), through the cell the step moves it to, else at that cell's center. It
-    follows the session's detour if it has one, else the wide decision's walk down the wave for
-    the cells the horizon needs: with no dynamic obstacles, and where it meets this step's, the
-    move the decision would take among them there (round a small one, as the robot's next steps
-    would if the obstacles stayed). It stops before a cell the obstacles block (or a diagonal
-    move past one) where the decision would wait, or on a detour. ``remaining_m``: the poses'
-    length, and from the cell where they end, ``k`` in meters (None when the goal is out of
-    reach).
+    follows the session's detour if it has one (the step found it where the obstacles cut the
+    way: :mod:`planner.stepping.ahead`), then the wide decision's walk down the wave, for the
+    cells the horizon needs. It stops before a cell the obstacles block (or a diagonal move past
+    one): only where no way round exists. ``remaining_m``: the poses' length, then along the
+    detour from the cell where they end and ``k`` in meters from its end (None when the goal is
+    out of reach).
     """
     a, p = plan.analysis, plan.params
     frame = a.frame
@@ -58,15 +52,12 @@ def path_ahead(
     if moved:
         head.append(step.position[0] * W + step.position[1])
     goal = plan.goal[0] * W + plan.goal[1]
-    steps = math.ceil(p.horizon_m / res) + 2
+    steps = horizon_cells(plan)
     # The plan's goal point as given (or the one it planned to instead): the poses end there.
     end = plan.goal_used if plan.goal_used is not None else plan.goal_point
     for _ in range(_EXTEND):
         rest = _ahead_of(plan, state, step, steps)
         route = np.concatenate((np.array(head, dtype=np.int64), rest))
-        if obstacles.shape[0] and rest.size and not state.detour:
-            route = _round_obstacles(plan, route, len(head), obstacles, int(moved), steps)
-            rest = route[len(head) :]
         poses, n, length = poses_ahead(
             route, a.clearance, obstacles, margin=p.dynamic_margin, exempt=int(moved),
             resolution=res, origin=frame.origin,
@@ -87,77 +78,29 @@ def path_ahead(
     return out, remaining_m
 
 
-def _round_obstacles(
-    plan: Plan,
-    route: npt.NDArray[np.int64],
-    first: int,
-    obstacles: npt.NDArray[np.int64],
-    exempt: int,
-    steps: int,
-) -> npt.NDArray[np.int64]:
-    """The walk ``route`` (its cells from index ``first`` on walked with no dynamic obstacles)
-    where it meets the obstacles: from the last cell it reaches, the decision's move among them
-    (a closer cell, as the step there would take), then the walk again from there."""
-    a, p = plan.analysis, plan.params
-    W = a.shape[1]
-    rule = Rule.of(p, wide=True)
-    for _ in range(_SIDESTEPS):
-        n = reachable(route, a.shape, obstacles, margin=p.dynamic_margin, exempt=exempt)
-        if n == len(route) or n < first:
-            break
-        r, c = divmod(int(route[n - 1]), W)
-        view = plan.wave.view(r, c, a.clean)
-        i, outcome = decide(view, (r, c), rule, obstacles, goal=plan.goal, margin=p.dynamic_margin)
-        if outcome != MOVE:
-            break
-        cell = (r + int(DR[i]), c + int(DC[i]))
-        budget = steps - (n - first) - 1
-        more = _walk(plan, cell, budget)[1:] if budget > 0 else np.empty(0, dtype=np.int64)
-        route = np.concatenate((route[:n], np.array([cell[0] * W + cell[1]]), more))
-    return route
-
-
 def _ahead_of(plan: Plan, state: SessionState, step: Step, steps: int) -> npt.NDArray[np.int64]:
-    """The route's cells after the step's ``position`` (flat), at most ``steps`` of them."""
+    """The route's cells after the step's ``position`` (flat): its detour, then the wave's walk,
+    ``steps`` of them at least (unless at the goal)."""
     if step.move == "WAIT" or step.position == plan.goal:
         return np.empty(0, dtype=np.int64)
-    if state.detour:
-        return np.array(state.detour[:steps], dtype=np.int64)
-    return _walk(plan, step.position, steps)[1:]
-
-
-def _walk(plan: Plan, cell: tuple[int, int], steps: int) -> npt.NDArray[np.int64]:
-    """The wide decision's walk from ``cell`` with no dynamic obstacles (flat, ``cell`` first),
-    at most ``steps`` moves. The wide one whatever the plan's: the paper's next moves depend on
-    the cells the robot has visited, which a step does not read."""
-    a = plan.analysis
-    W = a.shape[1]
-    r, c = cell
-    if cell == plan.goal:
-        return np.array([r * W + c], dtype=np.int64)
-    wave, rule = plan.wave, Rule.of(plan.params, wide=True)
-    if isinstance(wave, ResumableWave):
-        way = wave.walk((r, c), rule, steps, partial=True)
-    else:
-        view = wave.view(r, c, a.clean)
-        goal = plan.goal[0] * W + plan.goal[1]
-        way = walk_fields(view, r * W + c, goal, rule, max_steps=steps, partial=True)
-    if way.size == 0:  # no way down the wave from there (a sealed pocket): the cell alone
-        return np.array([r * W + c], dtype=np.int64)
-    return way
+    return route_ahead(plan, state, step.position, steps)[1:]
 
 
 def _meters_to_go(plan: Plan, state: SessionState, flat: int) -> float:
-    """Meters from a route cell to the goal along the grid: ``k`` (moves of 1 and
-    ``diagonal_cost`` cells) times the resolution; off the wave's grid, along the detour."""
+    """Meters from a route cell to the goal along the route: on the session's detour, along it
+    to its end, then ``k`` from there (where the wave takes over); else ``k`` (moves of 1 and
+    ``diagonal_cost`` cells) times the resolution."""
     W = plan.analysis.shape[1]
     r, c = divmod(flat, W)
     if (r, c) == plan.goal:
         return 0.0
-    k = plan.wave.k_at(r, c)
-    if not math.isfinite(k) and flat in state.detour:
+    k = 0.0
+    if flat in state.detour:
         rest = np.array([flat, *state.detour[state.detour.index(flat) + 1 :]])
         rows, cols = np.divmod(rest, W)
         diagonal = (np.diff(rows) != 0) & (np.diff(cols) != 0)
         k = float(np.count_nonzero(~diagonal) + np.count_nonzero(diagonal) * math.sqrt(2.0))
+        r, c = divmod(int(rest[-1]), W)
+    if (r, c) != plan.goal:
+        k += plan.wave.k_at(r, c)
     return k * plan.analysis.frame.resolution

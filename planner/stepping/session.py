@@ -22,6 +22,7 @@ from planner.plans.detour import detour_cells
 from planner.plans.ends import cell_of, end_yaw, free_cell
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
 from planner.plans.planning import Plan, route
+from planner.stepping.ahead import blocked_ahead, window_cells
 from planner.stepping.horizon import path_ahead
 from planner.stepping.legs import go_on, last_leg, later_cost, leg_of
 from planner.stepping.obstacles import blocked_cells, obstacle_cells
@@ -76,9 +77,11 @@ class Session:
         on a detour, a walk down the plan's field), microseconds of work."""
         return self.may_replan_at(None)
 
-    def may_replan_at(self, position: Any = None) -> bool:
+    def may_replan_at(self, position: Any = None, obstacles: Any = None) -> bool:
         """:attr:`may_replan` for a step that reports the robot at ``position``: a position off
-        the plan's sealed grid (a pocket that sealing closed) is searched out of at once."""
+        the plan's sealed grid (a pocket that sealing closed) is searched out of at once; with
+        the step's ``obstacles``, a session making the path ahead searches at once where they
+        cut it within the horizon."""
         st = self.state
         cell = st.position
         held, replan_at, on_detour = st.held_up, st.replan_at, bool(st.detour)
@@ -97,6 +100,14 @@ class Session:
             return True  # it may reach the waypoint, then read the next leg's wave
         if st.status == "blocked" and cell == st.position:
             return False
+        if self.poses and obstacles is not None and len(obstacles):
+            try:
+                cells = obstacle_cells(obstacles, self.plan.analysis.shape)
+            except InvalidInput:
+                return False  # the step will refuse them
+            here = st if cell == st.position else SessionState(position=cell)
+            if blocked_ahead(self.plan, here, cell, cells) >= 0:
+                return True
         return self._may_search(held, replan_at, on_detour or self._on_plan(cell))
 
     def _may_search(self, held: int, replan_at: int, guided: bool) -> bool:
@@ -149,11 +160,7 @@ class Session:
             )  # fmt: skip
             if remaining_m is not None:
                 remaining_m += later_cost(self.route, st) * self.plan.analysis.frame.resolution
-            step = Step(
-                step.seq, step.previous, step.position, step.move, step.status, step.iteration,
-                step.path_length, step.arc_cost, step.remaining, step.narrow_fallback, poses,
-                remaining_m,
-            )  # fmt: skip
+            step = dataclasses.replace(step, poses=poses, remaining_m=remaining_m)
         st.last_seq = seq
         st.last_step = step
         return step
@@ -204,9 +211,15 @@ class Session:
                 st.narrow_fallback = False
         if st.detour and outcome != MOVE:
             i, outcome = self._decide(previous, obstacles, st.detour[0])
+        # The path ahead goes around: the route cut within the horizon, a way round at once.
+        ahead = self.poses and (on_plan or bool(st.detour))
+        cut = blocked_ahead(plan, st, previous, obstacles) if ahead else -1
+        decided, stuck = (i, outcome), -1
+        if cut >= 0:
+            outcome, searching = WAIT, True
         status: Status = "moving"
         if outcome in (WAIT, BLOCKED) and searching:
-            found = self._search(previous, obstacles, on_plan)
+            found = self._search(previous, obstacles, on_plan, windowed=cut >= 0)
             if found is None:
                 st.status = "blocked"
                 st.detour = []
@@ -222,11 +235,13 @@ class Session:
                 status = "replanned"
             else:
                 st.replan_at = st.held_up + max(p.patience, 1)
+                if cut >= 0:  # no way round: as far as the decision goes towards the cut
+                    (i, outcome), stuck = decided, cut
         if outcome in (WAIT, BLOCKED):
             st.held_up += 1
             st.waits += 1
             st.status = "waiting"
-            return self._answer(seq, previous, "WAIT")
+            return self._answer(seq, previous, "WAIT", blocked_at=stuck)
         if outcome == EVADE:
             st.detour = []
             st.narrow_fallback = False
@@ -238,7 +253,7 @@ class Session:
         self._move(i)
         st.held_up = st.replan_at = 0
         st.status = "arrived" if st.position == plan.goal else status
-        return self._answer(seq, previous, MOVES[i], narrow_move)
+        return self._answer(seq, previous, MOVES[i], narrow_move, blocked_at=stuck)
 
     def _decide(
         self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], target: int
@@ -282,9 +297,15 @@ class Session:
         return not np.isin(passed, blocked_cells(obstacles, p.dynamic_margin, (H, W))).any()
 
     def _search(
-        self, cell: tuple[int, int], obstacles: npt.NDArray[np.int64], on_plan: bool
+        self,
+        cell: tuple[int, int],
+        obstacles: npt.NDArray[np.int64],
+        on_plan: bool,
+        *,
+        windowed: bool = False,
     ) -> tuple[npt.NDArray[np.int64], bool] | None:
-        """The replan: a detour over the plan's grid, else one through the sealed tunnels (the
+        """The replan: a detour over the plan's grid (``windowed``: first a search of the window
+        round the robot, ending where the wave takes over), else one through the sealed tunnels (the
         narrow fallback, applied from here). Returns (cells, narrow), with no cells when the
         dynamic obstacles cut every way for now, or None when no way exists at all."""
         plan = self.plan
@@ -293,9 +314,18 @@ class Session:
         goal = plan.goal[0] * W + plan.goal[1]
         if on_plan:
             # Over the plan's own wave: a resumable one searches what it has settled.
-            cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
+            within = window_cells(plan) if windowed else None
+            cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin, within)
             if cells.size:
                 return cells, False
+            if windowed:
+                # No way round near the robot: a longer one over the whole map, searched as a
+                # held-up robot searches (every `patience` steps while none is found).
+                if self.state.held_up < self.state.replan_at:
+                    return np.empty(0, dtype=np.int64), False
+                cells = wave.detour(start, obstacles, a.clean, p.dynamic_margin)
+                if cells.size:
+                    return cells, False
         if not (a.sealed and not wave.narrow):
             return (np.empty(0, dtype=np.int64), False) if on_plan else None
         # Over the unsealed grid with the octile heuristic: the wave's fields are not read (a
@@ -337,11 +367,23 @@ class Session:
         st.arc_cost += k if k < np.inf else self.remaining() or 0.0
 
     def _answer(
-        self, seq: int, previous: tuple[int, int], move: str, narrow: bool | None = None
+        self,
+        seq: int,
+        previous: tuple[int, int],
+        move: str,
+        narrow: bool | None = None,
+        *,
+        blocked_at: int = -1,
     ) -> Step:
+        """The step's answer; ``blocked_at``: the flat cell where the way ahead is cut, if it
+        is (its center in meters is the answer's ``blocked_at``)."""
         st = self.state
         if narrow is None:
             narrow = st.narrow_fallback
+        point = None
+        if blocked_at >= 0:
+            x, y = self.plan.analysis.frame.centers([divmod(blocked_at, self._width)])[0]
+            point = (float(x), float(y))
         return Step(
             seq=seq,
             previous=previous,
@@ -353,6 +395,7 @@ class Session:
             arc_cost=st.arc_cost,
             remaining=self._to_go(),
             narrow_fallback=self.plan.narrow_fallback or narrow,
+            blocked_at=point,
         )
 
     def _to_go(self) -> float | None:

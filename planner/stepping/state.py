@@ -40,7 +40,11 @@ class Step:
     from ``position``'s center), at least ``horizon_m`` or to the goal, clear of this step's
     dynamic obstacles; one pose when the robot waits. Empty when the session makes none."""
     remaining_m: float | None = None
-    """Meters to the goal: along ``poses``, then the grid's ``k`` in meters from where they end."""
+    """Meters to the goal: along ``poses``, then along the detour they follow and the grid's
+    ``k`` in meters from where it ends."""
+    blocked_at: tuple[float, float] | None = None
+    """A waiting robot's way cut with no way round: the point (meters, the center of the
+    route's first blocked cell) where it is cut; else None."""
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -56,6 +60,7 @@ class Step:
             "narrow_fallback": self.narrow_fallback,
             "poses": self.poses,
             "remaining_m": self.remaining_m,
+            "blocked_at": self.blocked_at,
         }
 
     @classmethod
@@ -65,7 +70,7 @@ class Step:
         return cls(
             d["seq"], (pr, pc), (r, c), d["move"], d["status"], d["iteration"],
             d["path_length"], d["arc_cost"], d["remaining"], d.get("narrow_fallback", False),
-            poses, d.get("remaining_m"),
+            poses, d.get("remaining_m"), _point(d.get("blocked_at")),
         )  # fmt: skip
 
 
@@ -138,3 +143,12 @@ class SessionState:
             self.narrow_fallback, list(self.trajectory), self.last_seq, self.last_step, self.leg,
             self.leg_start,
         )  # fmt: skip
+
+
+def _point(value: Any) -> tuple[float, float] | None:
+    """A stored ``[x, y]`` (a JSON array, or an answer's ``{"x", "y"}``) as a tuple; None
+    stays None."""
+    if value is None:
+        return None
+    x, y = (value["x"], value["y"]) if isinstance(value, dict) else value
+    return (float(x), float(y))

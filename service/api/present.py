@@ -145,6 +145,7 @@ def step_answer(view: StepView) -> dict[str, Any]:
         "narrow_fallback": bool(step.narrow_fallback),
         "poses": _step_poses(step.poses, view.zones),
         "remaining_m": step.remaining_m,
+        "blocked_at": _point(step.blocked_at),
         "waiting_for": view.waiting_for,
     }
 
@@ -299,3 +300,8 @@ def nav_path(plan: planner.Plan, frame_id: str, now: float) -> dict[str, Any]:
     """The plan's poses as a rosbridge ``nav_msgs/Path`` (:class:`schemas.NavPath`), stamped
     ``now`` (seconds since the epoch), built directly: a path holds thousands of poses."""
     return planner.nav_msgs_path(plan.poses, frame_id, now)
+
+
+def _point(xy: tuple[float, float] | None) -> dict[str, float] | None:
+    """A point ``(x, y)`` as answers write points, ``{"x", "y"}``; None stays None."""
+    return None if xy is None else {"x": xy[0], "y": xy[1]}

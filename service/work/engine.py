@@ -383,7 +383,7 @@ class Engine:
         if len(obstacles) > OBSTACLES_ON_LOOP:  # checking them alone takes milliseconds
             return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
         if not isinstance(wave, planner.ResumableWave):
-            if session.may_replan_at(position):
+            if session.may_replan_at(position, obstacles):
                 return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
             return session.step(obstacles, position=position, seq=seq)
         if wave.hold():
@@ -393,7 +393,7 @@ class Engine:
                 trial = session
                 if wave.resumable:
                     trial = planner.Session(session.route, session.state.copy())
-                if not trial.may_replan_at(position):
+                if not trial.may_replan_at(position, obstacles):
                     step = trial.step(obstacles, position=position, seq=seq)
                     session.state = trial.state
                     return step

@@ -39,7 +39,8 @@ def run(session: planner.Session, obstacles: list[list[int]], steps: int) -> lis
 def test_detour_round_an_obstacle_parked_on_the_only_short_route(patience: int) -> None:
     p = planner.plan(TWO_ROUTES, (3, 0), (3, 11), preset="shortest", patience=patience)
     assert (p.path[:, 0] == 3).all()  # with no obstacle: straight through
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     parked = [[3, 6]]
     steps = run(session, parked, 60)
     assert steps[-1].status == "arrived"
@@ -65,7 +66,8 @@ ACROSS = [[r, 15] for r in range(5, 9)]  # obstacles parked across the corridor
 def test_wide_detours_round_obstacles_across_a_wide_corridor() -> None:
     p = planner.plan(CORRIDOR, (6, 0), (6, 29), preset="wide", patience=2)
     assert (p.path[:, 0] == 6).all()  # the corridor's middle is the way
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     steps = run(session, ACROSS, 120)
     assert steps[-1].status == "arrived"
     assert not {tuple(c) for c in ACROSS} & set(session.state.trajectory)
@@ -218,7 +220,8 @@ def test_state_survives_a_json_round_trip() -> None:
 
 def test_may_replan_says_when_the_next_step_can_search() -> None:
     p = planner.plan(CORRIDOR, (6, 0), (6, 29), patience=2)
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     seen = []
     for _ in range(40):
         before = session.may_replan

@@ -153,8 +153,9 @@ def test_collisions_are_counted_honestly(motion: str) -> None:
 
 
 def recount_positions(e: planner.Episode) -> list[tuple[int, int]]:
-    """The robot's cell at the start and after every tick, from a re-run session's steps."""
-    session = planner.Session(e.plan)
+    """The robot's cell at the start and after every tick, from a re-run session's steps (as
+    the simulation runs it: the grid decision, no path ahead)."""
+    session = planner.Session(e.plan, poses=False)
     out = [session.state.position]
     for t in range(len(e.dynamic_obstacles) - 1):
         seen = (

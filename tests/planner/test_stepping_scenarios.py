@@ -24,7 +24,7 @@ def chebyshev(a: tuple[int, int], b: tuple[int, int]) -> int:
 def rebuilt(session: planner.Session) -> planner.Session:
     """The session as a service rebuilds it between two HTTP steps: plan + state through JSON."""
     state = json.loads(json.dumps(session.state.as_dict()))
-    return planner.Session(session.plan, planner.SessionState.from_dict(state))
+    return planner.Session(session.plan, planner.SessionState.from_dict(state), poses=session.poses)
 
 
 # --- 1. The goal occupied for a while --------------------------------------------------------
@@ -182,7 +182,8 @@ def test_door_parked_for_good_it_takes_the_narrow_gap_once(preset: str, patience
     p = planner.plan(DOOR_AND_GAP, (0, 4), (6, 4), preset=preset, patience=patience)
     assert not p.narrow_fallback
     assert [3, 3] in p.path.tolist() or [3, 4] in p.path.tolist()  # the plan uses the door
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     steps = []
     for _ in range(120):
         session = rebuilt(session)
@@ -246,7 +247,8 @@ def test_door_freed_again_the_robot_keeps_the_wide_way() -> None:
     # The narrow fallback is only taken when the sealed grid has no way: a door parked for a
     # moment (less than patience) is waited for.
     p = planner.plan(DOOR_AND_GAP, (0, 4), (6, 4), preset="wide", patience=4)
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     steps = [session.step(PARKED if t < 5 else []) for t in range(40)]
     assert steps[-1].status == "arrived"
     assert not any(s.narrow_fallback for s in steps)
@@ -333,7 +335,8 @@ def test_an_obstacle_crossing_while_the_robot_moves(margin: int, collides: bool)
 @pytest.mark.parametrize("preset", ["wfs-mmas", "mmas"])
 def test_paper_presets_wait_for_their_next_cell(preset: str) -> None:
     p = planner.plan(ROOM, (3, 0), (3, 11), preset=preset, patience=3)
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     path = [tuple(c) for c in p.path.tolist()]
     steps = []
     held = 0
@@ -353,7 +356,8 @@ def test_paper_presets_wait_for_their_next_cell(preset: str) -> None:
 @pytest.mark.parametrize("preset", ["wfs-mmas", "mmas"])
 def test_paper_presets_replan_after_patience(preset: str) -> None:
     p = planner.plan(ROOM, (3, 0), (3, 11), preset=preset, patience=3)
-    session = planner.Session(p)
+    # The grid decision of ALGORITHM.md §4 (the paper's experiment): it waits `patience` steps.
+    session = planner.Session(p, poses=False)
     parked = [list(p.path[4])]
     steps = []
     for _ in range(80):
@@ -399,7 +403,7 @@ def test_searches_happen_only_on_steps_announced_by_may_replan(
             obstacles = obstacles[(obstacles != session.state.position).any(axis=1)]
             # Now and then the robot is reported elsewhere (a pocket, maybe).
             position = free[rng.integers(len(free))].tolist() if t % 37 == 36 else None
-            announced = session.may_replan_at(position)
+            announced = session.may_replan_at(position, obstacles)
             before = len(calls)
             step = session.step(obstacles, position=position)
             if len(calls) > before:

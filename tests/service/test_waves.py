@@ -136,6 +136,11 @@ def compare(
         d = plan.params.diagonal_cost
         assert wide_cost(clean, ours, d) == pytest.approx(wide_cost(clean, theirs, d), rel=1e-9)
         return False
+    if answer["status"] != ref.status and "replanned" in (answer["status"], ref.status):
+        # Detours of one cost may differ in their cells (and a resumable wave's hands over
+        # where it has settled): the route ahead of one is cut where the other's is not.
+        assert answer["move"] == ref.move
+        return False
     assert (answer["move"], answer["status"]) == (ref.move, ref.status)
     assert answer["arc_cost"] == pytest.approx(ref.arc_cost, rel=1e-12, abs=1e-12)
     assert answer["path_length"] == pytest.approx(ref.path_length, rel=1e-12)
