@@ -20,7 +20,7 @@ from planner import quote
 from planner.plans.ends import free_cell
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
-from service.resources import fleets, passages
+from service.resources import fleets, live, passages
 from service.resources.bodies import overrides, where
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
@@ -199,6 +199,10 @@ async def step(
         else:
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
+        if not replayed:  # the live layer's marks: obstacles like the client's (docs/live.md)
+            here = (state.position[0], state.position[1])
+            marks = await live.step_marks(engine, record["map_id"], plan, body, here)
+            obstacles = live.with_marks(obstacles, marks)
         waiting_for, new_fleet = None, None
         if fleet is not None and "params" not in fleet:
             fleet = None  # a fleet of an older version: its robots join a new one as they step
