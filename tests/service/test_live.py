@@ -32,7 +32,8 @@ GRID = _grid()
 FRAME = planner.MapFrame((H, W), RES)
 BOX = world.Box(2.75, 1.15, 3.25, 1.85)  # on the middle row, between the robots and the goal
 MAP = {"grid": GRID.tolist(), "resolution": RES, "origin": [0.0, 0.0, 0.0]}
-PLAN = {"start": {"x": 0.55, "y": 1.55}, "goal": {"x": 5.45, "y": 1.55}, "robot_radius": 0.15}
+RADIUS = 0.15
+PLAN = {"start": {"x": 0.55, "y": 1.55}, "goal": {"x": 5.45, "y": 1.55}, "robot_radius": RADIUS}
 
 
 @pytest.fixture
@@ -118,7 +119,7 @@ async def test_another_robot_steps_around_the_marks_and_another_tenant_sees_none
     assert (await client.post(f"/maps/{map_id}/observations", json=body, headers=A)).is_success
     second = (await client.post(f"/plan/{plan_id}/step", json={}, headers=A)).json()
     assert second["poses"], second
-    assert not _crosses(second["poses"], BOX, margin=PLAN["robot_radius"])
+    assert not _crosses(second["poses"], BOX, margin=RADIUS)
     assert second["remaining_m"] > first["remaining_m"] - 0.2  # the way round is longer
     # Another tenant's robot on the same map sees nothing of it.
     other = await _map(client, B)
@@ -138,7 +139,7 @@ async def test_a_steps_own_scan_marks_before_it_decides(client: httpx.AsyncClien
     scan = _scan((0.55, 1.55, 0.0), [BOX])
     step = {"seq": 0, "position": pose, "scan": scan}
     answer = (await client.post(f"/plan/{plan_id}/step", json=step, headers=A)).json()
-    assert not _crosses(answer["poses"], BOX, margin=PLAN["robot_radius"]), answer
+    assert not _crosses(answer["poses"], BOX, margin=RADIUS), answer
     assert (await _live(client, map_id, A))["cells"]
     # A scan without a pose to take it at: the cell position has no yaw.
     bad = {"seq": 1, "position": answer["position"], "scan": scan}
@@ -149,7 +150,8 @@ async def test_a_steps_own_scan_marks_before_it_decides(client: httpx.AsyncClien
 
 def _chebyshev(cells: np.ndarray, near: np.ndarray) -> np.ndarray:
     """Each of ``cells``' Chebyshev distance to the nearest of ``near``."""
-    return np.abs(cells[:, None, :] - near[None, :, :]).max(axis=2).min(axis=1)
+    out: np.ndarray = np.abs(cells[:, None, :] - near[None, :, :]).max(axis=2).min(axis=1)
+    return out
 
 
 def _crosses(poses: list[dict[str, float]], box: Any, margin: float = 0.0) -> bool:
