@@ -24,7 +24,7 @@ local ms = tonumber(clock[1]) * 1000 + math.floor(tonumber(clock[2]) / 1000)
 # A scan's update in one round trip: KEYS the map's marks; ARGV how long a mark lasts (ms), the
 # map's width, the cleared window's top, left, height and width, its cells as bits (row-major,
 # the first cell the high bit of the first byte), then the marked cells. Marks lapsed or
-# cleared go, the scan's are (re)marked; the key lasts as long as its newest mark. Returns how
+# cleared go, the scan's are (re)marked; the key lasts as long as its last mark. Returns how
 # many marks the map has now.
 OBSERVE = (
     _NOW
@@ -60,7 +60,9 @@ for i = 8, #ARGV do
 end
 if #marks > 0 then redis.call('HSET', KEYS[1], unpack(marks)) end
 local n = redis.call('HLEN', KEYS[1])
-if n > 0 then redis.call('PEXPIRE', KEYS[1], ARGV[1]) end
+if n > 0 and #ARGV > 7 and redis.call('PTTL', KEYS[1]) < tonumber(ARGV[1]) then
+  redis.call('PEXPIRE', KEYS[1], ARGV[1])
+end
 return n
 """
 )
