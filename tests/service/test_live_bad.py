@@ -90,3 +90,16 @@ def test_a_pose_off_the_map_and_unknown_maps(live_url: str, ids: dict[str, str])
         assert client.get("/maps/nope/live").status_code == 404
         assert client.get("/maps/nope/live.png").status_code == 404
         assert client.get(f"/maps/{ids['robot']}/live").status_code == 200
+
+
+def test_the_client_reports_a_scan_and_reads_the_marks(live_url: str) -> None:
+    from service.client import PlannerClient
+    from tests.service.test_live import BOX, _scan
+
+    with PlannerClient(live_url) as client:
+        info = client.upload_map(**MAP)
+        seen = client.observe(info.map_id, _scan((1.05, 1.45, 0.0), [BOX]), POSE)
+        live = client.live(info.map_id)
+        assert seen.marks == len(live.cells) > 5
+        assert len(live.points) == len(live.cells)
+        assert client.render_live(info.map_id, cell=2)[:4] == b"\x89PNG"
