@@ -71,66 +71,62 @@ class Traced:
 
 
 @njit(cache=True, nogil=True)
-def _walk(
-    u0: float, v0: float, u1: float, v1: float, H: int, W: int, top: int, left: int,
-    blocked: Any, out: Any, last: bool,
-) -> None:  # fmt: skip
-    """Mark 1 in ``out`` (the window at top, left) every cell of the map the segment from
-    (u0, v0) to (u1, v1) crosses (grid units: u along columns, v up from the map's bottom),
-    in order, the segment's last cell only when ``last``; never a ``blocked`` cell."""
-    i, j = math.floor(u0), math.floor(v0)
-    i1, j1 = math.floor(u1), math.floor(v1)
-    du, dv = u1 - u0, v1 - v0
-    si = 1 if du > 0 else -1
-    sj = 1 if dv > 0 else -1
-    inf = math.inf
-    tdu = abs(1.0 / du) if du != 0 else inf
-    tdv = abs(1.0 / dv) if dv != 0 else inf
-    tu = ((i + 1 - u0) / du if du > 0 else (u0 - i) / -du) if du != 0 else inf
-    tv = ((j + 1 - v0) / dv if dv > 0 else (v0 - j) / -dv) if dv != 0 else inf
-    steps = abs(i1 - i) + abs(j1 - j)
-    for k in range(steps + 1):
-        if k == steps and not last:
-            return
-        r = H - 1 - j
-        if 0 <= r < H and 0 <= i < W and not blocked[r, i]:
-            out[r - top, i - left] = 1
-        if tu < tv:
-            tu += tdu
-            i += si
-        else:
-            tv += tdv
-            j += sj
-
-
-@njit(cache=True, nogil=True)
 def _trace(blocked: Any, start: Any, ends: Any, hits: Any) -> tuple[Any, int, int, Any]:
-    """The cells the rays from ``start`` (u, v) to ``ends`` (n, 2) cross, in the window of
-    the map round them, and the cells of their ends where ``hits`` (1: a return): the
-    returns' cells marked (the map's blocked cells left out), the rest of every ray
-    cleared, marks winning over clearing."""
+    """The cells the rays from ``start`` (u, v) to ``ends`` (n, 2) cross (grid units: u along
+    columns, v up from the map's bottom), each ray's last cell only where ``hits`` is 0, in the
+    window of the map round them; and the cells of their ends where ``hits`` (1: a return).
+    The returns' cells are marked (the map's blocked cells left out), the rest of every ray
+    cleared (the blocked cells left out too), marks winning over clearing. Rays are walked
+    cell by cell (Amanatides and Woo) unchecked, on the box round their ends padded by a cell,
+    which holds every cell they cross."""
     H, W = blocked.shape
     u0, v0 = start[0], start[1]
     lo_u, hi_u, lo_v, hi_v = u0, u0, v0, v0
     for k in range(ends.shape[0]):
         lo_u, hi_u = min(lo_u, ends[k, 0]), max(hi_u, ends[k, 0])
         lo_v, hi_v = min(lo_v, ends[k, 1]), max(hi_v, ends[k, 1])
-    left = min(max(math.floor(lo_u), 0), W - 1)
-    right = min(max(math.floor(hi_u), 0), W - 1)
-    top = min(max(H - 1 - math.floor(hi_v), 0), H - 1)
-    bottom = min(max(H - 1 - math.floor(lo_v), 0), H - 1)
-    cleared = np.zeros((bottom - top + 1, right - left + 1), dtype=np.uint8)
+    pl, pr = math.floor(lo_u) - 1, math.floor(hi_u) + 1
+    pt, pb = H - 2 - math.floor(hi_v), H - math.floor(lo_v)
+    pw = pr - pl + 1
+    seen = np.zeros((pb - pt + 1) * pw, dtype=np.uint8)
     marks = np.empty(ends.shape[0], dtype=np.int64)
     n = 0
+    inf = math.inf
     for k in range(ends.shape[0]):
         u1, v1 = ends[k, 0], ends[k, 1]
-        _walk(u0, v0, u1, v1, H, W, top, left, blocked, cleared, hits[k] == 0)
+        i, j = math.floor(u0), math.floor(v0)
+        i1, j1 = math.floor(u1), math.floor(v1)
+        du, dv = u1 - u0, v1 - v0
+        si = 1 if du > 0 else -1
+        sj = 1 if dv > 0 else -1
+        tdu = abs(1.0 / du) if du != 0 else inf
+        tdv = abs(1.0 / dv) if dv != 0 else inf
+        tu = ((i + 1 - u0) / du if du > 0 else (u0 - i) / -du) if du != 0 else inf
+        tv = ((j + 1 - v0) / dv if dv > 0 else (v0 - j) / -dv) if dv != 0 else inf
+        steps = abs(i1 - i) + abs(j1 - j) + (0 if hits[k] else 1)
+        at = (H - 1 - j - pt) * pw + (i - pl)
+        for _ in range(steps):
+            seen[at] = 1
+            if tu < tv:
+                tu += tdu
+                at += si
+            else:
+                tv += tdv
+                at -= sj * pw
         if hits[k]:
-            c, r = math.floor(u1), H - 1 - math.floor(v1)
+            c, r = i1, H - 1 - j1
             if 0 <= r < H and 0 <= c < W and not blocked[r, c]:
                 marks[n] = r * W + c
                 n += 1
     marked = np.unique(marks[:n])
+    left, right = max(pl, 0), min(pr, W - 1)
+    top, bottom = max(pt, 0), min(pb, H - 1)
+    cleared = np.zeros((bottom - top + 1, right - left + 1), dtype=np.uint8)
+    for r in range(top, bottom + 1):
+        base = (r - pt) * pw - pl
+        for c in range(left, right + 1):
+            if seen[base + c] and not blocked[r, c]:
+                cleared[r - top, c - left] = 1
     for m in marked:
         cleared[m // W - top, m % W - left] = 0
     return marked, top, left, cleared
@@ -157,7 +153,8 @@ def trace_rays(
         raise InvalidInput(msg, field="start")
     if not (np.isfinite(start).all() and np.isfinite(ends).all()):
         raise InvalidInput("rays must have finite ends", field="ends")
-    grid = np.ascontiguousarray(blocked, dtype=np.uint8)
+    grid = blocked.view(np.uint8) if blocked.dtype == np.bool_ else blocked.astype(np.uint8)
+    grid = np.ascontiguousarray(grid)
     marked, top, left, cleared = _trace(grid, start, ends, returns)
     return Traced(marked, int(top), int(left), cleared)
 
