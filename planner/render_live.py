@@ -29,7 +29,7 @@ def draw_live(
     routes: Sequence[tuple[Any, tuple[int, int, int]]] = (),
 ) -> Image.Image:
     """The map (blocked black, unknown grey-blue, free white) with the ``marks`` (``(n, 2)``
-    cells) red, ``cell`` pixels a cell; ``rays`` (``(origin (x, y), ends (m, 2))`` in meters)
+    cells) red over everything, ``cell`` pixels a cell; ``rays`` (``(origin (x, y), ends (m, 2))`` in meters)
     drawn as thin amber lines, and ``routes`` (poses or points ``(k, >=2)`` in meters, with a
     colour) as lines."""
     if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 64:
@@ -42,7 +42,6 @@ def draw_live(
     cells = np.asarray(marks, dtype=np.int64).reshape(-1, 2)
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < H) & (cells[:, 1] >= 0) & (cells[:, 1] < W)
     cells = cells[inside]
-    rgb[cells[:, 0], cells[:, 1]] = LIVE_COLOUR
     image = Image.fromarray(np.repeat(np.repeat(rgb, cell, axis=0), cell, axis=1), "RGB")
     pen = ImageDraw.Draw(image)
     frame = robot_map.frame
@@ -59,11 +58,15 @@ def draw_live(
         origin, ends = rays
         (o,) = pixels([origin])
         for end in pixels(ends):
-            pen.line([o, end], fill=(250, 190, 60), width=1)
+            pen.line([o, end], fill=(250, 215, 140), width=1)
     for route, colour in routes:
         points = pixels(route)
         if len(points) > 1:
-            pen.line(points, fill=colour, width=max(2, cell), joint="curve")
+            pen.line(points, fill=colour, width=max(2, cell // 2 + 1), joint="curve")
+    for r, c in cells.tolist():  # over the routes: what the robots go round
+        pen.rectangle(
+            (c * cell, r * cell, (c + 1) * cell - 1, (r + 1) * cell - 1), fill=LIVE_COLOUR
+        )
     return image
 
 
