@@ -29,9 +29,9 @@ def draw_live(
     routes: Sequence[tuple[Any, tuple[int, int, int]]] = (),
 ) -> Image.Image:
     """The map (blocked black, unknown grey-blue, free white) with the ``marks`` (``(n, 2)``
-    cells) red over everything, ``cell`` pixels a cell; ``rays`` (``(origin (x, y), ends (m, 2))`` in meters)
-    drawn as thin amber lines, and ``routes`` (poses or points ``(k, >=2)`` in meters, with a
-    colour) as lines."""
+    cells) red over everything, ``cell`` pixels a cell; ``rays`` (``(origin (x, y), ends
+    (m, 2))`` in meters) as thin amber lines, and ``routes`` (poses or points ``(k, >=2)`` in
+    meters, each with a colour) as lines."""
     if isinstance(cell, bool) or not isinstance(cell, int) or not 1 <= cell <= 64:
         raise InvalidInput(f"cell must be an integer in [1, 64]; got {quote(cell)}", field="cell")
     H, W = robot_map.shape

@@ -52,9 +52,11 @@ class Observed:
     marks: int
 
 
-async def sight(engine: Engine, map_id: str) -> MapSight:
-    """The map's frame and blocked cells (``NotFound`` for an unknown map)."""
-    await engine.require_map(map_id)
+async def sight(engine: Engine, map_id: str, *, known: bool = False) -> MapSight:
+    """The map's frame and blocked cells (``NotFound`` for an unknown map; unless ``known``,
+    the store is asked whether it holds the map now, as what is cached of a map outlives it)."""
+    if not known:
+        await engine.require_map(map_id)
 
     async def compute() -> MapSight:
         robot_map = await engine.robot_map(map_id)
@@ -73,11 +75,12 @@ async def observe(
     *,
     robot: tuple[float, float] | None = None,
     robot_radius: float = 0.0,
+    known: bool = False,
 ) -> Observed:
     """Trace ``scan`` taken at ``pose`` on the map and update its live layer (one store call).
     A map without a frame in meters (a plain grid) takes no scan: ``InvalidInput`` on
-    ``scan``."""
-    seen = await sight(engine, map_id)
+    ``scan``. ``known``: a step's scan, whose plan's map the step's write checks."""
+    seen = await sight(engine, map_id, known=known)
     if seen.frame.is_default:
         msg = (
             f"scan: map {quote(map_id)} has no frame in meters (a plain grid, 1 m a cell); "
@@ -131,9 +134,10 @@ async def step_marks(
 ) -> npt.NDArray[np.int64]:
     """A step's part of the live layer: its ``scan`` added first (taken at ``scan_pose``, by
     default the step's ``position`` point and yaw), then the cells the map's marks block for
-    this robot: each mark's cell widened by the robot's radius (as a circle obstacle is), less
-    the marks on the robot's own body (within its radius and a cell of where it is, ``here``
-    or its reported point): another robot's scan of it is no obstacle to it."""
+    this robot (one store call; none on a plain grid, which takes no scan): each mark's cell
+    widened by the robot's radius (as a circle obstacle is), less the marks on the robot's own
+    body (within its radius and a cell of where it is, ``here`` or its reported point):
+    another robot's scan of it is no obstacle to it."""
     frame = plan.analysis.frame
     radius = plan.params.robot_radius
     point = body.position if isinstance(body.position, Point) else None
@@ -149,8 +153,12 @@ async def step_marks(
             )
             raise planner.InvalidInput(msg, field="scan_pose")
         robot = (float(center[0]), float(center[1]))
-        await observe(engine, map_id, body.scan, pose, robot=robot, robot_radius=radius)
-    cells = await live_cells(engine, map_id)
+        await observe(engine, map_id, body.scan, pose, robot=robot, robot_radius=radius, known=True)
+    if frame.is_default:  # a plain grid takes no scan: no marks to read
+        return np.zeros((0, 2), dtype=np.int64)
+    flat = await engine.store.live_marks(map_id)
+    width = frame.shape[1]
+    cells = np.stack([flat // width, flat % width], axis=1)
     if not len(cells):
         return cells
     points = frame.centers(cells)
