@@ -165,3 +165,31 @@ def _crosses(poses: list[dict[str, float]], box: Any, margin: float = 0.0) -> bo
             if math.hypot(dx, dy) <= margin:
                 return True
     return False
+
+
+@pytest.mark.anyio
+async def test_a_fleet_robot_takes_the_marks_as_obstacles(client: httpx.AsyncClient) -> None:
+    map_id = await _map(client, A)
+    body = {"map_id": map_id, **PLAN, "fleet": "scanned"}
+    r = await client.post("/plan", json=body, headers=A)
+    assert r.status_code == 201, r.text
+    plan_id = r.json()["plan_id"]
+    pose = {"x": 1.05, "y": 1.45, "yaw": 0.0}
+    seen = {"scan": _scan((1.05, 1.45, 0.0), [BOX]), "scan_pose": pose, "robot_radius": RADIUS}
+    assert (await client.post(f"/maps/{map_id}/observations", json=seen, headers=A)).is_success
+    marked = {tuple(c) for c in (await _live(client, map_id, A))["cells"]}
+    status, seq = "", 0
+    for seq in range(300):
+        if seq % 10 == 0:  # the sensor keeps seeing the box: its marks stay
+            await client.post(f"/maps/{map_id}/observations", json=seen, headers=A)
+        r = await client.post(f"/plan/{plan_id}/step", json={"seq": seq}, headers=A)
+        assert r.status_code == 200, r.text
+        answer = r.json()
+        status = answer["status"]
+        assert tuple(answer["position"]) not in marked
+        x, y = answer["position_xy"]
+        gap = math.hypot(max(BOX.x0 - x, 0.0, x - BOX.x1), max(BOX.y0 - y, 0.0, y - BOX.y1))
+        assert gap > RADIUS - RES / 2, answer
+        if status == "arrived":
+            break
+    assert status == "arrived", (seq, answer)
