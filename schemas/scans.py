@@ -44,9 +44,12 @@ class LaserScan(BaseModel):
 
     angle_min: Finite
     angle_increment: Finite = Field(description="Radians between rays; the span at most 2*pi.")
-    range_min: Finite = Field(ge=0, description="Returns closer than this are ignored.")
+    range_min: Finite = Field(ge=0, le=1e5, description="Returns closer than this are ignored.")
     range_max: Finite = Field(
-        gt=0, description="Rays with no return clear up to here; more than `range_min`."
+        gt=0,
+        le=1e5,
+        description="Rays with no return clear up to here (meters, at most 100 km); more than "
+        "`range_min`.",
     )
     ranges: list[Range] = Field(min_length=1, max_length=MAX_RAYS)
     angle_max: Finite | None = None
