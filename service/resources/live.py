@@ -19,6 +19,7 @@ from service.tenants import scoped
 from service.work.engine import Engine, cell_size, frame_map
 
 __all__ = [
+    "MARKS_ON_LOOP",
     "MapSight",
     "Observed",
     "live_cells",
@@ -112,15 +113,18 @@ async def observe(
 
 async def live_cells(engine: Engine, map_id: str) -> npt.NDArray[np.int64]:
     """The map's marks now, as ``(n, 2)`` ``[row, col]`` cells."""
-    width = (await sight(engine, map_id)).frame.shape[1]
-    flat = await engine.store.live_marks(map_id)
+    return _cells(await engine.store.live_marks(map_id), (await sight(engine, map_id)).frame)
+
+
+def _cells(flat: npt.NDArray[np.int64], frame: planner.MapFrame) -> npt.NDArray[np.int64]:
+    width = frame.shape[1]
     return np.stack([flat // width, flat % width], axis=1)
 
 
 async def live_view(engine: Engine, map_id: str) -> dict[str, Any]:
     """The map's marks as ``GET /maps/{map_id}/live`` answers them."""
-    cells = await live_cells(engine, map_id)
     frame = (await sight(engine, map_id)).frame
+    cells = _cells(await engine.store.live_marks(map_id), frame)
     return {
         "map_id": map_id,
         "persistence_seconds": engine.settings.obstacle_persistence_seconds,
@@ -156,9 +160,7 @@ async def step_marks(
         await observe(engine, map_id, body.scan, pose, robot=robot, robot_radius=radius, known=True)
     if frame.is_default:  # a plain grid takes no scan: no marks to read
         return np.zeros((0, 2), dtype=np.int64)
-    flat = await engine.store.live_marks(map_id)
-    width = frame.shape[1]
-    cells = np.stack([flat // width, flat % width], axis=1)
+    cells = _cells(await engine.store.live_marks(map_id), frame)
     if not len(cells):
         return cells
     points = frame.centers(cells)
@@ -168,7 +170,16 @@ async def step_marks(
     circles = [{"x": x, "y": y, "radius": half} for x, y in points[~own].tolist()]
     if not circles:
         return cells[:0]
-    return planner.circle_cells(frame_map(frame), circles, robot_radius=radius)
+    if len(circles) <= MARKS_ON_LOOP:
+        return planner.circle_cells(frame_map(frame), circles, robot_radius=radius)
+    return await engine.pool.run_step(
+        planner.circle_cells, frame_map(frame), circles, robot_radius=radius
+    )
+
+
+MARKS_ON_LOOP = 64
+"""Marks a step widens on the event loop (a fraction of a millisecond); more, on a step
+worker."""
 
 
 def with_marks(obstacles: Any, marks: npt.NDArray[np.int64]) -> Any:

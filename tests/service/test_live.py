@@ -4,6 +4,7 @@ around them at once, another tenant not seeing them; a step's own scan; bad scan
 
 from __future__ import annotations
 
+import asyncio
 import itertools
 import math
 from typing import Any
@@ -14,6 +15,7 @@ import pytest
 
 import planner
 from service.config import Settings
+from service.main import create_app
 from tests.scripts import load_benchmark
 
 world = load_benchmark("live_world")
@@ -193,3 +195,20 @@ async def test_a_fleet_robot_takes_the_marks_as_obstacles(client: httpx.AsyncCli
         if status == "arrived":
             break
     assert status == "arrived", (seq, answer)
+
+
+@pytest.mark.anyio
+async def test_marks_lapse_after_the_persistence_setting() -> None:
+    app = create_app(Settings(pool_size=1, obstacle_persistence_seconds=0.4))
+    async with app.router.lifespan_context(app):
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
+            map_id = await _map(c, {})
+            pose = {"x": 1.05, "y": 1.45, "yaw": 0.0}
+            body = {"scan": _scan((1.05, 1.45, 0.0), [BOX]), "scan_pose": pose}
+            assert (await c.post(f"/maps/{map_id}/observations", json=body)).json()["marks"] > 5
+            live = await _live(c, map_id, {})
+            assert live["persistence_seconds"] == 0.4
+            assert live["cells"]
+            await asyncio.sleep(0.6)
+            assert (await _live(c, map_id, {}))["cells"] == []
