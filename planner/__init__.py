@@ -36,6 +36,7 @@ from planner.errors import (
 )
 from planner.experiment.environments import TABLE1, environment
 from planner.experiment.runs import compare, run_experiment
+from planner.live.scans import LaserScan, Traced, trace_scan
 from planner.maps.frames import MapFrame
 from planner.maps.grids import (
     Scenario,
@@ -64,6 +65,7 @@ from planner.plans.route import MAX_WAYPOINTS, Route, route_of
 from planner.plans.whole_wave import Wave, WaveView, goal_wave
 from planner.poses import nav_msgs_path, smooth_path
 from planner.render import render_episode, render_map, render_plan
+from planner.render_live import render_live
 from planner.stepping.session import MOVES, Session, SessionState, Step, detour
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
@@ -78,6 +80,7 @@ __all__ = [
     "Episode",
     "InvalidInput",
     "KeepoutMask",
+    "LaserScan",
     "MapFrame",
     "MapYaml",
     "NoValidPath",
@@ -95,6 +98,7 @@ __all__ = [
     "SessionState",
     "SpeedZone",
     "Step",
+    "Traced",
     "Unsettled",
     "Wave",
     "WaveView",
@@ -133,6 +137,7 @@ __all__ = [
     "read_ros_map",
     "read_scen",
     "render_episode",
+    "render_live",
     "render_map",
     "render_plan",
     "resolve_params",
@@ -145,6 +150,7 @@ __all__ = [
     "simulate",
     "smooth_path",
     "speed_limits",
+    "trace_scan",
     "warm_up",
     "wide_clean",
     "zone_map",

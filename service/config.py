@@ -41,6 +41,13 @@ class Settings(BaseSettings):
     max_dynamic_obstacles: int = Field(
         default=10_000, ge=0, description="Most dynamic obstacles in one step or simulation."
     )
+    obstacle_persistence_seconds: float = Field(
+        default=5.0,
+        gt=0,
+        le=86400,
+        description="How long a cell a scan marked stays in the map's live layer unless a "
+        "later ray clears it.",
+    )
     cache_bytes: int = Field(
         default=512 * MIB, ge=0, description="Bound of the analysis and wave cache."
     )

@@ -85,6 +85,8 @@ class StepFields(TypedDict, total=False):
 
     seq: int | None
     position: CellIn | None
+    scan: Mapping[str, Any] | None
+    scan_pose: Mapping[str, float] | None
 
 
 class MapfFields(TypedDict, total=False):

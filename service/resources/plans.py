@@ -20,7 +20,7 @@ from planner import quote
 from planner.plans.ends import free_cell
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
-from service.resources import fleets, passages
+from service.resources import fleets, live, passages
 from service.resources.bodies import overrides, where
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
@@ -57,8 +57,9 @@ class PlanView:
 
 @dataclass(frozen=True, slots=True)
 class StepView:
-    """A step's answer, the plan's frame (for the answer's meters) and every cell the dynamic
-    obstacles blocked (circles as the cells they cover)."""
+    """A step's answer, the plan's frame (for the answer's meters) and every cell the client's
+    dynamic obstacles blocked (circles as the cells they cover; the live layer's marks are
+    read on their own, ``GET /maps/{map_id}/live``)."""
 
     step: planner.Step
     frame: planner.MapFrame
@@ -200,6 +201,11 @@ async def step(
         else:
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
+        client_cells = obstacles  # the client's, which the viewer draws (the marks: GET /live)
+        if not replayed:  # the live layer's marks: obstacles like the client's (docs/live.md)
+            here = (state.position[0], state.position[1])
+            marks = await live.step_marks(engine, record["map_id"], plan, body, here)
+            obstacles = live.with_marks(obstacles, marks)
         waiting_for, new_fleet = None, None
         if fleet is not None and "params" not in fleet:
             fleet = None  # a fleet of an older version: its robots join a new one as they step
@@ -222,12 +228,12 @@ async def step(
             if fleet is not None:
                 waiting_for = fleet["robots"].get(plan_id, {}).get("waiting_for")
             return Update(
-                StepView(result, frame, obstacles, True, plan.analysis.zones, waiting_for)
+                StepView(result, frame, client_cells, True, plan.analysis.zones, waiting_for)
             )
         stored = session.state.as_dict()
         appended = stored.pop("trajectory")[known:]
         view = StepView(
-            result, frame, obstacles, zones=plan.analysis.zones, waiting_for=waiting_for
+            result, frame, client_cells, zones=plan.analysis.zones, waiting_for=waiting_for
         )
         message = None if event is None else event(view)
         return Update(view, {**record, "state": stored}, appended, message, new_fleet)

@@ -38,6 +38,7 @@ from service.stores.base import (
     unpack,
 )
 from service.stores.redis_fleets import FLEET_TRIES, CachedFleet, FleetSteps
+from service.stores.redis_live import LIVE_MARKS, OBSERVE, LiveLayer
 from service.stores.redis_values import plans_of, split
 from service.stores.scripts import FLEET_DELETE, FLEET_PUT, FLEET_STEP, PUT, STEP
 from service.tenants import scoped
@@ -61,7 +62,7 @@ _Cached = tuple[int, PlanRecord]
 step decides on)."""
 
 
-class RedisStore(FleetSteps, Store):
+class RedisStore(FleetSteps, LiveLayer, Store):
     """Maps and plans in Redis, for any number of replicas.
 
     A step decides on the record this replica last read or wrote, then one script writes it
@@ -100,6 +101,8 @@ class RedisStore(FleetSteps, Store):
         self._fleet_step = _Collector(self._redis, self._redis.register_script(FLEET_STEP))
         self._fleet_put = self._redis.register_script(FLEET_PUT)
         self._fleet_delete = self._redis.register_script(FLEET_DELETE)
+        self._observe = self._redis.register_script(OBSERVE)
+        self._live_marks = self._redis.register_script(LIVE_MARKS)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()

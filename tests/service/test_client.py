@@ -394,6 +394,8 @@ ROUTES = {
     "fleet": ("get", "/fleets/{fleet}"),
     "change_goal": ("patch", "/plan/{plan_id}"),
     "mapf": ("post", "/maps/{map_id}/mapf"),
+    "observe": ("post", "/maps/{map_id}/observations"),
+    "live": ("get", "/maps/{map_id}/live"),
 }
 
 
