@@ -17,7 +17,8 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.params import PARAMETER_RANGES, SQRT2, Params, resolve_params
+from planner.motion.robots import MotionPath, motion_path
+from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
 from planner.plans.ends import (
     cell_of,
@@ -28,12 +29,13 @@ from planner.plans.ends import (
     stand_on,
     tolerance_m,
 )
+from planner.plans.metrics import clearance_metrics, path_cost
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
-from planner.poses.speed import drive_time, pose_speeds
+from planner.poses.speed import duration, pose_speeds
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
@@ -159,6 +161,8 @@ class Plan:
         joined (:func:`~planner.plans.route.join_poses`)."""
         if self.route is not None:
             return self.route.poses
+        if self.motion is not None:
+            return self.motion.poses
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -181,6 +185,24 @@ class Plan:
             outside_blocked=cs is None or cs.unknown == "blocked",
         )
 
+    @cached_property
+    def motion(self) -> MotionPath | None:
+        """With a footprint or a car motion, the footprint's path (its poses are the plan's)."""
+        if self.route is not None:
+            return None
+        goal = self.goal_used if self.goal_used is not None else self.goal_point
+        return motion_path(
+            self.analysis, self.wave, self.params,
+            (self.start_point or self._center(self.start), self.start_yaw),
+            (goal or self._center(self.goal), self.goal_yaw),
+        )  # fmt: skip
+
+    @property
+    def directions(self) -> npt.NDArray[np.int8]:
+        """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        m = self.motion
+        return np.ones(len(self.poses), np.int8) if m is None else m.direction
+
     @property
     def waypoints(self) -> list[tuple[int, int]]:
         """The cells of the waypoints the route passes, in order (none without a route)."""
@@ -198,8 +220,8 @@ class Plan:
 
     @property
     def duration_s(self) -> float:
-        """Seconds to drive :attr:`poses` at ``nominal_speed``, capped by the speed zones."""
-        return drive_time(self.poses, self.max_speeds, nominal_speed=self.params.nominal_speed)
+        """Seconds to drive :attr:`poses` (:func:`~planner.poses.speed.duration`)."""
+        return duration(self.poses, self.directions, self.max_speeds, self.params)
 
     @property
     def length_poses_m(self) -> float:
@@ -455,25 +477,6 @@ def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
     v = wave.view(r, c, analysis.clean)
     here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
     return bool(np.isfinite(here))
-
-
-def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
-    """(length, arc cost) of a path of cells. The length counts a diagonal sqrt 2 cells (one
-    rule for every length the planner reports); the arc cost is the paper's ``PathCost``: the
-    sum of ``k`` over the cells entered after the start."""
-    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * SQRT2)
-    return length, float(wave.k_along(path[1:]).sum())
-
-
-def clearance_metrics(
-    path: npt.NDArray[np.int64], analysis: Analysis
-) -> tuple[float, float, float]:
-    """(min clearance, mean clearance, contact ratio) of a path of cells: distances to the
-    nearest static obstacle, and the share of cells below 1.5 (touching one, diagonally too)."""
-    clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
-    contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
-    return float(clearance.min()), float(clearance.mean()), contact
 
 
 def route(
