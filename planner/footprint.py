@@ -92,6 +92,10 @@ def footprint_of(value: Any, field: str = "footprint") -> Footprint:
             msg = f"{field}[{i}] must be [x, y], two finite numbers of meters; got {quote(vertex)}"
             raise InvalidInput(msg, field=f"{field}[{i}]")
         points.append((float(vertex[0]), float(vertex[1])))
+    spread = np.linalg.svd(np.array(points) - np.mean(points, axis=0), compute_uv=False)
+    if spread[-1] < 1e-6:
+        msg = f"{field} is degenerate: its vertices lie on a line or at a point; got {quote(value)}"
+        raise InvalidInput(msg, field=field)
     ring = shapely.LinearRing(points)
     if not ring.is_simple:
         msg = (

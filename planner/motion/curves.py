@@ -9,7 +9,7 @@ length in units of the turning radius (an angle for a turn; negative: in reverse
 >>> import math
 >>> path = reeds_shepp((0.0, 0.0, 0.0), (0.0, 0.0, math.pi), 1.0)
 >>> round(path.length, 4), path.cusps
-(3.5708, 2)
+(3.1416, 2)
 >>> round(dubins((0.0, 0.0, 0.0), (4.0, 0.0, 0.0), 1.0).length, 6)
 4.0
 """

@@ -8,11 +8,12 @@ from typing import Any
 import numpy as np
 
 from planner.analysis.analyse import Analysis
+from planner.errors import InvalidInput
 from planner.footprint import Footprint, footprint_of
 from planner.motion.hybrid import MotionPath, Robot, drive
 from planner.params import Params
 
-__all__ = ["SEARCH_SECONDS", "MotionPath", "motion_path", "robot_of"]
+__all__ = ["SEARCH_SECONDS", "MotionPath", "check_goal_yaw", "motion_path", "robot_of"]
 
 SEARCH_SECONDS = 5.0
 """About how long a plan's hybrid search may run (well within a request's timeout)."""
@@ -34,6 +35,16 @@ def robot_of(params: Params, resolution: float) -> Robot | None:
         fp = Footprint(tuple((float(x), float(y)) for x, y in zip(r * np.cos(a), r * np.sin(a),
                                                                      strict=True)))  # fmt: skip
     return Robot(fp, params.motion, params.min_turning_radius or 0.0)
+
+
+def check_goal_yaw(params: Params, goal_yaw: float | None) -> None:
+    """A car motion needs the goal's yaw (it cannot turn in place to meet one): without, 422."""
+    if params.motion != "diff" and goal_yaw is None:
+        msg = (
+            f"a {params.motion} motion needs the goal's yaw (a car cannot turn in place to "
+            "meet one): give the goal as {x, y, yaw}"
+        )
+        raise InvalidInput(msg, field="goal")
 
 
 def motion_path(

@@ -232,7 +232,13 @@ def _search(
             else:
                 best = shortest_curve(x, y, t, gx, gy, gt, radius, motion == 2)
                 tail, tail_dir = sample_segments(
-                    x, y, t, curve_codes(int(best[1]), motion == 2), best[2:], radius, step
+                    x,
+                    y,
+                    t,
+                    curve_codes(int(best[1]), motion == 2),
+                    best[2:],
+                    radius,
+                    min(step, angle * radius),
                 )
             ok = True
             for j in range(1, tail.shape[0]):

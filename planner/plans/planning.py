@@ -17,7 +17,7 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.motion.robots import MotionPath, motion_path
+from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.decide import Rule, cost_here
 from planner.plans.ends import (
@@ -363,6 +363,7 @@ def plan(
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
     start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
+    check_goal_yaw(p, goal_yaw)
     tolerance = tolerance_m(goal_tolerance)
     stand_on(analysis, start, s, "start")
     goal_cell = cell_of(analysis, goal, "goal")  # a goal outside the map is refused at once
