@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, deviation_m, diagonal_cost, dynamic_margin, dynamic_margin_m, footprint, horizon_m, max_acceleration, max_angular_velocity, max_velocity, min_turning_radius, motion, nominal_speed, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow alpha beta clean_radius clean_weight decision deviation_m diagonal_cost dynamic_margin dynamic_margin_m footprint horizon_m max_acceleration max_angular_velocity max_velocity min_turning_radius motion nominal_speed occupied_threshold patience robot_radius seal_tunnels unknown wall_cost wide_distance wide_weight
 """
 
 from __future__ import annotations
@@ -202,7 +202,7 @@ def _check(name: str, value: Any) -> Any:
         )
         raise InvalidInput(msg, field=field)
     if name not in _FIELDS:
-        msg = f"unknown parameter {quote(name)}; known: {', '.join(sorted(_FIELDS))}"
+        msg = f"unknown parameter {quote(name, 40)}; known: {' '.join(sorted(_FIELDS))}"
         raise InvalidInput(msg, field=field)
     if name == "decision":
         if value not in ("wide", "paper"):

@@ -269,6 +269,7 @@ class Plan:
             "min_clearance_m": round(self.min_clearance_m, 6),
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
+            "directions": None if self.motion is None else self.directions.tolist(),
             "length_poses_m": round(self.length_poses_m, 6),
             "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
             "duration_s": round(self.duration_s, 6),
