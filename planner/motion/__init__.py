@@ -4,11 +4,9 @@ motions, shortening that keeps clearance, and the time to drive a path (docs/sha
 
 from planner.motion.collide import Grid, densify, footprint_clearance, grid_of, poses_free
 from planner.motion.curves import Curve, dubins, reeds_shepp
-from planner.motion.hybrid import CHECK_ANGLE, CHECK_STEP, MotionPath, Robot, drive
+from planner.motion.hybrid import MotionPath, Robot, drive
 
 __all__ = [
-    "CHECK_ANGLE",
-    "CHECK_STEP",
     "Curve",
     "Grid",
     "MotionPath",

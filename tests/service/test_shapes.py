@@ -103,3 +103,20 @@ async def test_bad_shapes_are_422_naming_the_field(
     assert r.status_code == 422, r.text
     assert field.split(".")[0] in r.text
     assert words in r.text
+
+
+async def test_a_fleet_robot_takes_its_enclosing_circle(client: httpx.AsyncClient) -> None:
+    bay, _, _ = naive_shapes.parking_bay()
+    map_id = await _upload(client, bay)
+    body = {"map_id": map_id, "start": {"x": 1.0, "y": 1.5}, "goal": {"x": 7.0, "y": 1.5},
+            "footprint": RECTANGLE, "fleet": "shapes"}  # fmt: skip
+    r = await client.post("/plan", json=body)
+    assert r.status_code == 201, r.text
+    params = r.json()["params"]
+    assert params["robot_radius"] == pytest.approx(math.hypot(0.3, 0.2))
+    assert params["footprint"] is None
+    car = {**body, "motion": "car", "min_turning_radius": 0.5, "goal": {"x": 7.0, "y": 1.5,
+                                                                        "yaw": 0.0}}  # fmt: skip
+    r = await client.post("/plan", json=car)
+    assert r.status_code == 422, r.text
+    assert r.json()["field"] == "motion"
