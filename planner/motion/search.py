@@ -240,10 +240,21 @@ def _search(
                     radius,
                     min(step, angle * radius),
                 )
+            # Free, and no nearer the walls than its ends less a cell: the curve is the
+            # shortest way, not a wide one, and must not cut a corner the search kept off.
+            least = min(
+                clearance_at(distance, edge, edge_starts, outside_blocked, x, y, t),
+                clearance_at(distance, edge, edge_starts, outside_blocked, gx, gy, gt),
+            ) - 1.0  # fmt: skip
             ok = True
             for j in range(1, tail.shape[0]):
-                if not pose_free_at(blocked, distance, offsets, starts, reach, outside_blocked,
-                                  tail[j, 0], tail[j, 1], tail[j, 2]):  # fmt: skip
+                u, v, w = tail[j, 0], tail[j, 1], tail[j, 2]
+                if (
+                    not pose_free_at(
+                        blocked, distance, offsets, starts, reach, outside_blocked, u, v, w
+                    )
+                    or clearance_at(distance, edge, edge_starts, outside_blocked, u, v, w) < least
+                ):
                     ok = False
                     break
             if ok:

@@ -138,3 +138,17 @@ def test_a_plans_duration_uses_the_profile(depot: planner.RobotMap) -> None:
     assert plan.duration_s == pytest.approx(
         naive_shapes.trapezoid(plan.length_poses_m, 1.0, 0.5), rel=0.05
     )
+
+
+def test_a_route_only_the_rectangle_takes(depot: planner.RobotMap) -> None:
+    """From a place along a wall where the 0.6 x 0.4 m rectangle fits but not its enclosing
+    circle (0.361 m), the rectangle drives to the middle of the depot."""
+    start, goal = {"x": 26.425, "y": 6.525, "yaw": 0.0}, {"x": 17.175, "y": 8.175}
+    enclosing = math.hypot(0.3, 0.2)
+    with pytest.raises(planner.InvalidInput) as info:
+        planner.plan(depot, start, goal, robot_radius=enclosing)
+    assert info.value.code == "START_OCCUPIED"
+    plan = planner.plan(depot, start, goal, footprint=RECTANGLE)
+    centers = naive_shapes.blocked_centers(depot)
+    assert naive_shapes.motion_hits(RECTANGLE, centers, plan.poses) == []
+    assert math.dist(plan.poses[-1][:2], (goal["x"], goal["y"])) < 1e-9

@@ -6,6 +6,7 @@ with a cusp, a plan read back from its record, and bad footprints and motions re
 from __future__ import annotations
 
 import math
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -120,3 +121,13 @@ async def test_a_fleet_robot_takes_its_enclosing_circle(client: httpx.AsyncClien
     r = await client.post("/plan", json=car)
     assert r.status_code == 422, r.text
     assert r.json()["field"] == "motion"
+
+
+def test_the_schemas_limits_are_the_planners() -> None:
+    """``schemas`` keeps its own copies (it never imports the planner)."""
+    from planner.footprint import MAX_VERTICES
+    from planner.motion.search import MOTIONS
+    from schemas.plans import MAX_FOOTPRINT_VERTICES, Motion
+
+    assert MAX_FOOTPRINT_VERTICES == MAX_VERTICES
+    assert typing.get_args(Motion) == MOTIONS
