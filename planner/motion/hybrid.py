@@ -27,7 +27,7 @@ from planner.motion.shorten import shorten
 
 __all__ = ["MotionPath", "Robot", "drive"]
 
-EXPANSIONS_PER_SECOND = 150_000
+EXPANSIONS_PER_SECOND = 35_000
 """Nodes the search expands a second, about (it is given a budget of nodes, not of time)."""
 
 

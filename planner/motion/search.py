@@ -220,10 +220,7 @@ def _search(
         x, y, t = pose[i, 0], pose[i, 1], pose[i, 2]
         here = -1.0 if parent[i] < 0 else moves[move[i], 4]
         # The analytic expansion: tried more often as the goal nears.
-        if motion == 0:
-            reach_len = math.hypot(gx - x, gy - y)
-        else:
-            reach_len = shortest_curve(x, y, t, gx, gy, gt, radius, motion == 2)[0]
+        reach_len = math.hypot(gx - x, gy - y)
         interval = max(1, int(reach_len / 20.0))
         if expansions % interval == 0 or reach_len < 10.0:
             if motion == 0:
@@ -313,10 +310,12 @@ def _search(
             ng = g[i] + cost
             if j >= 0 and ng >= g[j]:
                 continue
-            if motion == 0:
-                h = max(h, math.hypot(gx - nu, gy - nv))
-            else:
-                h = max(h, shortest_curve(nu, nv, nt, gx, gy, gt, radius, motion == 2)[0])
+            near = math.hypot(gx - nu, gy - nv)
+            if motion != 0 and near < 8.0 * radius:
+                # Near the goal the heading matters more than the wave knows (far off the wave
+                # bounds the curve's length well, and the curve costs 48 words to find).
+                near = shortest_curve(nu, nv, nt, gx, gy, gt, radius, motion == 2)[0]
+            h = max(h, near)
             if j < 0:
                 if n == cap:
                     cap *= 2
