@@ -36,6 +36,7 @@ from planner.errors import (
 )
 from planner.experiment.environments import TABLE1, environment
 from planner.experiment.runs import compare, run_experiment
+from planner.footprint import Footprint, footprint_of
 from planner.live.scans import LaserScan, Traced, trace_scan
 from planner.maps.frames import MapFrame
 from planner.maps.grids import (
@@ -58,12 +59,14 @@ from planner.maps.ros_maps import (
 )
 from planner.maps.zones import KeepoutMask, SpeedZone, Zones, speed_limits
 from planner.maps.zoning import keepout_mask, zone_map
+from planner.motion import MotionPath, Robot, drive, dubins, reeds_shepp
 from planner.params import PRESETS, Params, resolve_params
 from planner.plans.planning import Plan, clearance_metrics, plan, reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
 from planner.plans.route import MAX_WAYPOINTS, Route, route_of
 from planner.plans.whole_wave import Wave, WaveView, goal_wave
 from planner.poses import nav_msgs_path, smooth_path
+from planner.poses.speed import profile_time
 from planner.render import render_episode, render_map, render_plan
 from planner.render_live import render_live
 from planner.stepping.session import MOVES, Session, SessionState, Step, detour
@@ -78,11 +81,13 @@ __all__ = [
     "Analysis",
     "CSpace",
     "Episode",
+    "Footprint",
     "InvalidInput",
     "KeepoutMask",
     "LaserScan",
     "MapFrame",
     "MapYaml",
+    "MotionPath",
     "NoValidPath",
     "ObstacleMotion",
     "Params",
@@ -90,6 +95,7 @@ __all__ = [
     "Plan",
     "PlannerError",
     "ResumableWave",
+    "Robot",
     "RobotMap",
     "Route",
     "Scenario",
@@ -115,8 +121,11 @@ __all__ = [
     "crossed_passages",
     "decode_map_image",
     "detour",
+    "drive",
+    "dubins",
     "environment",
     "find_passages",
+    "footprint_of",
     "format_map",
     "goal_wave",
     "grid_map",
@@ -131,11 +140,13 @@ __all__ = [
     "parse_rows",
     "path_narrowest",
     "plan",
+    "profile_time",
     "quote",
     "reaches",
     "read_map",
     "read_ros_map",
     "read_scen",
+    "reeds_shepp",
     "render_episode",
     "render_live",
     "render_map",

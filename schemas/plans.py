@@ -13,10 +13,13 @@ __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
     "GOAL_TOLERANCE_MAX",
+    "MAX_FOOTPRINT_VERTICES",
     "MAX_WAYPOINTS",
     "PRESET_NAMES",
     "AnalysisPublic",
     "DetourPublic",
+    "Footprint",
+    "Motion",
     "PlanCreate",
     "PlanDetail",
     "PlanEnds",
@@ -74,6 +77,29 @@ UnknownPolicy = Annotated[
     ),
 ]
 
+MAX_FOOTPRINT_VERTICES = 32
+"""A footprint's vertices at most (the planner's ``MAX_VERTICES``: a test compares)."""
+
+Footprint = Annotated[
+    list[Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2,
+                                                                             max_length=2)]]
+    | None,
+    Field(
+        default=None,
+        min_length=3,
+        max_length=MAX_FOOTPRINT_VERTICES,
+        description="The robot's outline in its own frame, meters, x forward: 3 to 32 `[x, y]` "
+        "vertices of a simple polygon holding `[0, 0]` (the pose's point), in place of "
+        "`robot_radius` (which becomes the footprint's inscribed radius). Every pose, and the "
+        "motion between poses, is free for the footprint at the pose's yaw; the wall term "
+        "weighs the footprint's clearance.",
+        examples=[[[0.3, 0.2], [0.3, -0.2], [-0.3, -0.2], [-0.3, 0.2]]],
+    ),
+]  # fmt: skip
+"""A robot's footprint polygon."""
+
+Motion = Literal["diff", "car", "car_reverse"]
+
 Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
 PRESET_NAMES: tuple[str, ...] = get_args(Preset)
 """The planner's presets, in its order (schemas never import the planner: a test compares)."""
@@ -88,7 +114,10 @@ PARAMS_DESCRIPTION = (
     "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
     "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve), "
     "`max_detour` (a finite number from 1 to 100, default 1.3: the `wide` route is at most that "
-    "many times as long as the shortest route; the preview's `detour`)."
+    "many times as long as the shortest route; the preview's `detour`), "
+    "`max_velocity` (m/s), `max_acceleration` (m/s²) and `max_angular_velocity` (rad/s): with "
+    "`max_velocity`, `duration_s` follows a trapezoid speed profile that slows for curvature, "
+    "stops at cusps and counts turns in place."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -129,6 +158,12 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "deviation_m": 0.5,
         "nominal_speed": 0.5,
         "max_detour": 1.3,
+        "footprint": None,
+        "motion": "diff",
+        "min_turning_radius": None,
+        "max_velocity": None,
+        "max_acceleration": None,
+        "max_angular_velocity": None,
     },
     "status": "ready",
     "position": [0, 0],
@@ -209,6 +244,21 @@ class PlanOptions(BaseModel):
         "(the planner parameter `allow_narrow`; default true).",
     )
     robot_radius: RobotRadius = None
+    footprint: Footprint = None
+    motion: Motion | None = Field(
+        default=None,
+        description="`diff` (default: turns in place), `car` (forward only) or `car_reverse` "
+        "(forward and reverse, Reeds-Shepp): a car's path never curves tighter than "
+        "`min_turning_radius`, and its poses carry `direction`; it needs a goal `yaw`.",
+    )
+    min_turning_radius: float | None = Field(
+        default=None,
+        gt=0,
+        le=100,
+        allow_inf_nan=False,
+        description="A car motion's least turning radius, meters (> 0; required for `car` and "
+        "`car_reverse`).",
+    )
     unknown: UnknownPolicy = None
     goal_tolerance: float = Field(
         default=0.0,

@@ -17,6 +17,7 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_cell, as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
+from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
 from planner.plans.decide import Rule, cost_here
@@ -35,7 +36,7 @@ from planner.plans.route import Route, plan_route, waypoint_list
 from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
-from planner.poses.speed import drive_time, pose_speeds
+from planner.poses.speed import duration, pose_speeds
 
 __all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
 
@@ -163,6 +164,8 @@ class Plan:
         joined (:func:`~planner.plans.route.join_poses`)."""
         if self.route is not None:
             return self.route.poses
+        if self.motion is not None:
+            return self.motion.poses
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -185,6 +188,24 @@ class Plan:
             outside_blocked=cs is None or cs.unknown == "blocked",
         )
 
+    @cached_property
+    def motion(self) -> MotionPath | None:
+        """With a footprint or a car motion, the footprint's path (its poses are the plan's)."""
+        if self.route is not None:
+            return None
+        goal = self.goal_used if self.goal_used is not None else self.goal_point
+        return motion_path(
+            self.analysis, self.wave, self.params,
+            (self.start_point or self._center(self.start), self.start_yaw),
+            (goal or self._center(self.goal), self.goal_yaw),
+        )  # fmt: skip
+
+    @property
+    def directions(self) -> npt.NDArray[np.int8]:
+        """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        m = self.motion
+        return np.ones(len(self.poses), np.int8) if m is None else m.direction
+
     @property
     def waypoints(self) -> list[tuple[int, int]]:
         """The cells of the waypoints the route passes, in order (none without a route)."""
@@ -202,8 +223,8 @@ class Plan:
 
     @property
     def duration_s(self) -> float:
-        """Seconds to drive :attr:`poses` at ``nominal_speed``, capped by the speed zones."""
-        return drive_time(self.poses, self.max_speeds, nominal_speed=self.params.nominal_speed)
+        """Seconds to drive :attr:`poses` (:func:`~planner.poses.speed.duration`)."""
+        return duration(self.poses, self.directions, self.max_speeds, self.params)
 
     @property
     def length_poses_m(self) -> float:
@@ -251,6 +272,7 @@ class Plan:
             "min_clearance_m": round(self.min_clearance_m, 6),
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
+            "directions": None if self.motion is None else self.directions.tolist(),
             "length_poses_m": round(self.length_poses_m, 6),
             "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
             "duration_s": round(self.duration_s, 6),
@@ -357,6 +379,7 @@ def plan(
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
     start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
+    check_goal_yaw(p, goal_yaw)
     tolerance = tolerance_m(goal_tolerance)
     stand_on(analysis, start, s, "start")
     goal_cell = cell_of(analysis, goal, "goal")  # a goal outside the map is refused at once

@@ -247,7 +247,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         },
         "preview": {
             **{key: s[key] for key in PREVIEW_KEYS},
-            "poses": _poses(s["poses"], s["max_speeds"]),
+            "poses": _poses(s["poses"], s["max_speeds"], s["directions"]),
             "duration_s": s["duration_s"],
             "goal_used": _xy(s["goal_used"]),
             "waypoint_indices": s["waypoint_indices"],
@@ -259,12 +259,19 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
     }
 
 
-def _poses(poses: list[list[float]], speeds: list[float | None]) -> list[dict[str, float]]:
-    """Poses as ``{"x", "y", "yaw"}``, and ``"max_speed"`` inside a speed zone."""
+def _poses(
+    poses: list[list[float]], speeds: list[float | None], directions: list[int] | None = None
+) -> list[dict[str, float]]:
+    """Poses as ``{"x", "y", "yaw"}``, ``"max_speed"`` inside a speed zone, and ``"direction"``
+    when the plan drives a footprint or a car."""
     out: list[dict[str, float]] = []
-    for (x, y, yaw), speed in zip(poses, speeds, strict=True):
-        out.append({"x": x, "y": y, "yaw": yaw} if speed is None else
-                   {"x": x, "y": y, "yaw": yaw, "max_speed": speed})  # fmt: skip
+    for i, ((x, y, yaw), speed) in enumerate(zip(poses, speeds, strict=True)):
+        pose = {"x": x, "y": y, "yaw": yaw}
+        if speed is not None:
+            pose["max_speed"] = speed
+        if directions is not None:
+            pose["direction"] = directions[i]
+        out.append(pose)
     return out
 
 

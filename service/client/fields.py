@@ -34,6 +34,9 @@ class PlanFields(TypedDict, total=False):
     params: Mapping[str, Any] | None
     allow_narrow: bool | None
     robot_radius: float | None
+    footprint: Sequence[Sequence[float]] | None
+    motion: str | None
+    min_turning_radius: float | None
     unknown: str | None
     goal_tolerance: float | None
 

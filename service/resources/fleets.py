@@ -30,6 +30,7 @@ __all__ = [
     "Moved",
     "empty",
     "fleet_map",
+    "fleet_robot",
     "get_fleet",
     "join",
     "moved_away",
@@ -59,6 +60,24 @@ class Moved:
     step: planner.Step
     waiting_for: str | None
     fleet: FleetRecord
+
+
+def fleet_robot(params: dict[str, Any]) -> dict[str, Any]:
+    """A fleet robot's planner parameters: with a ``footprint``, its enclosing circle's radius
+    in place of it (the roadmap keeps round robots apart). Its moves are the roadmap's: a car
+    motion is refused."""
+    if params.get("motion", "diff") != "diff":
+        msg = (
+            f"motion {quote(params['motion'])}: a fleet robot moves along the fleet's roadmap "
+            "and turns in place; plan a car alone"
+        )
+        raise planner.InvalidInput(msg, field="motion")
+    if params.get("footprint") is None:
+        return params
+    radius = planner.footprint_of(params["footprint"]).circumscribed_radius
+    out = {k: v for k, v in params.items() if k != "footprint"}
+    out["robot_radius"] = radius
+    return out
 
 
 def empty(map_id: str, plan: planner.Plan) -> FleetRecord:

@@ -73,8 +73,9 @@ class StepView:
 
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
+    params = overrides(body) if body.fleet is None else fleets.fleet_robot(overrides(body))
     plan, cache_hit = await engine.build_plan(
-        body.map_id, where(body.start), where(body.goal), body.preset, overrides(body),
+        body.map_id, where(body.start), where(body.goal), body.preset, params,
         goal_tolerance=body.goal_tolerance,
         waypoints=[where(point) for point in body.waypoints],
     )  # fmt: skip
