@@ -61,7 +61,8 @@ from planner.maps.zones import KeepoutMask, SpeedZone, Zones, speed_limits
 from planner.maps.zoning import keepout_mask, zone_map
 from planner.motion import MotionPath, Robot, drive, dubins, reeds_shepp
 from planner.params import PRESETS, Params, resolve_params
-from planner.plans.planning import Plan, clearance_metrics, plan, reaches
+from planner.plans.planning import Plan, clearance_metrics, plan
+from planner.plans.reach import reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
 from planner.plans.route import MAX_WAYPOINTS, Route, route_of
 from planner.plans.whole_wave import Wave, WaveView, goal_wave

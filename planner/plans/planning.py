@@ -15,12 +15,12 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
-from planner.maps.grids import as_cell, as_grid
+from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
-from planner.plans.decide import Rule, cost_here
+from planner.plans.decide import Rule
 from planner.plans.ends import (
     cell_of,
     end_point,
@@ -31,14 +31,14 @@ from planner.plans.ends import (
     tolerance_m,
 )
 from planner.plans.metrics import clearance_metrics, path_cost
-from planner.plans.resumable_wave import ResumableWave, resumable_wave
+from planner.plans.reach import route, wave_to
+from planner.plans.resumable_wave import resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
-from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
 from planner.poses.speed import duration, pose_speeds
 
-__all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
+__all__ = ["Plan", "clearance_metrics", "path_cost", "plan"]
 
 WaveSource = Callable[[tuple[int, int], bool], Wave]
 """Gives the goal wave of a goal cell for ``narrow`` (False: the sealed grid): lets a caller
@@ -396,7 +396,7 @@ def plan(
     try:
         g = free_cell(analysis, goal, "goal")
         stand_on(analysis, goal, g, "goal")
-        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+        wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
     except (InvalidInput, NoValidPath) as error:
         if tolerance <= 0:
             raise
@@ -411,7 +411,7 @@ def plan(
             error.args = (error.message,)
             raise
         g = near
-        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+        wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
         x, y = analysis.frame.centers([g])[0]
         goal_used = (float(x), float(y))
     if p.dynamic_margin_m is not None:
@@ -437,32 +437,6 @@ def plan(
     return result
 
 
-def _wave_to(
-    analysis: Analysis,
-    s: tuple[int, int],
-    g: tuple[int, int],
-    allow_narrow: bool,
-    wave_for: Callable[[tuple[int, int], bool], Wave],
-) -> tuple[Wave, bool]:
-    """The goal wave of ``g`` that reaches ``s`` (the sealed grid's, else the narrow one's when
-    allowed), and whether it is the narrow one; else NoValidPath."""
-    wave = wave_for(g, False)
-    narrow = False
-    if not reaches(wave, analysis, s) and analysis.sealed:
-        narrow_wave = wave_for(g, True)
-        if reaches(narrow_wave, analysis, s):
-            if not allow_narrow:
-                msg = (
-                    f"goal {list(g)} can be reached from start {list(s)} only through tight "
-                    "tunnels, and allow_narrow is false"
-                )
-                raise NoValidPath(msg, field="goal")
-            wave, narrow = narrow_wave, True
-    if not reaches(wave, analysis, s):
-        raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
-    return wave, narrow
-
-
 def _margin_cells(meters: float, analysis: Analysis) -> int:
     """``dynamic_margin_m`` in cells of the analysed map: every cell an obstacle within that many
     meters may cover."""
@@ -476,42 +450,3 @@ def _margin_cells(meters: float, analysis: Analysis) -> int:
         )
         raise InvalidInput(msg, field="params.dynamic_margin_m")
     return cells
-
-
-def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
-    """Whether the robot at ``cell`` (``[row, col]``) can reach the wave's goal over the
-    wave's grid.
-
-    >>> a = analyse([[0, 1], [1, 0]], seal_tunnels=False)
-    >>> reaches(goal_wave(a, [0, 0]), a, [1, 1])
-    False
-    >>> reaches(goal_wave(a, [0, 0]), a, [-1, 0])
-    Traceback (most recent call last):
-    ...
-    planner.errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
-    """
-    r, c = as_cell(cell, analysis.shape, name="cell")
-    if wave.shape != analysis.shape:
-        msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
-        raise InvalidInput(msg, field="wave")
-    v = wave.view(r, c, analysis.clean)
-    here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
-    return bool(np.isfinite(here))
-
-
-def route(
-    wave: Wave,
-    analysis: Analysis,
-    start: tuple[int, int],
-    goal: tuple[int, int],
-    rule: Rule,
-) -> npt.NDArray[np.int64]:
-    """The cells (flat) the decision of ``rule`` visits from ``start`` with no dynamic
-    obstacles, down ``wave``'s fields (a resumable wave settling what it reads); empty when it
-    does not reach ``goal``."""
-    H, W = analysis.shape
-    if isinstance(wave, ResumableWave):
-        return wave.walk(start, rule, 4 * H * W + 8)
-    view = wave.view(start[0], start[1], analysis.clean)
-    flat_goal = goal[0] * W + goal[1]
-    return walk_fields(view, start[0] * W + start[1], flat_goal, rule, max_steps=4 * H * W + 8)
