@@ -94,10 +94,17 @@ PATTERNS: dict[str, Pattern] = {
         heavy.rooms_map(2048),
         other="plan-60",
     ),
+    "plan-4096": Pattern(
+        "a first plan on a 4096 x 4096 map (its analysis); other: 60 x 60 plans",
+        heavy.first_plan,
+        heavy.walled_map,
+        other="plan-60",
+    ),
     "tolerance": Pattern(
-        "`goal_tolerance` 100 m, 4096 x 4096 map, goal inside a 3000 x 3000 block",
+        "`goal_tolerance` 100 m on that map, the goal inside a 3000 x 3000 block; other: 60 x 60 "
+        "plans",
         heavy.tolerance,
-        heavy.walled_goal,
+        heavy.walled_analysed,
         other="plan-60",
     ),
     "wrong-mask": Pattern(

@@ -51,15 +51,17 @@ class Service:
             stdout=self.log,
             stderr=subprocess.STDOUT,
         )
+        deadline = time.monotonic() + 600  # compiling the kernels afresh takes minutes
         with httpx.Client(base_url=self.url, trust_env=False) as c:
-            for _ in range(1200):
+            while time.monotonic() < deadline:
                 assert self.process.poll() is None, Path(self.log.name).read_text()
                 try:
                     c.get("/healthz", timeout=5)
                     return
                 except httpx.TransportError:
                     time.sleep(0.1)
-        raise RuntimeError("the service did not start")
+        self.stop()
+        raise RuntimeError("the service did not start in 600 s")
 
     def client(self, key: str = ATTACKER, timeout: float = 300) -> httpx.Client:
         """A client acting for ``key``'s tenant."""
@@ -103,9 +105,10 @@ def _poll(url: str, pid: int, done: EventType, out: Queue[Watch]) -> None:
 
 
 def _small_map(c: httpx.Client, side: int, seed: int) -> httpx.Response:
-    """A new ``side`` x ``side`` map (10 % blocked, its corners free) with a plan across it."""
+    """A new ``side`` x ``side`` map (10 % blocked, its first row and last column free) with a
+    plan across it."""
     cells = np.random.default_rng(seed).random((side, side)) < 0.1
-    cells[0, 0] = cells[-1, -1] = False
+    cells[0, :] = cells[:, -1] = False
     rows = ["".join("@" if b else "." for b in row) for row in cells]
     return c.post("/maps", json={"rows": rows, "start": [0, 0], "goal": [side - 1, side - 1]})
 
