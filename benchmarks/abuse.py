@@ -20,11 +20,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import statistics
 import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+
+import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import abuse_heavy as heavy
@@ -148,19 +151,23 @@ def main() -> None:
             before = rss_mb(service.process.pid)
             with watching(service, pattern.other) as result:
                 t0 = time.monotonic()
-                if prepared is None:
-                    answer = pattern.attack(service)
-                else:
-                    answer = pattern.attack(service, prepared)
+                try:
+                    if prepared is None:
+                        answer = pattern.attack(service)
+                    else:
+                        answer = pattern.attack(service, prepared)
+                except (httpx.HTTPError, KeyError, ValueError) as exc:  # the row says so
+                    answer = f"failed: {type(exc).__name__} {str(exc)[:80]}"
                 took = time.monotonic() - t0
             watch = result[0]
             grown = watch.peak_rss - before
             met = watch.stall <= STALL_TARGET and grown <= RSS_TARGET_MB and not watch.failures
+            met = met and not answer.startswith("failed")
             other = "-"
             if watch.other:
-                worst = max(watch.other)
-                codes = " ".join(f"{n} x {c}" for c, n in sorted(watch.other_statuses.items()))
-                other = f"{worst:.3f} ({codes})"
+                worst, median = max(watch.other), statistics.median(watch.other)
+                codes = ", ".join(f"{n} x {c}" for c, n in sorted(watch.other_statuses.items()))
+                other = f"{worst:.3f} (median {median:.3f}; {codes})"
                 met = met and worst <= OTHER_TARGET and set(watch.other_statuses) <= {"200", "201"}
             print(
                 f"| {pattern.what} | {answer} | {took:.2f} | {watch.stall:.3f} | "

@@ -89,7 +89,9 @@ def first_plan(service: Service, map_id: str) -> str:
     """A plan across a 4096 x 4096 map not planned on before: its analysis (the configuration
     space, the wall term, the clearance) and a wave over most of it."""
     r = _across(service, map_id)
-    return f"{r.status_code}, analysis {r.json()['analysis']['analysis_ms'] / 1e3:.1f} s"
+    if r.status_code != 201:
+        return f"{r.status_code} {r.json().get('code', '')}".strip()
+    return f"201, analysis {r.json()['analysis']['analysis_ms'] / 1e3:.1f} s"
 
 
 def _ring(cx: float, cy: float, radius: float, n: int) -> list[dict[str, float]]:

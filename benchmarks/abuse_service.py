@@ -120,7 +120,7 @@ def _other(url: str, kind: str, ready: EventType, done: EventType, out: Queue[Wa
     headers = {"X-API-Key": OTHER}
     with httpx.Client(base_url=url, trust_env=False, timeout=120, headers=headers) as c:
         map_id = _small_map(c, 60, 60).json()["map_id"] if kind == "plan-60" else ""
-        free = [[r, 59] for r in range(60, 30, -1)]
+        free = [[r, 59] for r in range(59, 29, -1)]
         ready.set()
         seq = 0
         while not done.is_set():
