@@ -12,8 +12,8 @@ row is the quiet service, the same polling with nothing else going on. Targets (
 36): no pattern stalls ``/healthz`` over 0.5 s or grows RSS over 300 MB, and the other tenant's
 small requests wait at most 1 s.
 
-Run: ``.venv/bin/python benchmarks/abuse.py`` (about five minutes; ``--only NAME`` for one row,
-with the quiet one).
+Run: ``.venv/bin/python benchmarks/abuse.py`` (about fifteen minutes on a loaded 2-vCPU machine;
+``--only NAME`` for one row, with the quiet one).
 """
 
 from __future__ import annotations
