@@ -31,7 +31,7 @@ import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import abuse_heavy as heavy
-import abuse_requests as requests
+import abuse_requests as hostile
 from abuse_service import Service, cpu_model, rss_mb, watching
 
 STALL_TARGET = 0.5
@@ -52,32 +52,30 @@ class Pattern:
 
 
 PATTERNS: dict[str, Pattern] = {
-    "quiet": Pattern("the quiet service (polling only)", requests.quiet),
-    "alias-bomb": Pattern(
-        "YAML alias bomb: 9 levels of 9 aliases, ~480 bytes", requests.alias_bomb
-    ),
+    "quiet": Pattern("the quiet service (polling only)", hostile.quiet),
+    "alias-bomb": Pattern("YAML alias bomb: 9 levels of 9 aliases, ~480 bytes", hostile.alias_bomb),
     "big-circles": Pattern(
         "a step with 200 circles of 10^6 m on a 1000 x 1000 map",
-        requests.circles(200, 1e6),
-        requests.plan_on_big_map,
+        hostile.circles(200, 1e6),
+        hostile.plan_on_big_map,
     ),
     "many-circles": Pattern(
         "a step with 2,000 circles of 5 m on that map",
-        requests.circles(2000, 5.0),
-        requests.plan_on_big_map,
+        hostile.circles(2000, 5.0),
+        hostile.plan_on_big_map,
     ),
-    "million-keys": Pattern("POST /plan, a body of 1 M unknown keys", requests.million_keys),
-    "brackets": Pattern("POST /maps, 32 MB of `[` (the largest body)", requests.brackets),
-    "grid-1024": Pattern("POST /maps, a 1024 x 1024 JSON `grid`", requests.upload(1024, "grid")),
-    "grid-2048": Pattern("POST /maps, a 2048 x 2048 JSON `grid`", requests.upload(2048, "grid")),
-    "grid-3800": Pattern("POST /maps, a 3800 x 3800 JSON `grid`", requests.upload(3800, "grid")),
-    "rows-3800": Pattern("POST /maps, 3800 x 3800 Moving AI `rows`", requests.upload(3800, "rows")),
-    "png-3800": Pattern("POST /maps, a 3800 x 3800 PNG and its YAML", requests.upload(3800, "png")),
-    "idle-sockets": Pattern("4,100 idle TCP connections, held 3 s", requests.idle_sockets),
-    "slowloris": Pattern("200 connections trickling header lines, 8 s", requests.slowloris),
-    "huge-header": Pattern("one connection sending a 64 MB header", requests.huge_header),
+    "million-keys": Pattern("POST /plan, a body of 1 M unknown keys", hostile.million_keys),
+    "brackets": Pattern("POST /maps, 32 MB of `[` (the largest body)", hostile.brackets),
+    "grid-1024": Pattern("POST /maps, a 1024 x 1024 JSON `grid`", hostile.upload(1024, "grid")),
+    "grid-2048": Pattern("POST /maps, a 2048 x 2048 JSON `grid`", hostile.upload(2048, "grid")),
+    "grid-3800": Pattern("POST /maps, a 3800 x 3800 JSON `grid`", hostile.upload(3800, "grid")),
+    "rows-3800": Pattern("POST /maps, 3800 x 3800 Moving AI `rows`", hostile.upload(3800, "rows")),
+    "png-3800": Pattern("POST /maps, a 3800 x 3800 PNG and its YAML", hostile.upload(3800, "png")),
+    "idle-sockets": Pattern("4,100 idle TCP connections, held 3 s", hostile.idle_sockets),
+    "slowloris": Pattern("200 connections trickling header lines, 8 s", hostile.slowloris),
+    "huge-header": Pattern("one connection sending a 64 MB header", hostile.huge_header),
     "stream-never-read": Pattern(
-        "an event stream never read, 300 steps of ~700 KB events", requests.stream_never_read
+        "an event stream never read, 300 steps of ~700 KB events", hostile.stream_never_read
     ),
     "rezone": Pattern(
         "H1: zoning the zoned map again, 20 x 256 speed zones; other: 10 x 10 uploads",
