@@ -356,7 +356,7 @@ def _demo(args: argparse.Namespace) -> int:
         "`shortest` slips through the one-cell corridor;\n`wide` seals it and crosses the open "
         f"room instead, {wide.length / short.length - 1:.0%} longer, keeping away from walls."
     )
-    print("\nTry: python -m planner plan MAP --start R C --goal R C (see docs/python.md).")
+    print("\nTry: .venv/bin/planner plan MAP --start R C --goal R C (see docs/python.md).")
     return 0
 
 
