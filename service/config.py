@@ -75,7 +75,7 @@ class Settings(BaseSettings):
         default="info", description="JSON log lines at this level and above, on stdout."
     )
     warmup_wait_seconds: float = Field(
-        default=10.0,
+        default=8.0,
         ge=0,
         description="At start, how long readiness waits for the kernels to compile (or load from "
         "numba's cache); the rest compiles in the background, a request needing one first "

@@ -291,4 +291,6 @@ def warm_up() -> None:
     p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1)
     roadmap = build_roadmap(p.analysis, radius=0.1)
     attach(roadmap, p.analysis, (3, 1), exclude=[0])
-    solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=1.0)
+    # A limit far above the solve's: one hit while compiling would skip the search's kernels,
+    # left uncompiled (and out of numba's cache) for the next start to compile.
+    solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=3600.0)
