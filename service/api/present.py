@@ -229,6 +229,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
     return {
         "plan_id": view.plan_id,
         "map_id": view.record["map_id"],
+        "name": view.record.get("name"),
         "start": s["start"],
         "goal": s["goal"],
         "preset": s["preset"],

@@ -94,6 +94,8 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "state": stored,
         **await passages.crossings(engine, body.map_id, plan),
     }
+    if body.name is not None:
+        record["name"] = body.name
     append = stored.pop("trajectory")
     if body.fleet is None:
         await engine.store.put_plan(plan_id, record, append=append)

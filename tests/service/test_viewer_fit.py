@@ -133,7 +133,7 @@ def test_a_robot_map_reads_at_1400_by_1000(live_url: str, browser: Browser) -> N
         map_id = client.post("/maps", files=files).json()["map_id"]
         body = {
             "map_id": map_id, "start": {"x": 6.8, "y": 14.0}, "goal": {"x": 25.0, "y": 4.5},
-            "robot_radius": 0.3,
+            "robot_radius": 0.3, "name": "forklift 3",
         }  # fmt: skip
         r = client.post("/plan", json=body)
         assert r.status_code == 201, r.text
@@ -143,6 +143,7 @@ def test_a_robot_map_reads_at_1400_by_1000(live_url: str, browser: Browser) -> N
     try:
         page.goto(f"{live_url}/plan/{plan['plan_id']}/view")
         page.wait_for_function("document.body.dataset.passages !== undefined", timeout=10_000)
+        assert (page.text_content("h1") or "").startswith("forklift 3 (plan ")  # its name
         board = page.locator("#frame").bounding_box()
         assert board is not None
         assert board["width"] * board["height"] >= 0.6 * LARGE["width"] * LARGE["height"], board
