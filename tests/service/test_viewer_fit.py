@@ -7,7 +7,7 @@ from collections.abc import Iterator
 
 import httpx
 import pytest
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, FloatRect, Page, sync_playwright
 
 from tests.service.browser import FLAGS, chromium
 from tests.service.conftest import ROOT, random_map
@@ -111,7 +111,7 @@ DEPOT = ROOT / "examples" / "maps"
 LARGE = {"width": 1400, "height": 1000}
 
 
-def _boxes_overlap(a: dict[str, float], b: dict[str, float]) -> bool:
+def _boxes_overlap(a: FloatRect, b: FloatRect) -> bool:
     return (
         a["x"] < b["x"] + b["width"]
         and b["x"] < a["x"] + a["width"]
