@@ -17,6 +17,7 @@ settled cells (:meth:`Engine.step`).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import dataclasses
 import math
 import threading
@@ -185,12 +186,13 @@ class Engine:
         done: asyncio.Future[None] = loop.create_future()
 
         def warm_up() -> None:
+            failure: BaseException | None = None
             try:
                 planner.warm_up()
             except BaseException as exc:  # handed to the waiter
-                loop.call_soon_threadsafe(_settle, done, exc)
-            else:
-                loop.call_soon_threadsafe(_settle, done, None)
+                failure = exc
+            with contextlib.suppress(RuntimeError):  # the service stopped meanwhile
+                loop.call_soon_threadsafe(_settle, done, failure)
 
         # A daemon thread: a service stopped while compiling does not wait for the compiler.
         threading.Thread(target=warm_up, name="warm-up", daemon=True).start()
