@@ -44,8 +44,8 @@ def known_window(analysis: Analysis, margin: int = 4) -> Window:
 def _step(span_m: float, pixels: float) -> float:
     """A round tick spacing in meters (1, 2 or 5 times a power of ten) about 80 pixels apart."""
     target = span_m * 80 / max(pixels, 1.0)
-    step = 10 ** math.floor(math.log10(target))
-    return min(m * step for m in (1, 2, 5, 10) if m * step >= target)
+    step = 10.0 ** math.floor(math.log10(target))
+    return min(m * step for m in (1.0, 2.0, 5.0, 10.0) if m * step >= target)
 
 
 def with_axes(image: Image.Image, analysis: Analysis, cell: int, window: Window) -> Image.Image:
