@@ -160,6 +160,7 @@ def fleet_public(view: FleetView) -> FleetPublic:
         goal_node = [int(v) for v in graph.cells[robot["goal_node"]]]
         entry = {
             "plan_id": plan_id,
+            "name": robot.get("name"),
             "position": robot["cell"],
             "position_xy": center(view.frame, *robot["cell"]),
             "status": robot["status"],

@@ -43,3 +43,14 @@ async def test_a_name_needs_a_plan_on_upload(client: httpx.AsyncClient) -> None:
     r = await client.post("/maps", json={**ROOM, "name": "lonely"})
     assert r.status_code == 422, r.text
     assert "name" in r.json()["detail"]
+
+
+@pytest.mark.anyio
+async def test_a_fleet_robot_is_named_by_its_plan(client: httpx.AsyncClient) -> None:
+    map_id = (await client.post("/maps", json=ROOM)).json()["map_id"]
+    body = {"map_id": map_id, "start": [0, 0], "goal": [4, 5], "fleet": "hall", "name": "amr-7"}
+    assert (await client.post("/plan", json=body)).status_code == 201
+    other = {**body, "start": [4, 0], "goal": [0, 5], "name": None}
+    assert (await client.post("/plan", json=other)).status_code == 201
+    robots = (await client.get("/fleets/hall")).json()["robots"]
+    assert [robot["name"] for robot in robots] == ["amr-7", None]
