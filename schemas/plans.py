@@ -23,6 +23,7 @@ __all__ = [
     "PlanCreate",
     "PlanDetail",
     "PlanEnds",
+    "PlanName",
     "PlanOptions",
     "PlanPublic",
     "Preset",
@@ -133,6 +134,7 @@ EXAMPLE_MAP_ID = "2f68cb9d10f4ad46475d5a3851711826daff07c5d2a4479cee604bc39e2872
 EXAMPLE_PLAN: dict[str, Any] = {
     "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
     "map_id": EXAMPLE_MAP_ID,
+    "name": None,
     "start": [0, 0],
     "goal": [4, 5],
     "preset": "wide",
@@ -271,6 +273,20 @@ class PlanOptions(BaseModel):
     )
 
 
+PlanName = Annotated[
+    str | None,
+    Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        description="A name for the plan (its robot's, say), 1 to 64 characters: the answers "
+        "carry it and the live viewer shows it instead of the `plan_id`.",
+        examples=["forklift 3"],
+    ),
+]
+"""A plan's optional name."""
+
+
 # pydantic lists the bases' fields from the right: the ends, then the options, then the own.
 class PlanCreate(PlanOptions, PlanEnds):
     """Ask for a plan from ``start`` to ``goal`` on a map already uploaded."""
@@ -292,6 +308,7 @@ class PlanCreate(PlanOptions, PlanEnds):
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
     waypoints: Waypoints = Field(default_factory=list)
+    name: PlanName = None
 
 
 class AnalysisPublic(BaseModel):
@@ -391,6 +408,7 @@ class PlanPublic(BaseModel):
 
     plan_id: str
     map_id: str
+    name: str | None = Field(default=None, description="The plan's name, as it was created.")
     start: Cell
     goal: Cell
     preset: Preset

@@ -81,6 +81,13 @@ class Settings(BaseSettings):
     log_level: Literal["debug", "info", "warning", "error"] = Field(
         default="info", description="JSON log lines at this level and above, on stdout."
     )
+    warmup_wait_seconds: float = Field(
+        default=8.0,
+        ge=0,
+        description="At start, how long readiness waits for the kernels to compile (or load from "
+        "numba's cache); the rest compiles in the background, a request needing one first "
+        "waiting for it.",
+    )
     step_pool_size: int = Field(
         default=2, ge=1, description="Worker threads reserved for steps that replan."
     )

@@ -161,6 +161,7 @@ def fleet_public(view: FleetView) -> FleetPublic:
         goal_node = [int(v) for v in graph.cells[robot["goal_node"]]]
         entry = {
             "plan_id": plan_id,
+            "name": robot.get("name"),
             "position": robot["cell"],
             "position_xy": center(view.frame, *robot["cell"]),
             "status": robot["status"],
@@ -230,6 +231,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
     return {
         "plan_id": view.plan_id,
         "map_id": view.record["map_id"],
+        "name": view.record.get("name"),
         "start": s["start"],
         "goal": s["goal"],
         "preset": s["preset"],

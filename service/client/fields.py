@@ -43,10 +43,11 @@ class PlanFields(TypedDict, total=False):
 
 class RouteFields(PlanFields, total=False):
     """``plan``'s fields besides the ends: the options, the ``waypoints`` (cells or points)
-    the path passes through, in order, and the robot's ``fleet``."""
+    the path passes through, in order, the robot's ``fleet`` and the plan's ``name``."""
 
     waypoints: Sequence[CellIn] | None
     fleet: str | None
+    name: str | None
 
 
 class UploadMapFields(RouteFields, total=False):

@@ -128,6 +128,7 @@ def join(
     fmap: FleetMap | None,
     *,
     most: int = 500,
+    name: str | None = None,
 ) -> Any:
     """The fleet's new state with the plan's robot in it (marked to be solved again), from its
     state now (None: a new fleet). ``InvalidInput`` when the fleet is on another map
@@ -161,6 +162,8 @@ def join(
             raise planner.InvalidInput(msg, field="fleet", code="FLEET_FULL")
         check_size(count, fmap.graph, "fleet")
         robot = _new_robot(state, plan, fmap)
+        if name is not None:  # the plan's name, for the fleet's page and answer
+            robot["name"] = name
         _check_free(fleet, state, robot, fmap)
         return {
             **state,

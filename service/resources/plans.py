@@ -97,6 +97,8 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "detour": plan.summary()["detour"],  # a plan rebuilt from its record has none
         **await passages.crossings(engine, body.map_id, plan),
     }
+    if body.name is not None:
+        record["name"] = body.name
     append = stored.pop("trajectory")
     if body.fleet is None:
         await engine.store.put_plan(plan_id, record, append=append)
@@ -109,7 +111,9 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
             now = fleets.empty(body.map_id, plan)
         fmap = await fleets.fleet_map(engine, now)
         most = engine.settings.max_fleet_robots
-        joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap, most=most)
+        joined = fleets.join(
+            body.fleet, plan_id, body.map_id, plan, fmap, most=most, name=body.name
+        )
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
         await fleets.solve_now(engine, plan_id)
     return PlanView(plan_id, record, plan, state)

@@ -103,7 +103,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     # Strict: unknown fields are refused, and nothing is coerced.
     ("unknown field in a step", "POST", "/plan/{plan}/step", {"obstacles": [[1, 1]]}, 422, ["obstacles", "unknown field"]),
     ("unknown field in a plan", "POST", "/plan", {"map_id": "{map}", **OK, "colour": "red"}, 422, ["colour", "unknown field"]),
-    ("unknown field in a map", "POST", "/maps", {"rows": ROWS, "name": "hall"}, 422, ["name", "unknown field"]),
+    ("unknown field in a map", "POST", "/maps", {"rows": ROWS, "label": "hall"}, 422, ["label", "unknown field"]),
     ("unknown field to simulate", "POST", "/maps/{map}/simulate", {**OK, "dynamic": 3}, 422, ["dynamic", "unknown field"]),
     ("goal of booleans", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [False, 0]}, 422, ["goal[0]", "False"]),
     ("start of strings", "POST", "/plan", {"map_id": "{map}", "start": ["0", "0"], "goal": [4, 5]}, 422, ["start[0]", "'0'"]),

@@ -53,6 +53,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         live = f"../../maps/{view_.record['map_id']}/live"
     data = {
         "plan_id": plan_id,
+        "name": view_.record.get("name"),
         "height": height,
         "width": width,
         "cell": max(1, min(32, 800 // max(height, width))),
