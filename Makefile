@@ -40,8 +40,10 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(PY) -m mypy
 
+# On every CPU (pytest-xdist), a module's tests on one worker (they share its servers); a
+# progress line per test file as it ends.
 unit: $(STAMP)
-	$(PY) -m pytest
+	$(PY) -m pytest -n auto --dist loadfile -o addopts="--doctest-modules" -r fE
 
 scen-all: $(STAMP)  ## every line of every Moving AI scenario file in MOVINGAI=folder (slow: minutes)
 	@test -n "$(MOVINGAI)" || { echo "usage: make scen-all MOVINGAI=folder-of-movingai-map-and-scen-files"; exit 2; }

@@ -96,12 +96,15 @@ async def run(
     steppers: Sequence[Any] | None = None,
     skip: float = 0.0,
     pause: float = 0.0,
+    spread_ms: float = 0.0,
 ) -> Outcome:
     """Upload the map, create the fleet's plans, then tick until all arrived or the budget is
     spent: each tick, the robots step concurrently in a random order (a robot's steps alternate
     between ``clients``, or ``steppers``: clients of the same URLs with httpx's ``post``, such
     as :class:`AiohttpStepper`); with ``skip``, each robot sits a tick out with that chance, and
-    with ``pause``, falls silent for 5-30 ticks. A robot drives its last answer's poses until it
+    with ``pause``, falls silent for 5-30 ticks; with ``spread_ms``, each robot's step of a tick
+    is sent at a random moment within that many milliseconds of the tick's start (robots on
+    their own clocks, rather than all at once). A robot drives its last answer's poses until it
     steps again: after every tick, any two robots' poses must keep the sum of their radii.
     Delete the plans at the end."""
     m, radius = scenario.robot_map, scenario.radius
@@ -137,9 +140,14 @@ async def run(
                 elif not (skip and rng.random() < skip):
                     stepping.append(i)
             answers: dict[int, dict[str, Any]] = {}
+            delays = rng.uniform(0.0, spread_ms / 1000.0, len(plan_ids)) if spread_ms else None
 
-            async def step(i: int, tick: int = tick, answers: dict[int, Any] = answers) -> None:
+            async def step(
+                i: int, tick: int = tick, answers: dict[int, Any] = answers, delays: Any = delays
+            ) -> None:
                 client = (steppers or clients)[(tick + i) % len(clients)]
+                if delays is not None:
+                    await asyncio.sleep(float(delays[i]))
                 t0 = time.perf_counter()
                 got = await client.post(f"/plan/{plan_ids[i]}/step", json={"seq": seqs[i]})
                 outcome.step_ms.append((time.perf_counter() - t0) * 1000)
@@ -317,6 +325,7 @@ async def _bench(
     client: str = "aiohttp",
     skip: float = 0.0,
     pause: float = 0.0,
+    spread_ms: float = 0.0,
 ) -> list[Outcome]:
     urls = [replica.url for replica in replicas]
     limits = httpx.Limits(max_connections=64)
@@ -333,7 +342,7 @@ async def _bench(
             cpu = sum(replica.cpu_seconds() for replica in replicas)
             outcome = await run(
                 clients, scenario, fleet=f"bench-{n}", seed=seed, steppers=steppers, skip=skip,
-                pause=pause,
+                pause=pause, spread_ms=spread_ms,
             )  # fmt: skip
             outcome.server_cpu_s = sum(replica.cpu_seconds() for replica in replicas) - cpu
             after = [await step_buckets(c) for c in clients]
@@ -436,6 +445,11 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=0, help="the runs' seeds start here")
     parser.add_argument("--skip", type=float, default=0.2, help="chance a robot sits a tick out")
     parser.add_argument("--pause", type=float, default=0.02, help="chance a robot falls silent")
+    parser.add_argument(
+        "--spread", type=float, default=0.0, metavar="MS",
+        help="each robot's step sent at a random moment within MS ms of its tick's start "
+        "(0: all at once)",
+    )  # fmt: skip
     parser.add_argument("--store", nargs="+", default=["memory", "redis"])
     parser.add_argument(
         "--scenarios", nargs="+", default=["swap2", "swap4", "rooms", "depot", "grid"]
@@ -464,9 +478,11 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp, servers(store, Path(tmp)) as replicas:
             for (name, scenarios), client in itertools.product(sets.items(), args.client):
                 # On uvloop, as the servers run: less of the client's CPU in each round trip.
-                outcomes = uvloop.run(
-                    _bench(replicas, scenarios, client=client, skip=args.skip, pause=args.pause)
-                )
+                run_ = _bench(
+                    replicas, scenarios, client=client, skip=args.skip, pause=args.pause,
+                    spread_ms=args.spread,
+                )  # fmt: skip
+                outcomes = uvloop.run(run_)
                 print(_report(store, name, outcomes, client), flush=True)
                 print(f"load average: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
                 for o in outcomes:

@@ -83,12 +83,14 @@ def service(store_url: str, **env: str) -> Iterator[tuple[int, int]]:
         server.wait(timeout=30)
 
 
-def open_stream(port: int, plan_id: str) -> socket.socket:
-    """A stream's socket, once subscribed; ``ConnectionRefusedError`` when refused."""
+def open_stream(port: int, plan_id: str, key: str = "") -> socket.socket:
+    """A stream's socket, once subscribed (for API key ``key``, when given);
+    ``ConnectionRefusedError`` when refused."""
     sock = socket.socket()
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     sock.connect(("127.0.0.1", port))
-    sock.sendall(f"GET /plan/{plan_id}/events HTTP/1.1\r\nHost: p\r\n\r\n".encode())
+    auth = f"X-API-Key: {key}\r\n" if key else ""
+    sock.sendall(f"GET /plan/{plan_id}/events HTTP/1.1\r\nHost: p\r\n{auth}\r\n".encode())
     seen = b""
     while b": subscribed" not in seen:
         chunk = sock.recv(4096)

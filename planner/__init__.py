@@ -36,6 +36,8 @@ from planner.errors import (
 )
 from planner.experiment.environments import TABLE1, environment
 from planner.experiment.runs import compare, run_experiment
+from planner.footprint import Footprint, footprint_of
+from planner.live.scans import LaserScan, Traced, trace_scan
 from planner.maps.frames import MapFrame
 from planner.maps.grids import (
     Scenario,
@@ -57,13 +59,17 @@ from planner.maps.ros_maps import (
 )
 from planner.maps.zones import KeepoutMask, SpeedZone, Zones, speed_limits
 from planner.maps.zoning import keepout_mask, zone_map
+from planner.motion import MotionPath, Robot, drive, dubins, reeds_shepp
 from planner.params import PRESETS, Params, resolve_params
-from planner.plans.planning import Plan, clearance_metrics, plan, reaches
+from planner.plans.planning import Plan, clearance_metrics, plan
+from planner.plans.reach import reaches
 from planner.plans.resumable_wave import ResumableWave, Unsettled, resumable_wave
 from planner.plans.route import MAX_WAYPOINTS, Route, route_of
 from planner.plans.whole_wave import Wave, WaveView, goal_wave
 from planner.poses import nav_msgs_path, smooth_path
+from planner.poses.speed import profile_time
 from planner.render import render_episode, render_map, render_plan
+from planner.render_live import render_live
 from planner.stepping.session import MOVES, Session, SessionState, Step, detour
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
@@ -76,10 +82,13 @@ __all__ = [
     "Analysis",
     "CSpace",
     "Episode",
+    "Footprint",
     "InvalidInput",
     "KeepoutMask",
+    "LaserScan",
     "MapFrame",
     "MapYaml",
+    "MotionPath",
     "NoValidPath",
     "ObstacleMotion",
     "Params",
@@ -87,6 +96,7 @@ __all__ = [
     "Plan",
     "PlannerError",
     "ResumableWave",
+    "Robot",
     "RobotMap",
     "Route",
     "Scenario",
@@ -95,6 +105,7 @@ __all__ = [
     "SessionState",
     "SpeedZone",
     "Step",
+    "Traced",
     "Unsettled",
     "Wave",
     "WaveView",
@@ -111,8 +122,11 @@ __all__ = [
     "crossed_passages",
     "decode_map_image",
     "detour",
+    "drive",
+    "dubins",
     "environment",
     "find_passages",
+    "footprint_of",
     "format_map",
     "goal_wave",
     "grid_map",
@@ -127,12 +141,15 @@ __all__ = [
     "parse_rows",
     "path_narrowest",
     "plan",
+    "profile_time",
     "quote",
     "reaches",
     "read_map",
     "read_ros_map",
     "read_scen",
+    "reeds_shepp",
     "render_episode",
+    "render_live",
     "render_map",
     "render_plan",
     "resolve_params",
@@ -145,6 +162,7 @@ __all__ = [
     "simulate",
     "smooth_path",
     "speed_limits",
+    "trace_scan",
     "warm_up",
     "wide_clean",
     "zone_map",

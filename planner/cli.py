@@ -23,6 +23,7 @@ from planner.errors import InvalidInput, PlannerError
 from planner.experiment.environments import environment
 from planner.experiment.runs import DYNAMIC
 from planner.maps.grids import read_map, read_scen
+from planner.maps.robot_maps import RobotMap
 from planner.maps.ros_maps import read_ros_map
 from planner.params import PRESETS, resolve_params
 from planner.plans.planning import Plan, plan
@@ -123,14 +124,20 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     add_experiment_command(sub)
 
     r = sub.add_parser("render", help="draw a map, its analysis and a plan as PNG (and a GIF)")
-    r.add_argument("map", help="a Moving AI .map file, or envN[:SEED] for generated environment N")
+    r.add_argument(
+        "map",
+        help="a Moving AI .map file, a ROS map_server .yaml (its known part drawn, with axes in "
+        "meters), or envN[:SEED] for generated environment N",
+    )
     r.add_argument("--start", type=int, nargs=2, required=True, metavar=("R", "C"))
     r.add_argument("--goal", type=int, nargs=2, required=True, metavar=("R", "C"))
     r.add_argument("--preset", default="wide", choices=sorted(PRESETS))
     r.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
     r.add_argument("--out", type=Path, required=True, help="the PNG file to write")
     r.add_argument("--field", choices=["clean", "kw"], help="heat map under the free cells")
-    r.add_argument("--cell", type=int, default=10, help="pixels per map cell")
+    r.add_argument(
+        "--cell", type=int, help="pixels per map cell (default: a legible size, up to 24)"
+    )
     r.add_argument("--animate", type=Path, metavar="FILE.gif", help="also write an episode GIF")
     r.add_argument(
         "--dynamic-count", type=int, default=DYNAMIC, help="dynamic obstacles (--animate)"
@@ -216,7 +223,8 @@ def _plan(args: argparse.Namespace) -> int:
     elif form == "nav_msgs":
         print(json.dumps(nav_msgs_path(result.poses, args.frame_id, time.time())))
     if args.png is not None:
-        args.png.write_bytes(render_plan(result, passages=crossings(result, robot_map)[1]))
+        drawn = render_plan(result, passages=crossings(result, robot_map)[1], crop=True)
+        args.png.write_bytes(drawn)
         print(f"wrote {args.png}", file=sys.stderr)
     return 0
 
@@ -317,7 +325,7 @@ def _scen(args: argparse.Namespace) -> int:
 def _render(args: argparse.Namespace) -> int:
     grid = _map_or_environment(args.map)
     result = plan(grid, args.start, args.goal, preset=args.preset, **_params(args.param))
-    args.out.write_bytes(render_plan(result, field=args.field, cell=args.cell))
+    args.out.write_bytes(render_plan(result, field=args.field, cell=args.cell, crop=True))
     print(f"wrote {args.out}")
     if args.animate is not None:
         episode = run_episode(result, dynamic_count=args.dynamic_count, seed=args.seed)
@@ -326,10 +334,12 @@ def _render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _map_or_environment(text: str) -> np.ndarray:
+def _map_or_environment(text: str) -> np.ndarray | RobotMap:
     name, _, seed = text.partition(":")
     if name.startswith("env") and name[3:].isdigit() and (not seed or seed.isdigit()):
         return environment(int(name[3:]), seed=int(seed or 0))
+    if text.endswith((".yaml", ".yml")):
+        return read_ros_map(text)
     return read_map(text)
 
 
@@ -356,7 +366,7 @@ def _demo(args: argparse.Namespace) -> int:
         "`shortest` slips through the one-cell corridor;\n`wide` seals it and crosses the open "
         f"room instead, {wide.length / short.length - 1:.0%} longer, keeping away from walls."
     )
-    print("\nTry: python -m planner plan MAP --start R C --goal R C (see docs/python.md).")
+    print("\nTry: .venv/bin/planner plan MAP --start R C --goal R C (see docs/python.md).")
     return 0
 
 

@@ -36,7 +36,7 @@ def add_command(sub: Any) -> None:
     p.add_argument("--robot-radius", type=float, required=True, metavar="M", help="meters")
     p.add_argument(
         "--max-width", type=float, metavar="M",
-        help="narrow means narrower than this, meters (default 2 * radius + 0.3)",
+        help="narrow means at most this wide, meters (default 2 * radius + 0.3)",
     )  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the API's answer as JSON")
     p.add_argument("--png", type=Path, metavar="OUT.png", help="also draw them on the map")
@@ -81,7 +81,7 @@ def _passages(args: argparse.Namespace) -> int:
     else:
         print(
             f"{args.map.name}: {len(found)} narrow passage(s) for a robot of radius "
-            f"{args.robot_radius:g} m (narrower than {widest:g} m)"
+            f"{args.robot_radius:g} m (at most {widest:g} m wide)"
         )
         if found:
             print(f"{'id':>4} {'x':>9} {'y':>9} {'width_m':>8} {'length_m':>9}")

@@ -7,7 +7,7 @@ False
 >>> resolve_params("wide", gamma=1)
 Traceback (most recent call last):
 ...
-planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow, alpha, beta, clean_radius, clean_weight, decision, deviation_m, diagonal_cost, dynamic_margin, dynamic_margin_m, horizon_m, nominal_speed, occupied_threshold, patience, robot_radius, seal_tunnels, unknown, wall_cost, wide_distance, wide_weight
+planner.errors.InvalidInput: unknown parameter 'gamma'; known: allow_narrow alpha beta clean_radius clean_weight decision deviation_m diagonal_cost dynamic_margin dynamic_margin_m footprint horizon_m max_acceleration max_angular_velocity max_detour max_velocity min_turning_radius motion nominal_speed occupied_threshold patience robot_radius seal_tunnels unknown wall_cost wide_distance wide_weight
 """
 
 from __future__ import annotations
@@ -18,11 +18,13 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 from planner.errors import InvalidInput, quote
+from planner.footprint import footprint_of
 
 __all__ = [
     "PARAMETER_RANGES",
     "PRESETS",
     "Decision",
+    "Motion",
     "Params",
     "Unknown",
     "WallCost",
@@ -32,6 +34,7 @@ __all__ = [
 Decision = Literal["wide", "paper"]
 Unknown = Literal["blocked", "free"]
 WallCost = Literal["auto", "cells", "meters"]
+Motion = Literal["diff", "car", "car_reverse"]
 
 SQRT2 = math.sqrt(2.0)
 
@@ -91,6 +94,25 @@ class Params:
     nominal_speed: float = 0.5
     """The robot's speed in m/s outside speed zones: a plan's ``duration_s`` drives its poses at
     it, capped by each speed zone's ``max_speed``."""
+    max_detour: float = 1.3
+    """The ``wide`` route is at most this many times as long as the shortest route on the same
+    configuration space: width is given up first (docs/algorithm.md, "Bounded detours")."""
+    footprint: tuple[tuple[float, float], ...] | None = None
+    """The robot's outline in its own frame (meters, x forward; 3 to 32 vertices) in place of
+    ``robot_radius``, which becomes the footprint's inscribed radius (docs/shapes.md)."""
+    motion: Motion = "diff"
+    """``diff`` (turns in place), ``car`` (forward arcs) or ``car_reverse`` (forward and
+    reverse)."""
+    min_turning_radius: float | None = None
+    """A car motion's least turning radius in meters (the car motions need one)."""
+    max_velocity: float | None = None
+    """m/s: when set, ``duration_s`` follows a trapezoid speed profile instead of
+    ``nominal_speed`` (with ``max_acceleration`` m/s² and ``max_angular_velocity`` rad/s)."""
+    max_acceleration: float | None = None
+    """m/s² of the trapezoid profile (none: speeds change at once)."""
+    max_angular_velocity: float | None = None
+    """rad/s: a curve's speed is at most this over its curvature; turns in place take their
+    angle over it (none: no limit)."""
 
     def as_dict(self) -> dict[str, Any]:
         return {name: getattr(self, name) for name in _NAMES}
@@ -113,6 +135,11 @@ PARAMETER_RANGES: dict[str, tuple[float, float]] = {
     "horizon_m": (0.0, 100.0),
     "nominal_speed": (0.0, 100.0),
     "deviation_m": (0.0, 100.0),
+    "max_detour": (1.0, 100.0),
+    "min_turning_radius": (0.0, 100.0),
+    "max_velocity": (0.0, 100.0),
+    "max_acceleration": (0.0, 1000.0),
+    "max_angular_velocity": (0.0, 1000.0),
 }
 
 _PAPER = Params(
@@ -130,7 +157,12 @@ _FIELDS = {f.name: f for f in dataclasses.fields(Params)}
 _CHOICES: dict[str, tuple[str, ...]] = {
     "unknown": ("blocked", "free"),
     "wall_cost": ("auto", "cells", "meters"),
+    "motion": ("diff", "car", "car_reverse"),
 }
+_TOP_LEVEL = ("footprint", "motion", "min_turning_radius")
+"""Parameters a plan request gives beside ``params``: their errors name them so."""
+_POSITIVE = ("nominal_speed", "min_turning_radius", "max_velocity", "max_acceleration",
+             "max_angular_velocity")  # fmt: skip
 _NAMES = tuple(_FIELDS)
 
 
@@ -149,11 +181,24 @@ def resolve_params(preset: str = "wide", /, **overrides: Any) -> Params:
             f"{quote(overrides['dynamic_margin_m'])}"
         )
         raise InvalidInput(msg, field="params.dynamic_margin_m")
+    if values["footprint"] is not None:
+        inscribed = footprint_of(values["footprint"]).inscribed_radius
+        given = overrides.get("robot_radius")
+        if given not in (None, 0, 0.0) and abs(given - inscribed) > 1e-9:
+            msg = (
+                f"give a footprint or a robot_radius, not both: robot_radius {quote(given)} is "
+                f"not the footprint's inscribed radius {inscribed:g}"
+            )
+            raise InvalidInput(msg, field="robot_radius")
+        values["robot_radius"] = inscribed
+    if values["motion"] != "diff" and values["min_turning_radius"] is None:
+        msg = f"a {values['motion']} motion needs min_turning_radius (meters, > 0)"
+        raise InvalidInput(msg, field="min_turning_radius")
     return Params(**values)
 
 
 def _check(name: str, value: Any) -> Any:
-    field = f"params.{name}"
+    field = name if name in _TOP_LEVEL else f"params.{name}"
     if name == "rho":
         msg = (
             "rho is not a parameter: the pheromone trail is the goal wave's exact cost-to-go "
@@ -161,7 +206,7 @@ def _check(name: str, value: Any) -> Any:
         )
         raise InvalidInput(msg, field=field)
     if name not in _FIELDS:
-        msg = f"unknown parameter {quote(name)}; known: {', '.join(sorted(_FIELDS))}"
+        msg = f"unknown parameter {quote(name, 40)}; known: {' '.join(sorted(_FIELDS))}"
         raise InvalidInput(msg, field=field)
     if name == "decision":
         if value not in ("wide", "paper"):
@@ -174,8 +219,10 @@ def _check(name: str, value: Any) -> Any:
             choices = " or ".join(repr(c) for c in _CHOICES[name])
             raise InvalidInput(f"{name} must be {choices}; got {quote(value)}", field=field)
         return value
-    if name == "dynamic_margin_m" and value is None:
+    if name in ("dynamic_margin_m", *_TOP_LEVEL, *_POSITIVE[1:]) and value is None:
         return None
+    if name == "footprint":
+        return footprint_of(value, field).vertices
     if name in ("seal_tunnels", "allow_narrow"):
         if not isinstance(value, bool):
             raise InvalidInput(f"{name} must be true or false; got {quote(value)}", field=field)
@@ -186,8 +233,15 @@ def _check(name: str, value: Any) -> Any:
         kind = "an integer" if integral else "a number"
         raise InvalidInput(f"{name} must be {kind}; got {quote(value)}", field=field)
     low, high = PARAMETER_RANGES[name]
-    if name == "nominal_speed" and value == 0:
-        raise InvalidInput(f"{name} must be > 0 m/s; got {quote(value)}", field=field)
+    if name == "max_detour" and not (math.isfinite(value) and low <= value <= high):
+        msg = (
+            f"max_detour must be a finite number from {low:g} to {high:g} (how many times as "
+            "long as the shortest route the wide route may be; 1: the shortest route); got "
+            f"{quote(value)}"
+        )
+        raise InvalidInput(msg, field=field)
+    if name in _POSITIVE and value <= 0:
+        raise InvalidInput(f"{name} must be > 0; got {quote(value)}", field=field)
     if not (math.isfinite(value) and low <= value <= high):
         raise InvalidInput(f"{name} must be in [{low}, {high}]; got {quote(value)}", field=field)
     return int(value) if integral else float(value)

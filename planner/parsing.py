@@ -38,14 +38,16 @@ def number(value: Any, field: str, what: str = "a finite number") -> float:
     return out
 
 
-def point(value: Any, field: str) -> tuple[float, float]:
-    """A point in meters as ``(x, y)`` floats, from ``{"x", "y"}`` (no other key) or a pair:
-    finite numbers at most :data:`COORDINATE_MAX` from 0; else InvalidInput naming ``field``."""
+def point(value: Any, field: str, *, also: tuple[str, ...] = ()) -> tuple[float, float]:
+    """A point in meters as ``(x, y)`` floats, from ``{"x", "y"}`` (no other key but those of
+    ``also``, read elsewhere: a pose's ``"yaw"``) or a pair: finite numbers at most
+    :data:`COORDINATE_MAX` from 0; else InvalidInput naming ``field``."""
     if isinstance(value, Mapping):
-        unknown = sorted(str(k) for k in value if k not in ("x", "y"))
+        unknown = sorted(str(k) for k in value if k not in ("x", "y", *also))
         if unknown or "x" not in value or "y" not in value:
+            keys = "".join(f", {k!r}" for k in also)
             msg = (
-                f"{field} must be a point {{x, y}} in meters ('x' and 'y', no other key); "
+                f"{field} must be a point {{x, y}} in meters ('x' and 'y'{keys}, no other key); "
                 f"got {quote(value)}"
             )
             raise InvalidInput(msg, field=field)

@@ -26,6 +26,7 @@ from planner.analysis.passages import Passage
 from planner.errors import InvalidInput, quote
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
+from planner.render_axes import known_window, with_axes
 from planner.render_legend import COLOURS, legend_entries, with_legend
 from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
 from planner.render_zones import draw_zone_outlines, paint_zones
@@ -83,6 +84,7 @@ def draw(
     poses: Any = None,
     path_label: str = "path",
     passages: Sequence[Passage] = (),
+    crop: bool = False,
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
     (``None``: :func:`auto_cell`).
@@ -97,7 +99,9 @@ def draw(
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
     on for robot maps) adds a key and a scale bar in meters below the map, the green cells
-    named ``path_label``. The robot's disc is smaller than the start's and the goal's, which
+    named ``path_label``, and axes in meters below and right of it; ``crop`` keeps only the
+    known part of the map (:func:`planner.render_axes.known_window`). The robot's disc is
+    smaller than the start's and the goal's, which
     show round it when it stands on them. On a zoned map,
     keepout polygons are hatched red and speed zones tinted amber, labelled with their
     ``max_speed`` (:mod:`planner.render_zones`).
@@ -172,7 +176,12 @@ def draw(
                     outline=COLOURS["robot"],
                     width=2,
                 )
+    window = known_window(analysis) if crop else (0, H, 0, W)
+    if crop:
+        r0, r1, c0, c1 = window
+        image = image.crop((c0 * cell, r0 * cell, c1 * cell, r1 * cell))
     if legend if legend is not None else cs is not None:
+        image = with_axes(image, analysis, cell, window)
         named = [(rgb_, label) for _, rgb_, label in paths if label]
         keys = legend_entries(path_label=path_label, preview=preview is not None, named=named)
         if passages:
@@ -188,15 +197,17 @@ def render_map(
     wave: Wave | None = None,
     cell: int | None = None,
     passages: Sequence[Passage] = (),
+    crop: bool = False,
 ) -> bytes:
     """PNG bytes of a map with its analysis: obstacles, sealed tunnels, gates (the map endpoint),
-    and ``passages`` labelled with their width.
+    and ``passages`` labelled with their width (``crop``: the known part only).
 
     >>> from planner import analyse
     >>> render_map(analyse([[0]]), cell=2)[1:4]
     b'PNG'
     """
-    return _png(draw(analysis, field=field, wave=wave, cell=cell, passages=passages))
+    image = draw(analysis, field=field, wave=wave, cell=cell, passages=passages, crop=crop)
+    return _png(image)
 
 
 def render_plan(
@@ -208,6 +219,7 @@ def render_plan(
     cell: int | None = None,
     poses: bool = True,
     passages: Sequence[Passage] = (),
+    crop: bool = False,
 ) -> bytes:
     """PNG bytes of a plan: its map, its preview path and, when given, the robot's ``trajectory``
     so far and the ``dynamic_obstacles``' cells (the plan endpoint).
@@ -215,7 +227,7 @@ def render_plan(
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
     green and the preview pale green beneath it, and the legend (on robot maps) says so. The
     plan's poses (unless ``poses`` is false) are a blue line over them; ``passages`` (those it
-    crosses, say) are labelled with their width.
+    crosses, say) are labelled with their width; ``crop`` keeps the known part of the map.
     """
     path, preview, robot = plan.path, None, None
     if trajectory is not None:
@@ -237,6 +249,7 @@ def render_plan(
         poses=plan.poses if poses else None,
         path_label="path" if trajectory is None else "trajectory (so far)",
         passages=passages,
+        crop=crop,
     )
     return _png(image)
 

@@ -16,6 +16,7 @@ from schemas.plans import (
     EXAMPLE_MAP_ID,
     PRESET_NAMES,
     AnalysisPublic,
+    DetourPublic,
     PlanDetail,
     PlanPublic,
     Preset,
@@ -23,6 +24,13 @@ from schemas.plans import (
     TrajectoryMetrics,
 )
 from schemas.points import UNION_TAGS, Cell, CellOrPoint, Circle, Obstacle, Point, Pose
+from schemas.scans import (
+    LaserScan,
+    LiveMarksPublic,
+    ObservationCreate,
+    ObservationPublic,
+    ScanPose,
+)
 from schemas.service import CacheStats, HealthPublic, StoreHealth
 from schemas.simulation import SimulationCreate, SimulationMetrics, SimulationPublic
 from schemas.steps import StepCreate, StepPublic
@@ -50,12 +58,15 @@ __all__ = [
     "Cell",
     "CellOrPoint",
     "Circle",
+    "DetourPublic",
     "ErrorPublic",
     "FleetPublic",
     "FleetRobotPublic",
     "FleetSolvePublic",
     "HealthPublic",
     "KeepoutMaskPublic",
+    "LaserScan",
+    "LiveMarksPublic",
     "LivePublic",
     "MapCreate",
     "MapPublic",
@@ -64,6 +75,8 @@ __all__ = [
     "MapfPublic",
     "NarrowestPublic",
     "NavPath",
+    "ObservationCreate",
+    "ObservationPublic",
     "Obstacle",
     "PassagePublic",
     "PassagesPublic",
@@ -77,6 +90,7 @@ __all__ = [
     "Preset",
     "PreviewPublic",
     "ReadyPublic",
+    "ScanPose",
     "SimulationCreate",
     "SimulationMetrics",
     "SimulationPublic",

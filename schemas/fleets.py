@@ -16,6 +16,7 @@ class FleetRobotPublic(BaseModel):
     """A robot of a fleet: where it was last told to be, its route left, and what it waits for."""
 
     plan_id: str
+    name: str | None = Field(default=None, description="Its plan's `name`, when it has one.")
     position: Cell = Field(description="The cell it was last told to move to (or its start).")
     position_xy: XY = Field(description="That cell's center in meters.")
     status: Status

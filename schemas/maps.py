@@ -12,6 +12,7 @@ from schemas.plans import (
     EXAMPLE_MAP,
     EXAMPLE_MAP_ID,
     EXAMPLE_PLAN,
+    PlanName,
     PlanOptions,
     PlanPublic,
     Waypoints,
@@ -46,6 +47,7 @@ MULTIPART_FIELDS = multipart_form(
     unknown="`blocked` or `free`.",
     waypoints="JSON list of cells or points.",
     fleet="The plan's fleet name.",
+    name="The plan's name.",
 )
 """The ``multipart/form-data`` form of ``POST /maps``, for ``/docs``: parts ``yaml`` and
 ``image``, and the JSON body's other fields as form fields (each value JSON, or a bare word)."""
@@ -129,6 +131,7 @@ class MapCreate(PlanOptions, MapEncoding):
     goal: CellOrPoint | None = None
     waypoints: Waypoints = Field(default_factory=list)
     fleet: FleetName = None
+    name: PlanName = None
 
     @model_validator(mode="after")
     def _both_ends(self) -> MapCreate:
@@ -137,6 +140,8 @@ class MapCreate(PlanOptions, MapEncoding):
             raise ValueError(f"'start' and 'goal' go together; {missing!r} is missing")
         if self.waypoints and self.start is None:
             raise ValueError("'waypoints' need a 'start' and a 'goal'")
+        if self.name is not None and self.start is None:
+            raise ValueError("'name' needs a 'start' and a 'goal'")
         if self.fleet is not None and self.start is None:
             raise ValueError("'fleet' needs a 'start' and a 'goal'")
         return self

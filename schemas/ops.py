@@ -33,11 +33,15 @@ class PoolStats(BaseModel):
     size: int = Field(ge=1, description="Worker threads (`PLANNER_POOL_SIZE`).")
     busy: int = Field(ge=0, description="Calls running now.")
     queued: int = Field(ge=0, description="Calls waiting for a worker.")
-    warm: bool = Field(description="Whether the kernels are compiled.")
+    warm: bool = Field(
+        description="Whether every kernel is compiled (false while the rest compile in the "
+        "background after `PLANNER_WARMUP_WAIT_SECONDS`)."
+    )
 
 
 class ReadyPublic(BaseModel):
-    """`ok` (200) when the store answers and the pool is warm, else `unavailable` (503)."""
+    """`ok` (200) when the store answers and the warm-up is done or had its time, else
+    `unavailable` (503)."""
 
     model_config = ConfigDict(
         json_schema_extra={

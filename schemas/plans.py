@@ -13,12 +13,17 @@ __all__ = [
     "EXAMPLE_MAP",
     "EXAMPLE_MAP_ID",
     "GOAL_TOLERANCE_MAX",
+    "MAX_FOOTPRINT_VERTICES",
     "MAX_WAYPOINTS",
     "PRESET_NAMES",
     "AnalysisPublic",
+    "DetourPublic",
+    "Footprint",
+    "Motion",
     "PlanCreate",
     "PlanDetail",
     "PlanEnds",
+    "PlanName",
     "PlanOptions",
     "PlanPublic",
     "Preset",
@@ -73,6 +78,29 @@ UnknownPolicy = Annotated[
     ),
 ]
 
+MAX_FOOTPRINT_VERTICES = 32
+"""A footprint's vertices at most (the planner's ``MAX_VERTICES``: a test compares)."""
+
+Footprint = Annotated[
+    list[Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2,
+                                                                             max_length=2)]]
+    | None,
+    Field(
+        default=None,
+        min_length=3,
+        max_length=MAX_FOOTPRINT_VERTICES,
+        description="The robot's outline in its own frame, meters, x forward: 3 to 32 `[x, y]` "
+        "vertices of a simple polygon holding `[0, 0]` (the pose's point), in place of "
+        "`robot_radius` (which becomes the footprint's inscribed radius). Every pose, and the "
+        "motion between poses, is free for the footprint at the pose's yaw; the wall term "
+        "weighs the footprint's clearance.",
+        examples=[[[0.3, 0.2], [0.3, -0.2], [-0.3, -0.2], [-0.3, 0.2]]],
+    ),
+]  # fmt: skip
+"""A robot's footprint polygon."""
+
+Motion = Literal["diff", "car", "car_reverse"]
+
 Preset = Literal["wide", "wfs-mmas", "mmas", "shortest"]
 PRESET_NAMES: tuple[str, ...] = get_args(Preset)
 """The planner's presets, in its order (schemas never import the planner: a test compares)."""
@@ -85,7 +113,12 @@ PARAMS_DESCRIPTION = (
     "`seal_tunnels`, `diagonal_cost`, `patience`, `decision`, `allow_narrow`, `robot_radius` "
     "(meters), `unknown` (`blocked` | `free`), `occupied_threshold` (percent), `wall_cost`, "
     "`wide_weight`, `wide_distance` (meters), `dynamic_margin` (cells), `nominal_speed` (m/s: "
-    "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve)."
+    "the preview's `duration_s`), `deviation_m` (meters off its moves: a fleet's re-solve), "
+    "`max_detour` (a finite number from 1 to 100, default 1.3: the `wide` route is at most that "
+    "many times as long as the shortest route; the preview's `detour`), "
+    "`max_velocity` (m/s), `max_acceleration` (m/s²) and `max_angular_velocity` (rad/s): with "
+    "`max_velocity`, `duration_s` follows a trapezoid speed profile that slows for curvature, "
+    "stops at cusps and counts turns in place."
 )
 
 EXAMPLE_MAP: dict[str, Any] = {
@@ -101,6 +134,7 @@ EXAMPLE_MAP_ID = "2f68cb9d10f4ad46475d5a3851711826daff07c5d2a4479cee604bc39e2872
 EXAMPLE_PLAN: dict[str, Any] = {
     "plan_id": "9f1c2a7be04d4f65a3c8e2b17d90c5aa",
     "map_id": EXAMPLE_MAP_ID,
+    "name": None,
     "start": [0, 0],
     "goal": [4, 5],
     "preset": "wide",
@@ -125,6 +159,13 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "horizon_m": 2.0,
         "deviation_m": 0.5,
         "nominal_speed": 0.5,
+        "max_detour": 1.3,
+        "footprint": None,
+        "motion": "diff",
+        "min_turning_radius": None,
+        "max_velocity": None,
+        "max_acceleration": None,
+        "max_angular_velocity": None,
     },
     "status": "ready",
     "position": [0, 0],
@@ -159,6 +200,8 @@ EXAMPLE_PLAN: dict[str, Any] = {
         "goal_used": None,
         "goal_offset_m": 0.0,
         "waypoint_indices": [],
+        "detour": {"shortest_m": 7.828427, "ratio": 1.0, "width_kept": 1.0,
+                   "tunnels_opened": False},
     },
     "waypoints": [],
 }  # fmt: skip
@@ -203,6 +246,21 @@ class PlanOptions(BaseModel):
         "(the planner parameter `allow_narrow`; default true).",
     )
     robot_radius: RobotRadius = None
+    footprint: Footprint = None
+    motion: Motion | None = Field(
+        default=None,
+        description="`diff` (default: turns in place), `car` (forward only) or `car_reverse` "
+        "(forward and reverse, Reeds-Shepp): a car's path never curves tighter than "
+        "`min_turning_radius`, and its poses carry `direction`; it needs a goal `yaw`.",
+    )
+    min_turning_radius: float | None = Field(
+        default=None,
+        gt=0,
+        le=100,
+        allow_inf_nan=False,
+        description="A car motion's least turning radius, meters (> 0; required for `car` and "
+        "`car_reverse`).",
+    )
     unknown: UnknownPolicy = None
     goal_tolerance: float = Field(
         default=0.0,
@@ -213,6 +271,20 @@ class PlanOptions(BaseModel):
         "traversable cell nearest to it within this distance (`preview.goal_used`); 0 (default) "
         "keeps the errors (`GOAL_OCCUPIED`, `NO_VALID_PATH`).",
     )
+
+
+PlanName = Annotated[
+    str | None,
+    Field(
+        default=None,
+        min_length=1,
+        max_length=64,
+        description="A name for the plan (its robot's, say), 1 to 64 characters: the answers "
+        "carry it and the live viewer shows it instead of the `plan_id`.",
+        examples=["forklift 3"],
+    ),
+]
+"""A plan's optional name."""
 
 
 # pydantic lists the bases' fields from the right: the ends, then the options, then the own.
@@ -236,6 +308,7 @@ class PlanCreate(PlanOptions, PlanEnds):
 
     map_id: str = Field(min_length=1, max_length=128, description="From `POST /maps`.")
     waypoints: Waypoints = Field(default_factory=list)
+    name: PlanName = None
 
 
 class AnalysisPublic(BaseModel):
@@ -248,6 +321,25 @@ class AnalysisPublic(BaseModel):
     narrow_fallback: bool = Field(description="The plan goes through tunnels sealing would shut.")
     cache_hit: bool = Field(description="The analysis was not computed for this request.")
     analysis_ms: float = Field(ge=0, description="Time the analysis took when it was computed.")
+
+
+class DetourPublic(BaseModel):
+    """How the ``wide`` route compares with the shortest route (``params.max_detour``)."""
+
+    shortest_m: float = Field(
+        ge=0, description="The shortest route's length on the same configuration space, meters "
+        "(cell centers to centers; tight tunnels open).",
+    )  # fmt: skip
+    ratio: float = Field(ge=0, description="The route's `length` over the shortest's.")
+    width_kept: float = Field(
+        ge=0, le=1, description="The share of the wall term (`clean_weight` / `wide_weight`) the "
+        "route was planned with: 1 when no width was given up, 0 for the shortest route on the "
+        "sealed grid; `params` holds the weights used.",
+    )  # fmt: skip
+    tunnels_opened: bool = Field(
+        description="Even that was longer than the bound: the route is the shortest one, "
+        "through tight tunnels sealing would shut."
+    )
 
 
 class PreviewPublic(BaseModel):
@@ -302,6 +394,11 @@ class PreviewPublic(BaseModel):
         default=None, description="The ids of the passages (`GET /maps/{map_id}/passages`, its "
         "`robot_radius`) the path crosses, in order (null on a plain grid).",
     )  # fmt: skip
+    detour: DetourPublic | None = Field(
+        default=None, description="How much longer than the shortest route a `wide` route is, "
+        "and how much width it gave up to stay within `params.max_detour` (null for the `paper` "
+        "decision, a route through waypoints, or a plan that is the shortest by construction).",
+    )  # fmt: skip
 
 
 class PlanPublic(BaseModel):
@@ -311,6 +408,7 @@ class PlanPublic(BaseModel):
 
     plan_id: str
     map_id: str
+    name: str | None = Field(default=None, description="The plan's name, as it was created.")
     start: Cell
     goal: Cell
     preset: Preset

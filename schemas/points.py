@@ -70,6 +70,14 @@ class Pose(BaseModel):
         description="Inside a speed zone (`POST /maps/{map_id}/zones`): the least `max_speed` "
         "(m/s) of the zones holding the pose; absent elsewhere.",
     )
+    direction: int | None = Field(
+        default=None,
+        ge=-1,
+        le=1,
+        exclude_if=lambda v: v is None,
+        description="With a footprint or a car motion: 1 when the robot drives forward to this "
+        "pose, -1 in reverse (the first pose: the motion leaving it); absent otherwise.",
+    )
 
 
 class XYPublic(BaseModel):

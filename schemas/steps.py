@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidatorFunctionWrapHandler,
 
 from schemas.plans import Status
 from schemas.points import COORDINATE_MAX, STRICT, XY, Cell, CellOrPoint, Obstacle, Pose, XYPublic
+from schemas.scans import LaserScan, ScanPose
 
 __all__ = ["Move", "StepCreate", "StepPublic"]
 
@@ -62,6 +63,16 @@ class StepCreate(BaseModel):
         default=None,
         description="Where the robot really is: a cell, or a point in meters with its heading "
         "`yaw` if known (the answer's `poses` start there).",
+    )
+    scan: LaserScan | None = Field(
+        default=None,
+        description="What the robot's laser sees now: its returns mark the map's live layer, "
+        "its rays clear it (docs/live.md); every plan on the map then steps around the marks.",
+    )
+    scan_pose: ScanPose | None = Field(
+        default=None,
+        description="The sensor's pose in the map frame; by default the step's `position` "
+        "(a point with its `yaw`).",
     )
 
 

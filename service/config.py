@@ -41,6 +41,13 @@ class Settings(BaseSettings):
     max_dynamic_obstacles: int = Field(
         default=10_000, ge=0, description="Most dynamic obstacles in one step or simulation."
     )
+    obstacle_persistence_seconds: float = Field(
+        default=5.0,
+        gt=0,
+        le=86400,
+        description="How long a cell a scan marked stays in the map's live layer unless a "
+        "later ray clears it.",
+    )
     cache_bytes: int = Field(
         default=512 * MIB, ge=0, description="Bound of the analysis and wave cache."
     )
@@ -73,6 +80,13 @@ class Settings(BaseSettings):
     port: int = Field(default=8000, ge=1, le=65535, description="Port `python -m service` uses.")
     log_level: Literal["debug", "info", "warning", "error"] = Field(
         default="info", description="JSON log lines at this level and above, on stdout."
+    )
+    warmup_wait_seconds: float = Field(
+        default=8.0,
+        ge=0,
+        description="At start, how long readiness waits for the kernels to compile (or load from "
+        "numba's cache); the rest compiles in the background, a request needing one first "
+        "waiting for it.",
     )
     step_pool_size: int = Field(
         default=2, ge=1, description="Worker threads reserved for steps that replan."

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+import functools
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -68,10 +70,13 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
     try:
         LOG.info("warming up: compiling the planner kernels", extra={"fields": facts})
         began = time.perf_counter()
-        await engine.warm()
-        pool.warm = True
+        rest = await engine.warm(settings.warmup_wait_seconds)
+        pool.serving = True
         facts["warmup_seconds"] = round(time.perf_counter() - began, 3)
         LOG.info("warmed up", extra={"fields": facts})
+        if rest is not None:
+            LOG.info("warming up the rest", extra={"fields": facts})
+            rest.add_done_callback(functools.partial(_warmed, pool, began))
         app.state.startup = facts
         app.state.started = time.monotonic()
         app.state.engine = engine
@@ -83,6 +88,16 @@ async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         pool.close()
         await bus.close()
         await store.close()
+
+
+def _warmed(pool: Pool, began: float, rest: asyncio.Future[None]) -> None:
+    """The background warm-up's end: every kernel compiled (or its failure logged)."""
+    if rest.cancelled() or rest.exception() is not None:
+        LOG.error("the warm-up failed", exc_info=None if rest.cancelled() else rest.exception())
+        return
+    pool.warm = True
+    seconds = round(time.perf_counter() - began, 3)
+    LOG.info("warmed up the rest", extra={"fields": {"background_seconds": seconds}})
 
 
 def store_name(store: Store) -> str:

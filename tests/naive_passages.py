@@ -66,19 +66,29 @@ def medial(blocked: np.ndarray, dist: np.ndarray, within: np.ndarray) -> np.ndar
 
 
 def passages(
-    occupancy: np.ndarray, resolution: float, robot_radius: float, max_width: float
+    occupancy: np.ndarray,
+    resolution: float,
+    robot_radius: float,
+    max_width: float,
+    min_wall: float = 0.2,
 ) -> list[RefPassage]:
-    """The passages: connected medial cells narrower than ``max_width`` whose neighbours reach
-    wide free cells (width >= ``max_width``) at two places more than two cells apart, and whose
-    widest way between two such mouths stays wider than the robot."""
-    blocked = (occupancy >= 65) | (occupancy < 0)
+    """The passages: connected medial cells less than half a cell wider than ``max_width``, one of
+    them at most ``max_width``, whose neighbours reach wide free cells (wider than that) at two
+    places not joined by wide free cells near the neck, whose widest way between two such mouths
+    stays wider than the robot and at most ``max_width``, with walls on two sides there. Only
+    obstacles at least ``min_wall`` across count; only occupied ones are walls."""
+    occupied = occupancy >= 65
+    walls = big(occupied, resolution, min_wall)
+    blocked = big(occupied | (occupancy < 0), resolution, min_wall)
     limit = max_width / resolution / 2  # a distance, in cells
+    loose = limit + 0.5
     fits = robot_radius / resolution
-    reach = math.ceil(limit) + 2
+    reach = math.ceil(loose) + 2
     dist = nearest_blocked(blocked, reach)
     H, W = blocked.shape
-    neck = medial(blocked, dist, ~blocked & (dist < limit - 1e-9))
-    wide = ~blocked & (dist >= limit - 1e-9)
+    neck = medial(blocked, dist, ~blocked & (dist < loose - 1e-9))
+    wide = ~blocked & (dist >= loose - 1e-9)
+    apart = 2 + math.ceil(limit / 2)
     seen: set[tuple[int, int]] = set()
     out = []
     for r, c in zip(*np.nonzero(neck), strict=True):
@@ -94,24 +104,114 @@ def passages(
                     comp.add(n)
                     queue.append(n)
         seen |= comp
+        if all(dist[p] > limit + 1e-9 for p in comp):
+            continue
         contacts = {
             (a + dr, b + dc)
             for a, b in comp
             for dr, dc in EIGHT
             if 0 <= a + dr < H and 0 <= b + dc < W and wide[a + dr, b + dc]
         }
-        mouths = split(contacts, 2)
+        rows, cols = [p[0] for p in comp], [p[1] for p in comp]
+        box = (min(rows) - apart, max(rows) + apart, min(cols) - apart, max(cols) + apart)
+        mouths = joined(contacts, wide, box)
         ways = [
             widest(comp, dist, mouths[i], mouths[j])
             for i in range(len(mouths))
             for j in range(i + 1, len(mouths))
         ]
         passable = [w for w in ways if w > fits * (1 + 1e-9)]
-        if not passable:
+        if not passable or min(passable) > limit + 1e-9:
             continue
         least = min(passable)
-        out.append(RefPassage(2 * least, sorted(p for p in comp if dist[p] == least), comp))
+        narrowest = sorted(p for p in comp if dist[p] == least)
+        if not any(sided(walls, p, least) for p in narrowest):
+            continue
+        out.append(RefPassage(2 * least, narrowest, comp))
     return out
+
+
+def big(cells: np.ndarray, resolution: float, min_wall: float) -> np.ndarray:
+    """The cells of the 8-connected groups of ``cells`` whose bounding box's longer side is at
+    least ``min_wall`` meters (in whole cells), by flood fill."""
+    H, W = cells.shape
+    out = np.zeros((H, W), dtype=bool)
+    seen = np.zeros((H, W), dtype=bool)
+    for r, c in zip(*np.nonzero(cells), strict=True):
+        if seen[r, c]:
+            continue
+        group = [(int(r), int(c))]
+        seen[r, c] = True
+        queue = deque(group)
+        while queue:
+            a, b = queue.popleft()
+            for dr, dc in EIGHT:
+                n = (a + dr, b + dc)
+                if 0 <= n[0] < H and 0 <= n[1] < W and cells[n] and not seen[n]:
+                    seen[n] = True
+                    group.append(n)
+                    queue.append(n)
+        tall = max(p[0] for p in group) - min(p[0] for p in group) + 1
+        broad = max(p[1] for p in group) - min(p[1] for p in group) + 1
+        if max(tall, broad) * resolution >= min_wall * (1 - 1e-9):
+            for p in group:
+                out[p] = True
+    return out
+
+
+def joined(
+    contacts: set[tuple[int, int]], wide: np.ndarray, box: tuple[int, int, int, int]
+) -> list[set[tuple[int, int]]]:
+    """``contacts`` in groups: two in one when a walk through ``wide`` cells inside ``box``
+    (rows r0..r1, columns c0..c1, inclusive) joins them."""
+    r0, r1, c0, c1 = box
+    left = set(contacts)
+    out = []
+    while left:
+        start = left.pop()
+        reached = {start}
+        queue = deque(reached)
+        while queue:
+            a, b = queue.popleft()
+            for dr, dc in EIGHT:
+                n = (a + dr, b + dc)
+                if (
+                    r0 <= n[0] <= r1
+                    and c0 <= n[1] <= c1
+                    and 0 <= n[0] < wide.shape[0]
+                    and 0 <= n[1] < wide.shape[1]
+                    and wide[n]
+                    and n not in reached
+                ):
+                    reached.add(n)
+                    queue.append(n)
+        out.append({start} | (left & reached))
+        left -= reached
+    return out
+
+
+def sided(walls: np.ndarray, cell: tuple[int, int], d: float) -> bool:
+    """Whether two wall cells within ``d + 1.5`` cells of ``cell`` have a segment between them
+    passing within ``d / 2`` of it, trying every pair."""
+    r, c = cell
+    k = math.ceil(d + 1.5)
+    near = [
+        (dr, dc)
+        for dr in range(-k, k + 1)
+        for dc in range(-k, k + 1)
+        if math.hypot(dr, dc) <= d + 1.5 + 1e-9
+        and 0 <= r + dr < walls.shape[0]
+        and 0 <= c + dc < walls.shape[1]
+        and walls[r + dr, c + dc]
+    ]
+
+    def closest(a: tuple[int, int], b: tuple[int, int]) -> float:
+        """The distance from the cell to the segment a-b (offsets from the cell)."""
+        ur, uc = b[0] - a[0], b[1] - a[1]
+        t = max(0.0, min(1.0, -(a[0] * ur + a[1] * uc) / (ur * ur + uc * uc)))
+        return math.hypot(a[0] + t * ur, a[1] + t * uc)
+
+    return any(closest(a, b) <= d / 2 + 1e-9 for j, a in enumerate(near) for b in near[j + 1 :])
 
 
 def widest(

@@ -23,6 +23,7 @@ PAGES = [
     "architecture.md",
     "experiment.md",
     "zones.md",
+    "live.md",
 ]
 MARKDOWN = [README, *sorted(DOCS.glob("*.md"))]
 

@@ -2,11 +2,14 @@
 round robot still fits, read on the medial axis (skeleton) of free space over the exact
 distance transform.
 
-A skeleton cell is a *neck* cell when its width (twice its distance to the nearest blocked
-cell's center) is below ``max_width``; connected neck cells form a neck, and a neck is a passage
-when it opens onto wider skeleton (width >= ``max_width``) at two separate mouths and the widest
-way between two of them stays wider than the robot. Dead ends (one mouth), pinches too narrow for
-the robot and open rooms (no neck) are not passages.
+Only obstacles at least ``min_wall`` across shape passages (scan specks and furniture legs do
+not: :mod:`planner.analysis.walls`). A skeleton cell is a *neck* cell when its width (twice its
+distance to the nearest such obstacle cell's center) is at most ``max_width``; connected neck
+cells form a neck, and a neck is a passage when it opens onto wider skeleton (width >
+``max_width``) at two separate mouths, the widest way between two of them stays wider than the
+robot, and at its narrowest point there are walls on two sides. Dead ends (one mouth), pinches
+too narrow for the robot, open rooms (no neck) and the band between a wall and unknown space or a
+speck are not passages.
 
 >>> from planner.maps.robot_maps import grid_map
 >>> rows = [[0] * 9 for _ in range(9)]
@@ -24,6 +27,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
@@ -31,6 +35,7 @@ from scipy import ndimage
 
 from planner.analysis.cspace import CSpace, configuration_space
 from planner.analysis.medial import medial_axis
+from planner.analysis.walls import MIN_WALL, find_walls, two_sided
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
 from planner.maps.robot_maps import RobotMap
@@ -39,6 +44,10 @@ __all__ = ["Passage", "crossed_passages", "find_passages", "path_narrowest"]
 
 #: Slack added to ``2 * robot_radius`` for the default ``max_width``, in meters.
 MAX_WIDTH_SLACK = 0.3
+
+#: How far above ``max_width / 2`` (in cells, as a distance) a neck's skeleton may rise and
+#: still be one neck, less than (see ``_passages``).
+HYSTERESIS = 0.5
 
 _EIGHT = np.ones((3, 3), dtype=bool)
 
@@ -65,12 +74,20 @@ class Passage:
 
 
 def find_passages(
-    robot_map: RobotMap, robot_radius: float, max_width: float | None = None
+    robot_map: RobotMap,
+    robot_radius: float,
+    max_width: float | None = None,
+    *,
+    min_wall: float = MIN_WALL,
 ) -> tuple[Passage, ...]:
     """The narrow passages of ``robot_map`` for a round robot of ``robot_radius`` meters:
-    necks narrower than ``max_width`` meters (default ``2 * robot_radius + 0.3``) between wider
-    spaces, wider than the robot. Unknown cells and the outside of the map count as blocked."""
+    necks at most ``max_width`` meters wide (default ``2 * robot_radius + 0.3``) between wider
+    spaces, wider than the robot, between walls at least ``min_wall`` meters across. Unknown
+    cells and the outside of the map count as blocked, but are no walls."""
     radius = _meters(robot_radius, "robot_radius")
+    least = _meters(min_wall, "min_wall")
+    if least < 0:
+        raise InvalidInput(f"min_wall must be >= 0 meters; got {quote(min_wall)}", field="min_wall")
     if radius < 0:
         raise InvalidInput(
             f"robot_radius must be >= 0 meters; got {quote(robot_radius)}", field="robot_radius"
@@ -86,7 +103,7 @@ def find_passages(
                 field="max_width",
             )
     cspace = configuration_space(robot_map, robot_radius=radius, unknown="blocked")
-    return _passages(robot_map, cspace, widest)
+    return _passages(robot_map, cspace, widest, least)
 
 
 def crossed_passages(
@@ -141,49 +158,63 @@ def _meters(value: Any, field: str) -> float:
     return float(value)
 
 
-def _passages(robot_map: RobotMap, cspace: CSpace, max_width: float) -> tuple[Passage, ...]:
+def _passages(
+    robot_map: RobotMap, cspace: CSpace, max_width: float, min_wall: float
+) -> tuple[Passage, ...]:
     H, W = robot_map.shape
     res = cspace.resolution
-    free = cspace.blocked == 0
+    walls = find_walls(robot_map.occupancy, res, min_wall, cspace.occupied_threshold)
+    free = np.ascontiguousarray(~walls.obstacles)
     # The outside of the map counts as blocked, for the distances and for the skeleton.
-    skeleton = medial_axis(free, cspace.distance)
-    distance = cspace.distance.astype(np.float64)
+    distance = np.sqrt(edt.edtsq(free, black_border=True).astype(np.float64))
+    skeleton = medial_axis(free, distance)
     limit = max_width / res / 2  # in cells, as a distance
-    below = distance < limit - 1e-9 * max(1.0, limit)
+    tolerance = 1e-9 * max(1.0, limit)
+    below = distance <= limit + tolerance  # a passage exactly max_width wide is one
+    # A neck runs on while the skeleton stays within HYSTERESIS of max_width: a corridor about
+    # max_width wide whose walls wiggle by a cell is one neck, not a neck at every wiggle.
+    near = distance < limit + HYSTERESIS - tolerance
     fits = cspace.robot_radius / res * (1 + 1e-9)
-    wide = skeleton & ~below
-    labels, count = ndimage.label(skeleton & below, structure=_EIGHT)
-    # A neck whose cells next to wider skeleton fit in one cell opens onto one mouth at most.
-    ends = ndimage.find_objects(labels * ndimage.binary_dilation(wide, _EIGHT), count)
+    wide = skeleton & ~near
+    labels, count = ndimage.label(skeleton & near, structure=_EIGHT)
+    narrow = np.bincount(labels[skeleton & below], minlength=count + 1) > 0
+    mouthed = _beside_counts(labels, wide, count) >= 2  # one wide cell beside: one mouth at most
+    reach = 2 + math.ceil(limit / 2)
     found: list[tuple[int, int, float, float, npt.NDArray[np.int64]]] = []
     for index, box in enumerate(ndimage.find_objects(labels), start=1):
-        end = ends[index - 1]
-        if (
-            box is None
-            or end is None
-            or (end[0].stop - end[0].start) * (end[1].stop - end[1].start) == 1
-        ):
+        if box is None or not narrow[index] or not mouthed[index]:
             continue
         # Two cells around the neck: its mouths, and the cells beside its skeleton.
         r0, r1 = max(box[0].start - 2, 0), min(box[0].stop + 2, H)
         c0, c1 = max(box[1].start - 2, 0), min(box[1].stop + 2, W)
         mine = labels[r0:r1, c0:c1] == index
         beside = ndimage.binary_dilation(mine, structure=_EIGHT)
-        mouths, groups = ndimage.label(
-            ndimage.binary_dilation(wide[r0:r1, c0:c1] & beside, structure=_EIGHT), _EIGHT
+        # Its mouths: the wider skeleton beside it, one mouth where that skeleton joins within
+        # ``reach`` cells of the neck (round its end), two where it does not (across the neck).
+        R0, C0 = max(box[0].start - reach, 0), max(box[1].start - reach, 0)
+        joined, _ = ndimage.label(
+            wide[R0 : box[0].stop + reach, C0 : box[1].stop + reach], structure=_EIGHT
         )
-        if groups < 2:
+        joined = joined[r0 - R0 : r1 - R0, c0 - C0 : c1 - C0]
+        touching = wide[r0:r1, c0:c1] & beside
+        groups = np.unique(joined[touching])
+        if groups.size < 2:
             continue
-        mouths[~(wide[r0:r1, c0:c1] & beside)] = 0
-        band = (beside & free[r0:r1, c0:c1] & below[r0:r1, c0:c1]) | (mouths > 0)
+        mouths = np.zeros(mine.shape, dtype=np.int32)
+        mouths[touching] = np.searchsorted(groups, joined[touching]) + 1
+        band = (beside & free[r0:r1, c0:c1] & near[r0:r1, c0:c1]) | (mouths > 0)
         local = distance[r0:r1, c0:c1]
         saddle = _saddle(band, mouths, local, fits)
-        if saddle is None:
-            continue
+        if saddle is None or not below[saddle[0] + r0, saddle[1] + c0]:
+            continue  # the robot passes nowhere, or the widest way is wider than max_width
         row, col = saddle
-        rows, cols = np.nonzero(mine)
-        length = _length(band & (mouths == 0), mouths) * res
-        ways = band & (mouths == 0) & (cspace.traversable[r0:r1, c0:c1] == 1)
+        if not two_sided(walls.walls, row + r0, col + c0, float(local[row, col])):
+            continue
+        core = below[r0:r1, c0:c1]
+        rows, cols = np.nonzero(mine & core)
+        grown = _grown(band & ~core, mouths)
+        length = _length(band & (grown == 0), grown) * res
+        ways = band & (grown == 0) & (cspace.traversable[r0:r1, c0:c1] == 1)
         br, bc = np.nonzero(ways)
         cells = np.union1d(
             _across(rows + r0, cols + c0, distance, cspace.traversable), (br + r0) * W + bc + c0
@@ -204,6 +235,36 @@ def _passages(robot_map: RobotMap, cspace: CSpace, max_width: float) -> tuple[Pa
         )
         for i, (row, col, width, length, cells) in enumerate(found)
     )
+
+
+def _grown(outer: npt.NDArray[np.bool_], mouths: npt.NDArray[np.int32]) -> npt.NDArray[np.int32]:
+    """The mouths grown over the ``outer`` cells joined to them (a neck's cells wider than
+    ``max_width``, within the hysteresis): the neck's length and cells are where it is at most
+    ``max_width`` wide."""
+    parts, count = ndimage.label(outer | (mouths > 0), structure=_EIGHT)
+    owner = np.zeros(count + 1, dtype=np.int32)
+    owner[parts[mouths > 0]] = mouths[mouths > 0]
+    out: npt.NDArray[np.int32] = owner[parts]
+    return out
+
+
+def _beside_counts(
+    labels: npt.NDArray[np.int32], wide: npt.NDArray[np.bool_], count: int
+) -> npt.NDArray[np.int64]:
+    """For each label 0..count, how many ``wide`` cells are beside (8-connected) its cells."""
+    H, W = labels.shape
+    padded = np.pad(labels, 1)
+    rows, cols = np.nonzero(wide)
+    flat = (rows * W + cols).astype(np.int64)
+    pairs = np.concatenate(
+        [
+            padded[rows + 1 + dr, cols + 1 + dc].astype(np.int64) * (H * W) + flat
+            for dr in (-1, 0, 1)
+            for dc in (-1, 0, 1)
+        ]
+    )
+    owners = np.unique(pairs) // (H * W)
+    return np.bincount(owners, minlength=count + 1)
 
 
 def _saddle(

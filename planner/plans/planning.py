@@ -15,10 +15,12 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
-from planner.maps.grids import as_cell, as_grid
+from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.params import PARAMETER_RANGES, SQRT2, Params, resolve_params
-from planner.plans.decide import Rule, cost_here
+from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
+from planner.params import PARAMETER_RANGES, Params, resolve_params
+from planner.plans.bounded import Detour, bound_detour
+from planner.plans.decide import Rule
 from planner.plans.ends import (
     cell_of,
     end_point,
@@ -28,14 +30,15 @@ from planner.plans.ends import (
     stand_on,
     tolerance_m,
 )
-from planner.plans.resumable_wave import ResumableWave, resumable_wave
+from planner.plans.metrics import clearance_metrics, path_cost
+from planner.plans.reach import route, wave_to
+from planner.plans.resumable_wave import resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
-from planner.plans.walk import walk_fields
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
-from planner.poses.speed import drive_time, pose_speeds
+from planner.poses.speed import duration, pose_speeds
 
-__all__ = ["Plan", "clearance_metrics", "path_cost", "plan", "reaches", "route"]
+__all__ = ["Plan", "clearance_metrics", "path_cost", "plan"]
 
 WaveSource = Callable[[tuple[int, int], bool], Wave]
 """Gives the goal wave of a goal cell for ``narrow`` (False: the sealed grid): lets a caller
@@ -77,6 +80,8 @@ class Plan:
     route: Route[Plan] | None = None
     """The legs of a plan through waypoints (the plan's ``wave`` is then the last leg's), else
     None."""
+    detour: Detour | None = None
+    """How the ``wide`` route compares with the shortest (``params.max_detour``), else None."""
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
@@ -159,6 +164,8 @@ class Plan:
         joined (:func:`~planner.plans.route.join_poses`)."""
         if self.route is not None:
             return self.route.poses
+        if self.motion is not None:
+            return self.motion.poses
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -181,6 +188,24 @@ class Plan:
             outside_blocked=cs is None or cs.unknown == "blocked",
         )
 
+    @cached_property
+    def motion(self) -> MotionPath | None:
+        """With a footprint or a car motion, the footprint's path (its poses are the plan's)."""
+        if self.route is not None:
+            return None
+        goal = self.goal_used if self.goal_used is not None else self.goal_point
+        return motion_path(
+            self.analysis, self.wave, self.params,
+            (self.start_point or self._center(self.start), self.start_yaw),
+            (goal or self._center(self.goal), self.goal_yaw),
+        )  # fmt: skip
+
+    @property
+    def directions(self) -> npt.NDArray[np.int8]:
+        """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        m = self.motion
+        return np.ones(len(self.poses), np.int8) if m is None else m.direction
+
     @property
     def waypoints(self) -> list[tuple[int, int]]:
         """The cells of the waypoints the route passes, in order (none without a route)."""
@@ -198,8 +223,8 @@ class Plan:
 
     @property
     def duration_s(self) -> float:
-        """Seconds to drive :attr:`poses` at ``nominal_speed``, capped by the speed zones."""
-        return drive_time(self.poses, self.max_speeds, nominal_speed=self.params.nominal_speed)
+        """Seconds to drive :attr:`poses` (:func:`~planner.poses.speed.duration`)."""
+        return duration(self.poses, self.directions, self.max_speeds, self.params)
 
     @property
     def length_poses_m(self) -> float:
@@ -247,6 +272,7 @@ class Plan:
             "min_clearance_m": round(self.min_clearance_m, 6),
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
+            "directions": None if self.motion is None else self.directions.tolist(),
             "length_poses_m": round(self.length_poses_m, 6),
             "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
             "duration_s": round(self.duration_s, 6),
@@ -254,10 +280,19 @@ class Plan:
             "goal_offset_m": round(self.goal_offset_m, 6),
             "waypoints": [list(cell) for cell in self.waypoints],
             "waypoint_indices": self.waypoint_indices,
+            "detour": self._detour(),
             "analysis_ms": round(self.analysis.elapsed_ms, 3),
             "wave_ms": round(self.wave.elapsed_ms, 3),
             "elapsed_ms": round(self.elapsed_ms, 3),
         }
+
+    def _detour(self) -> dict[str, Any] | None:
+        d, res = self.detour, self.analysis.frame.resolution
+        if d is None:
+            return None
+        ratio = self.length / d.shortest if d.shortest > 0 else 1.0
+        return {"shortest_m": round(d.shortest * res, 6), "ratio": round(ratio, 6),
+                "width_kept": d.width_kept, "tunnels_opened": d.tunnels_opened}  # fmt: skip
 
 
 def plan(
@@ -271,6 +306,7 @@ def plan(
     whole: bool = False,
     goal_tolerance: Any = 0.0,
     waypoints: Any = None,
+    bounded: bool = True,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -282,7 +318,9 @@ def plan(
     With ``goal_tolerance`` (meters, >= 0) a goal that cannot be stood on or reached gives way to
     the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
-    passes through each in order, each leg planned on its own (``Plan.route``).
+    passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
+    plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
+    a route's legs: one set of effective parameters holds for the whole route.
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -335,12 +373,13 @@ def plan(
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
             return plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
-                goal_tolerance=tolerance, **params,
+                goal_tolerance=tolerance, bounded=False, **params,
             )  # fmt: skip
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
     start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
+    check_goal_yaw(p, goal_yaw)
     tolerance = tolerance_m(goal_tolerance)
     stand_on(analysis, start, s, "start")
     goal_cell = cell_of(analysis, goal, "goal")  # a goal outside the map is refused at once
@@ -357,7 +396,7 @@ def plan(
     try:
         g = free_cell(analysis, goal, "goal")
         stand_on(analysis, goal, g, "goal")
-        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+        wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
     except (InvalidInput, NoValidPath) as error:
         if tolerance <= 0:
             raise
@@ -372,12 +411,12 @@ def plan(
             error.args = (error.message,)
             raise
         g = near
-        wave, narrow = _wave_to(analysis, s, g, p.allow_narrow, wave_for)
+        wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
         x, y = analysis.frame.centers([g])[0]
         goal_used = (float(x), float(y))
     if p.dynamic_margin_m is not None:
         p = dataclasses.replace(p, dynamic_margin=_margin_cells(p.dynamic_margin_m, analysis))
-    return Plan(
+    result = Plan(
         start=s,
         goal=g,
         preset=preset,
@@ -393,32 +432,9 @@ def plan(
         goal_used=goal_used,
         goal_tolerance=tolerance,
     )
-
-
-def _wave_to(
-    analysis: Analysis,
-    s: tuple[int, int],
-    g: tuple[int, int],
-    allow_narrow: bool,
-    wave_for: Callable[[tuple[int, int], bool], Wave],
-) -> tuple[Wave, bool]:
-    """The goal wave of ``g`` that reaches ``s`` (the sealed grid's, else the narrow one's when
-    allowed), and whether it is the narrow one; else NoValidPath."""
-    wave = wave_for(g, False)
-    narrow = False
-    if not reaches(wave, analysis, s) and analysis.sealed:
-        narrow_wave = wave_for(g, True)
-        if reaches(narrow_wave, analysis, s):
-            if not allow_narrow:
-                msg = (
-                    f"goal {list(g)} can be reached from start {list(s)} only through tight "
-                    "tunnels, and allow_narrow is false"
-                )
-                raise NoValidPath(msg, field="goal")
-            wave, narrow = narrow_wave, True
-    if not reaches(wave, analysis, s):
-        raise NoValidPath(f"goal {list(g)} cannot be reached from start {list(s)}", field="goal")
-    return wave, narrow
+    if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
+        return bound_detour(result, whole=whole, t0=t0)
+    return result
 
 
 def _margin_cells(meters: float, analysis: Analysis) -> int:
@@ -434,61 +450,3 @@ def _margin_cells(meters: float, analysis: Analysis) -> int:
         )
         raise InvalidInput(msg, field="params.dynamic_margin_m")
     return cells
-
-
-def reaches(wave: Wave, analysis: Analysis, cell: Any) -> bool:
-    """Whether the robot at ``cell`` (``[row, col]``) can reach the wave's goal over the
-    wave's grid.
-
-    >>> a = analyse([[0, 1], [1, 0]], seal_tunnels=False)
-    >>> reaches(goal_wave(a, [0, 0]), a, [1, 1])
-    False
-    >>> reaches(goal_wave(a, [0, 0]), a, [-1, 0])
-    Traceback (most recent call last):
-    ...
-    planner.errors.InvalidInput: cell [-1, 0] is outside the 2 x 2 map
-    """
-    r, c = as_cell(cell, analysis.shape, name="cell")
-    if wave.shape != analysis.shape:
-        msg = f"the wave's map is {wave.shape}, the analysis's {analysis.shape}"
-        raise InvalidInput(msg, field="wave")
-    v = wave.view(r, c, analysis.clean)
-    here = cost_here(v, (r, c), diagonal_cost=wave.diagonal_cost, use_clean=True)
-    return bool(np.isfinite(here))
-
-
-def path_cost(path: npt.NDArray[np.int64], wave: Wave) -> tuple[float, float]:
-    """(length, arc cost) of a path of cells. The length counts a diagonal sqrt 2 cells (one
-    rule for every length the planner reports); the arc cost is the paper's ``PathCost``: the
-    sum of ``k`` over the cells entered after the start."""
-    steps = np.abs(np.diff(path, axis=0)).sum(axis=1)
-    length = float(np.count_nonzero(steps == 1) + np.count_nonzero(steps == 2) * SQRT2)
-    return length, float(wave.k_along(path[1:]).sum())
-
-
-def clearance_metrics(
-    path: npt.NDArray[np.int64], analysis: Analysis
-) -> tuple[float, float, float]:
-    """(min clearance, mean clearance, contact ratio) of a path of cells: distances to the
-    nearest static obstacle, and the share of cells below 1.5 (touching one, diagonally too)."""
-    clearance = analysis.clearance[path[:, 0], path[:, 1]].astype(np.float64)
-    contact = float(np.count_nonzero(clearance < 1.5)) / len(path)
-    return float(clearance.min()), float(clearance.mean()), contact
-
-
-def route(
-    wave: Wave,
-    analysis: Analysis,
-    start: tuple[int, int],
-    goal: tuple[int, int],
-    rule: Rule,
-) -> npt.NDArray[np.int64]:
-    """The cells (flat) the decision of ``rule`` visits from ``start`` with no dynamic
-    obstacles, down ``wave``'s fields (a resumable wave settling what it reads); empty when it
-    does not reach ``goal``."""
-    H, W = analysis.shape
-    if isinstance(wave, ResumableWave):
-        return wave.walk(start, rule, 4 * H * W + 8)
-    view = wave.view(start[0], start[1], analysis.clean)
-    flat_goal = goal[0] * W + goal[1]
-    return walk_fields(view, start[0] * W + start[1], flat_goal, rule, max_steps=4 * H * W + 8)

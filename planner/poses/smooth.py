@@ -12,7 +12,7 @@ are checked exactly by :mod:`planner.poses.clearance`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from planner.errors import InvalidInput, quote
 from planner.parsing import number
+from planner.parsing import point as parse_point
 from planner.poses.clearance import Sight, threshold
 from planner.poses.polyline import BLOCKED, JUMP, OUTSIDE, Setting, polyline_of, poses_along
 
@@ -29,25 +30,6 @@ MAX_TURN = math.radians(15.0)
 """The most a pose's heading turns from the previous pose's."""
 
 _BISECT = 10  # halvings of a corner's tangent length while its arc is not clear
-
-
-def _point(value: Any, field: str) -> tuple[float, float]:
-    if isinstance(value, Mapping):
-        if "x" not in value or "y" not in value:
-            raise InvalidInput(f"{field} must have 'x' and 'y'; got {quote(value)}", field=field)
-        pair: list[Any] = [value["x"], value["y"]]
-    elif isinstance(value, Sequence | np.ndarray) and not isinstance(value, str | bytes):
-        pair = list(np.asarray(value).ravel()) if isinstance(value, np.ndarray) else list(value)
-    else:
-        pair = []
-    if len(pair) != 2:
-        msg = f"{field} must be a point (x, y) in meters; got {quote(value)}"
-        raise InvalidInput(msg, field=field)
-    what = "a point (x, y) of finite numbers in meters"
-    try:
-        return number(pair[0], field, what), number(pair[1], field, what)
-    except InvalidInput:
-        raise InvalidInput(f"{field} must be {what}; got {quote(value)}", field=field) from None
 
 
 def _without_loops(cells: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
@@ -159,7 +141,7 @@ step 0 goes from [0, 0] to [0, 2]
     cos_o, sin_o = math.cos(oyaw), math.sin(oyaw)
 
     def to_cells(point: Any, name: str) -> tuple[float, float]:
-        x, y = _point(point, name)
+        x, y = parse_point(point, name, also=("yaw",))
         u = (cos_o * (x - ox) + sin_o * (y - oy)) / res
         v = (-sin_o * (x - ox) + cos_o * (y - oy)) / res
         slack = 1e-9 * (H + W)
@@ -222,5 +204,5 @@ step 0 goes from [0, 0] to [0, 2]
         if point is not None:
             there = (rows[:, 0] == rows[0, 0]) & (rows[:, 1] == rows[0, 1])
             run = len(rows) if there.all() else int(np.argmin(there))
-            rows[:run, 0], rows[:run, 1] = _point(point, name)
+            rows[:run, 0], rows[:run, 1] = parse_point(point, name, also=("yaw",))
     return out

@@ -21,7 +21,8 @@ from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, c
 from planner.plans.detour import detour_cells
 from planner.plans.ends import cell_of, end_yaw, free_cell
 from planner.plans.moves import DC, DR, OPEN_UNSEALED
-from planner.plans.planning import Plan, route
+from planner.plans.planning import Plan
+from planner.plans.reach import route
 from planner.stepping.ahead import blocked_ahead, window_cells
 from planner.stepping.horizon import path_ahead
 from planner.stepping.legs import go_on, last_leg, later_cost, leg_of

@@ -251,10 +251,22 @@ def move_obstacles(
 def warm_up() -> None:
     """Compile (or load from numba's cache) every kernel, so no later call pays for it.
 
-    Numba compiles a kernel apart for read-only arrays (a service keeps its maps read-only), so
-    both kinds of grid are warmed.
+    A service's kernels first (the plans and steps of robot maps, whose arrays are read-only:
+    numba compiles apart for those), then the rest: plain grids of both kinds, the paper's
+    presets, episodes, passages and fleets.
     """
-    for writeable in (True, False):
+    # Steps among cells given as an array (as a fleet's are): the path ahead meeting a robot,
+    # and held up until the robot searches its way round.
+    occ = np.zeros((12, 16), dtype=np.int8)
+    occ[6, :11] = 1
+    on_map = grid_map(occ, resolution=0.1)
+    for whole in (False, True):  # a goal's search, and the whole-map wave it hands over to
+        for patience, cells in ((3, [[3, 6]]), (0, [[3, 2], [4, 2], [2, 2], [4, 1], [2, 1]])):
+            p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1, patience=patience, whole=whole)
+            session = Session(p)
+            for _ in range(3):
+                session.step(np.array(cells, dtype=np.int64))
+    for writeable in (False, True):
         grid = np.zeros((6, 6), dtype=np.uint8)
         grid[2, 1:5] = 1
         grid[4, 3] = 1
@@ -275,20 +287,10 @@ def warm_up() -> None:
     rooms[:, 4] = 1
     rooms[4, 4] = 0
     find_passages(grid_map(rooms, resolution=0.1), robot_radius=0.05, max_width=0.3)
-    # A service's maps are robot maps: their configuration space's arrays are read-only, and
-    # numba compiles apart for those. Steps among cells given as an array (as a fleet's are):
-    # the path ahead meeting a robot, and held up until the robot searches its way round.
-    occ = np.zeros((12, 16), dtype=np.int8)
-    occ[6, :11] = 1
-    on_map = grid_map(occ, resolution=0.1)
-    for whole in (False, True):  # a goal's search, and the whole-map wave it hands over to
-        for patience, cells in ((3, [[3, 6]]), (0, [[3, 2], [4, 2], [2, 2], [4, 1], [2, 1]])):
-            p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1, patience=patience, whole=whole)
-            session = Session(p)
-            for _ in range(3):
-                session.step(np.array(cells, dtype=np.int64))
     # A fleet: its roadmap (chains and lattice), a start joining it, and a joint plan on it.
     p = plan(on_map, (3, 1), (9, 1), robot_radius=0.1)
     roadmap = build_roadmap(p.analysis, radius=0.1)
     attach(roadmap, p.analysis, (3, 1), exclude=[0])
-    solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=1.0)
+    # A limit far above the solve's: one hit while compiling would skip the search's kernels,
+    # left uncompiled (and out of numba's cache) for the next start to compile.
+    solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=3600.0)

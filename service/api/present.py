@@ -161,6 +161,7 @@ def fleet_public(view: FleetView) -> FleetPublic:
         goal_node = [int(v) for v in graph.cells[robot["goal_node"]]]
         entry = {
             "plan_id": plan_id,
+            "name": robot.get("name"),
             "position": robot["cell"],
             "position_xy": center(view.frame, *robot["cell"]),
             "status": robot["status"],
@@ -230,6 +231,7 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
     return {
         "plan_id": view.plan_id,
         "map_id": view.record["map_id"],
+        "name": view.record.get("name"),
         "start": s["start"],
         "goal": s["goal"],
         "preset": s["preset"],
@@ -247,23 +249,31 @@ def _plan_fields(view: PlanView) -> dict[str, Any]:
         },
         "preview": {
             **{key: s[key] for key in PREVIEW_KEYS},
-            "poses": _poses(s["poses"], s["max_speeds"]),
+            "poses": _poses(s["poses"], s["max_speeds"], s["directions"]),
             "duration_s": s["duration_s"],
             "goal_used": _xy(s["goal_used"]),
             "waypoint_indices": s["waypoint_indices"],
             "narrowest": _narrowest(view.record.get("narrowest")),
             "passages": view.record.get("passages"),
+            "detour": s["detour"] if s["detour"] is not None else view.record.get("detour"),
         },
         "waypoints": s["waypoints"],
     }
 
 
-def _poses(poses: list[list[float]], speeds: list[float | None]) -> list[dict[str, float]]:
-    """Poses as ``{"x", "y", "yaw"}``, and ``"max_speed"`` inside a speed zone."""
+def _poses(
+    poses: list[list[float]], speeds: list[float | None], directions: list[int] | None = None
+) -> list[dict[str, float]]:
+    """Poses as ``{"x", "y", "yaw"}``, ``"max_speed"`` inside a speed zone, and ``"direction"``
+    when the plan drives a footprint or a car."""
     out: list[dict[str, float]] = []
-    for (x, y, yaw), speed in zip(poses, speeds, strict=True):
-        out.append({"x": x, "y": y, "yaw": yaw} if speed is None else
-                   {"x": x, "y": y, "yaw": yaw, "max_speed": speed})  # fmt: skip
+    for i, ((x, y, yaw), speed) in enumerate(zip(poses, speeds, strict=True)):
+        pose = {"x": x, "y": y, "yaw": yaw}
+        if speed is not None:
+            pose["max_speed"] = speed
+        if directions is not None:
+            pose["direction"] = directions[i]
+        out.append(pose)
     return out
 
 

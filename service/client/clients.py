@@ -6,21 +6,21 @@ from __future__ import annotations
 import json
 import re
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Generic, Self, TypeVar, Unpack
 
 import httpx
-from pydantic import BaseModel
 
 from schemas import (
     AnalysisPublic,
     FleetPublic,
+    LiveMarksPublic,
     MapfPublic,
     MapPublic,
     NavPath,
+    ObservationPublic,
     PassagesPublic,
     PlanDetail,
     PlanPublic,
@@ -28,6 +28,7 @@ from schemas import (
     SimulationPublic,
     StepPublic,
 )
+from service.client.calls import Call, R, as_cell, decode, json_body, png
 from service.client.errors import MapFileError, raise_for
 from service.client.fields import (
     CellIn,
@@ -45,10 +46,12 @@ __all__ = [
     "Analysis",
     "AsyncPlannerClient",
     "Fleet",
+    "LiveMarks",
     "MapInfo",
     "Mapf",
     "MapfFields",
     "NavPath",
+    "Observation",
     "Passages",
     "Plan",
     "PlanDetail",
@@ -73,6 +76,8 @@ Simulation = SimulationPublic
 Fleet = FleetPublic
 Mapf = MapfPublic
 Passages = PassagesPublic
+Observation = ObservationPublic
+LiveMarks = LiveMarksPublic
 
 
 class MapInfo(MapPublic):
@@ -82,67 +87,17 @@ class MapInfo(MapPublic):
     """From ``upload_map``: True for a map the service did not know (``201``), else False."""
 
 
-# Calls, built the same for both clients: a request and how to read its answer.
-
-R = TypeVar("R")
-M = TypeVar("M", bound=BaseModel)
-
-
-@dataclass(frozen=True)
-class _Call(Generic[R]):
-    method: str
-    url: str
-    answer: Callable[[httpx.Response], R]
-    content: Mapping[str, Any] = field(default_factory=dict)
-    """httpx's ``json``, ``params``, ``data`` or ``files``."""
-
-
-def _decode(model: type[M]) -> Callable[[httpx.Response], M]:
-    """The one decoder: the answer's JSON, validated as its response model."""
-    return lambda response: model.model_validate_json(response.content)
-
-
 def _created(response: httpx.Response) -> MapInfo:
     info = MapInfo.model_validate_json(response.content)
     info.created = response.status_code == 201
     return info
 
 
-def _png(response: httpx.Response) -> bytes:
-    if not response.content.startswith(b"\x89PNG"):
-        raise ValueError(f"expected a PNG, got {response.headers.get('content-type')!r}")
-    return response.content
-
-
-def _cell(cell: CellIn) -> Any:
-    return dict(cell) if isinstance(cell, Mapping) else [int(v) for v in cell]
-
-
-def _body(fields: Mapping[str, Any]) -> dict[str, Any]:
-    """The JSON body of the fields given; ``None`` is not sent."""
-    body: dict[str, Any] = {}
-    for name, value in fields.items():
-        if value is None:
-            continue
-        if name in ("start", "goal", "position"):
-            value = _cell(value)
-        elif name == "waypoints":
-            value = [_cell(point) for point in value]
-        elif name == "grid":
-            value = [list(row) for row in value]
-        elif isinstance(value, Mapping):
-            value = dict(value)
-        elif isinstance(value, Sequence) and not isinstance(value, str):
-            value = list(value)
-        body[name] = value
-    return body
-
-
 _IMAGE_LINE = re.compile(r"""^image\s*:\s*(?P<q>["']?)(?P<name>.+?)(?P=q)\s*(?:#.*)?$""", re.M)
 _MEDIA = {".png": "image/png", ".bmp": "image/bmp", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 
 
-def _upload_map(fields: UploadMapFields) -> _Call[MapInfo]:
+def _upload_map(fields: UploadMapFields) -> Call[MapInfo]:
     kinds = ("grid", "rows", "occupancy_grid", "yaml")
     given = [name for name in kinds if fields.get(name) is not None]
     if len(given) != 1:
@@ -150,9 +105,9 @@ def _upload_map(fields: UploadMapFields) -> _Call[MapInfo]:
         raise TypeError(f"upload_map takes exactly one of grid, rows, occupancy_grid, yaml: {got}")
     yaml = fields.get("yaml")
     if yaml is None:
-        return _Call("POST", "/maps", _created, {"json": _body(fields)})
-    extra = _body({k: v for k, v in fields.items() if k != "yaml"})
-    return _Call("POST", "/maps", _created, _multipart(yaml, extra))
+        return Call("POST", "/maps", _created, {"json": json_body(fields)})
+    extra = json_body({k: v for k, v in fields.items() if k != "yaml"})
+    return Call("POST", "/maps", _created, _multipart(yaml, extra))
 
 
 def _multipart(yaml: str | Path, extra: Mapping[str, Any]) -> dict[str, Any]:
@@ -181,7 +136,7 @@ def _point(point: PointIn) -> dict[str, float]:
     return {"x": x, "y": y}
 
 
-def _add_zones(map_id: str, fields: ZonesFields) -> _Call[MapInfo]:
+def _add_zones(map_id: str, fields: ZonesFields) -> Call[MapInfo]:
     extra: dict[str, Any] = {}
     keepout, speed = fields.get("keepout"), fields.get("speed")
     if keepout is not None:
@@ -194,8 +149,8 @@ def _add_zones(map_id: str, fields: ZonesFields) -> _Call[MapInfo]:
     url = f"/maps/{map_id}/zones"
     yaml = fields.get("yaml")
     if yaml is None:
-        return _Call("POST", url, _created, {"json": extra})
-    return _Call("POST", url, _created, _multipart(yaml, extra))
+        return Call("POST", url, _created, {"json": extra})
+    return Call("POST", url, _created, _multipart(yaml, extra))
 
 
 def _read(path: Path, what: str) -> bytes:
@@ -207,63 +162,74 @@ def _read(path: Path, what: str) -> bytes:
         raise MapFileError(f"{what} cannot be read: {exc.strerror}", path) from None
 
 
-def _get_map(map_id: str) -> _Call[MapInfo]:
-    return _Call("GET", f"/maps/{map_id}", _decode(MapInfo))
+def _get_map(map_id: str) -> Call[MapInfo]:
+    return Call("GET", f"/maps/{map_id}", decode(MapInfo))
 
 
-def _passages(map_id: str, robot_radius: float, max_width: float | None) -> _Call[Passages]:
-    query = _body({"robot_radius": robot_radius, "max_width": max_width})
-    return _Call("GET", f"/maps/{map_id}/passages", _decode(Passages), {"params": query})
+def _passages(map_id: str, robot_radius: float, max_width: float | None) -> Call[Passages]:
+    query = json_body({"robot_radius": robot_radius, "max_width": max_width})
+    return Call("GET", f"/maps/{map_id}/passages", decode(Passages), {"params": query})
 
 
-def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> _Call[Plan]:
-    body = _body({"map_id": map_id, "start": start, "goal": goal, **options})
-    return _Call("POST", "/plan", _decode(Plan), {"json": body})
+def _plan(map_id: str, start: CellIn, goal: CellIn, options: RouteFields) -> Call[Plan]:
+    body = json_body({"map_id": map_id, "start": start, "goal": goal, **options})
+    return Call("POST", "/plan", decode(Plan), {"json": body})
 
 
-def _get_plan(plan_id: str) -> _Call[PlanDetail]:
-    return _Call("GET", f"/plan/{plan_id}", _decode(PlanDetail))
+def _get_plan(plan_id: str) -> Call[PlanDetail]:
+    return Call("GET", f"/plan/{plan_id}", decode(PlanDetail))
 
 
-def _path(plan_id: str, frame_id: str | None) -> _Call[NavPath]:
+def _path(plan_id: str, frame_id: str | None) -> Call[NavPath]:
     query = {} if frame_id is None else {"frame_id": frame_id}
-    return _Call("GET", f"/plan/{plan_id}/path", _decode(NavPath), {"params": query})
+    return Call("GET", f"/plan/{plan_id}/path", decode(NavPath), {"params": query})
 
 
-def _delete_plan(plan_id: str) -> _Call[None]:
-    return _Call("DELETE", f"/plan/{plan_id}", lambda response: None)
+def _delete_plan(plan_id: str) -> Call[None]:
+    return Call("DELETE", f"/plan/{plan_id}", lambda response: None)
 
 
-def _step(plan_id: str, dynamic_obstacles: Sequence[Any], fields: StepFields) -> _Call[Step]:
-    obstacles = [o if isinstance(o, Mapping) else _cell(o) for o in dynamic_obstacles]
-    body = {"dynamic_obstacles": obstacles, **_body(fields)}
-    return _Call("POST", f"/plan/{plan_id}/step", _decode(Step), {"json": body})
+def _step(plan_id: str, dynamic_obstacles: Sequence[Any], fields: StepFields) -> Call[Step]:
+    obstacles = [o if isinstance(o, Mapping) else as_cell(o) for o in dynamic_obstacles]
+    body = {"dynamic_obstacles": obstacles, **json_body(fields)}
+    return Call("POST", f"/plan/{plan_id}/step", decode(Step), {"json": body})
 
 
-def _simulate(
-    map_id: str, start: CellIn, goal: CellIn, fields: SimulateFields
-) -> _Call[Simulation]:
-    body = _body({"start": start, "goal": goal, **fields})
-    return _Call("POST", f"/maps/{map_id}/simulate", _decode(Simulation), {"json": body})
+def _simulate(map_id: str, start: CellIn, goal: CellIn, fields: SimulateFields) -> Call[Simulation]:
+    body = json_body({"start": start, "goal": goal, **fields})
+    return Call("POST", f"/maps/{map_id}/simulate", decode(Simulation), {"json": body})
 
 
-def _render(kind: str, id_: str, query: dict[str, Any]) -> _Call[bytes]:
-    return _Call("GET", f"/{kind}/{id_}/render.png", _png, {"params": query})
+def _render(kind: str, id_: str, query: dict[str, Any]) -> Call[bytes]:
+    return Call("GET", f"/{kind}/{id_}/render.png", png, {"params": query})
 
 
-def _change_goal(plan_id: str, goal: CellIn) -> _Call[PlanDetail]:
-    body = {"goal": _cell(goal)}
-    return _Call("PATCH", f"/plan/{plan_id}", _decode(PlanDetail), {"json": body})
+def _change_goal(plan_id: str, goal: CellIn) -> Call[PlanDetail]:
+    body = {"goal": as_cell(goal)}
+    return Call("PATCH", f"/plan/{plan_id}", decode(PlanDetail), {"json": body})
 
 
-def _mapf(map_id: str, agents: Sequence[tuple[CellIn, CellIn]], fields: MapfFields) -> _Call[Mapf]:
-    body = _body({"agents": [{"start": _cell(s), "goal": _cell(g)} for s, g in agents], **fields})
-    return _Call("POST", f"/maps/{map_id}/mapf", _decode(Mapf), {"json": body})
+def _mapf(map_id: str, agents: Sequence[tuple[CellIn, CellIn]], fields: MapfFields) -> Call[Mapf]:
+    body = json_body(
+        {"agents": [{"start": as_cell(s), "goal": as_cell(g)} for s, g in agents], **fields}
+    )
+    return Call("POST", f"/maps/{map_id}/mapf", decode(Mapf), {"json": body})
 
 
-def _fleet(name: str, ahead: bool) -> _Call[Fleet]:
+def _observe(
+    map_id: str, scan: Mapping[str, Any], scan_pose: Mapping[str, float], robot_radius: float
+) -> Call[Observation]:
+    body = {"scan": dict(scan), "scan_pose": dict(scan_pose), "robot_radius": robot_radius}
+    return Call("POST", f"/maps/{map_id}/observations", decode(Observation), {"json": body})
+
+
+def _live(map_id: str) -> Call[LiveMarks]:
+    return Call("GET", f"/maps/{map_id}/live", decode(LiveMarks))
+
+
+def _fleet(name: str, ahead: bool) -> Call[Fleet]:
     query = {"ahead": True} if ahead else {}
-    return _Call("GET", f"/fleets/{name}", _decode(Fleet), {"params": query})
+    return Call("GET", f"/fleets/{name}", decode(Fleet), {"params": query})
 
 
 T = TypeVar("T", httpx.BaseTransport, httpx.AsyncBaseTransport)
@@ -314,7 +280,7 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def close(self) -> None:
         self._http.close()
 
-    def _call(self, call: _Call[R]) -> R:
+    def _call(self, call: Call[R]) -> R:
         response = self._http.request(call.method, call.url, **call.content)
         raise_for(response)
         return call.answer(response)
@@ -333,8 +299,8 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
     def passages(
         self, map_id: str, robot_radius: float, max_width: float | None = None
     ) -> Passages:
-        """The map's narrow passages for a robot of ``robot_radius`` meters (narrower than
-        ``max_width``, by default the server's ``2 * robot_radius + 0.3``)."""
+        """The map's narrow passages for a robot of ``robot_radius`` meters (at most
+        ``max_width`` wide, by default the server's ``2 * robot_radius + 0.3``)."""
         return self._call(_passages(map_id, robot_radius, max_width))
 
     def add_zones(self, map_id: str, **fields: Unpack[ZonesFields]) -> MapInfo:
@@ -390,6 +356,27 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
         experiment); the other fields are ``SimulationCreate``'s, ``None`` not sent."""
         return self._call(_simulate(map_id, start, goal, fields))
 
+    def observe(
+        self,
+        map_id: str,
+        scan: Mapping[str, Any],
+        scan_pose: Mapping[str, float],
+        *,
+        robot_radius: float = 0.0,
+    ) -> Observation:
+        """Report a laser scan (``sensor_msgs/LaserScan`` as rosbridge JSON) taken at
+        ``scan_pose`` ``{x, y, yaw}``: its returns mark the map's live layer, its rays clear
+        it; every plan on the map steps around the marks."""
+        return self._call(_observe(map_id, scan, scan_pose, robot_radius))
+
+    def live(self, map_id: str) -> LiveMarks:
+        """The map's live marks now, as cells and points."""
+        return self._call(_live(map_id))
+
+    def render_live(self, map_id: str, **query: Any) -> bytes:
+        """The map with its live marks as PNG bytes (``cell=``)."""
+        return self._call(Call("GET", f"/maps/{map_id}/live.png", png, {"params": query}))
+
     def render_map(self, map_id: str, **query: Any) -> bytes:
         """The map and its analysis as PNG bytes (``preset=``, ``field=``, ``cell=``)."""
         return self._call(_render("maps", map_id, query))
@@ -419,7 +406,7 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
     async def aclose(self) -> None:
         await self._http.aclose()
 
-    async def _call(self, call: _Call[R]) -> R:
+    async def _call(self, call: Call[R]) -> R:
         response = await self._http.request(call.method, call.url, **call.content)
         raise_for(response)
         return call.answer(response)
@@ -472,6 +459,22 @@ class AsyncPlannerClient(_Client[httpx.AsyncBaseTransport, httpx.AsyncClient]):
         self, map_id: str, start: CellIn, goal: CellIn, **fields: Unpack[SimulateFields]
     ) -> Simulation:
         return await self._call(_simulate(map_id, start, goal, fields))
+
+    async def observe(
+        self,
+        map_id: str,
+        scan: Mapping[str, Any],
+        scan_pose: Mapping[str, float],
+        *,
+        robot_radius: float = 0.0,
+    ) -> Observation:
+        return await self._call(_observe(map_id, scan, scan_pose, robot_radius))
+
+    async def live(self, map_id: str) -> LiveMarks:
+        return await self._call(_live(map_id))
+
+    async def render_live(self, map_id: str, **query: Any) -> bytes:
+        return await self._call(Call("GET", f"/maps/{map_id}/live.png", png, {"params": query}))
 
     async def render_map(self, map_id: str, **query: Any) -> bytes:
         return await self._call(_render("maps", map_id, query))

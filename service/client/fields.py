@@ -34,16 +34,20 @@ class PlanFields(TypedDict, total=False):
     params: Mapping[str, Any] | None
     allow_narrow: bool | None
     robot_radius: float | None
+    footprint: Sequence[Sequence[float]] | None
+    motion: str | None
+    min_turning_radius: float | None
     unknown: str | None
     goal_tolerance: float | None
 
 
 class RouteFields(PlanFields, total=False):
     """``plan``'s fields besides the ends: the options, the ``waypoints`` (cells or points)
-    the path passes through, in order, and the robot's ``fleet``."""
+    the path passes through, in order, the robot's ``fleet`` and the plan's ``name``."""
 
     waypoints: Sequence[CellIn] | None
     fleet: str | None
+    name: str | None
 
 
 class UploadMapFields(RouteFields, total=False):
@@ -85,6 +89,8 @@ class StepFields(TypedDict, total=False):
 
     seq: int | None
     position: CellIn | None
+    scan: Mapping[str, Any] | None
+    scan_pose: Mapping[str, float] | None
 
 
 class MapfFields(TypedDict, total=False):

@@ -20,9 +20,11 @@ def where(value: list[int] | Point) -> Any:
 
 def overrides(body: PlanCreate | SimulationCreate) -> dict[str, Any]:
     """The planner parameters a request overrides: ``params``, with ``allow_narrow``,
-    ``robot_radius`` and ``unknown`` on top (given both ways, they must agree)."""
+    ``robot_radius``, ``unknown``, ``footprint``, ``motion`` and ``min_turning_radius`` on top
+    (given both ways, they must agree)."""
     out = dict(body.params)
-    for name in ("allow_narrow", "robot_radius", "unknown"):
+    for name in ("allow_narrow", "robot_radius", "unknown", "footprint", "motion",
+                 "min_turning_radius"):  # fmt: skip
         value = getattr(body, name)
         if value is None:
             continue

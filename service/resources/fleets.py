@@ -30,6 +30,7 @@ __all__ = [
     "Moved",
     "empty",
     "fleet_map",
+    "fleet_robot",
     "get_fleet",
     "join",
     "moved_away",
@@ -59,6 +60,24 @@ class Moved:
     step: planner.Step
     waiting_for: str | None
     fleet: FleetRecord
+
+
+def fleet_robot(params: dict[str, Any]) -> dict[str, Any]:
+    """A fleet robot's planner parameters: with a ``footprint``, its enclosing circle's radius
+    in place of it (the roadmap keeps round robots apart). Its moves are the roadmap's: a car
+    motion is refused."""
+    if params.get("motion", "diff") != "diff":
+        msg = (
+            f"motion {quote(params['motion'])}: a fleet robot moves along the fleet's roadmap "
+            "and turns in place; plan a car alone"
+        )
+        raise planner.InvalidInput(msg, field="motion")
+    if params.get("footprint") is None:
+        return params
+    radius = planner.footprint_of(params["footprint"]).circumscribed_radius
+    out = {k: v for k, v in params.items() if k != "footprint"}
+    out["robot_radius"] = radius
+    return out
 
 
 def empty(map_id: str, plan: planner.Plan) -> FleetRecord:
@@ -109,6 +128,7 @@ def join(
     fmap: FleetMap | None,
     *,
     most: int = 500,
+    name: str | None = None,
 ) -> Any:
     """The fleet's new state with the plan's robot in it (marked to be solved again), from its
     state now (None: a new fleet). ``InvalidInput`` when the fleet is on another map
@@ -142,6 +162,8 @@ def join(
             raise planner.InvalidInput(msg, field="fleet", code="FLEET_FULL")
         check_size(count, fmap.graph, "fleet")
         robot = _new_robot(state, plan, fmap)
+        if name is not None:  # the plan's name, for the fleet's page and answer
+            robot["name"] = name
         _check_free(fleet, state, robot, fmap)
         return {
             **state,
@@ -283,16 +305,13 @@ async def step_in_fleet(
         state["dirty"] = True
     me["seen"] = now
     lease = engine.settings.fleet_lease_seconds
-    if now - float(state.get("leases_at", 0.0)) >= min(1.0, lease / 10):
-        # The others' leases, looked at most once a second (a step must not read every robot).
-        state["leases_at"] = now
-        for k, other in list(robots.items()):
-            seen = float(other.get("seen", now))
-            if k != plan_id and not other.get("parked") and now - seen > lease:
-                robots[k] = {**other, "parked": True}
-                state["dirty"] = True
-    blocked = {n: t for n, t in state.get("blocked", {}).items() if t > now}
-    state["blocked"] = blocked
+    for k, other in list(robots.items()):  # the others' leases
+        if k != plan_id and not other.get("parked") and now - float(other.get("seen", now)) > lease:
+            robots[k] = {**other, "parked": True}
+            state["dirty"] = True
+    blocked = state.get("blocked", {})
+    if any(t <= now for t in blocked.values()):
+        state["blocked"] = {n: t for n, t in blocked.items() if t > now}
     if state.get("dirty") and _may_solve(state, now, engine.settings.fleet_solve_seconds):
         state = await engine.pool.run(
             resolve, state, fmap, time_limit_s=engine.settings.fleet_solve_seconds,

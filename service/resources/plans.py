@@ -20,7 +20,7 @@ from planner import quote
 from planner.plans.ends import free_cell
 from schemas import PlanCreate, Point, StepCreate
 from service.errors import NotFound
-from service.resources import fleets, passages
+from service.resources import fleets, live, passages
 from service.resources.bodies import overrides, where
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
@@ -57,8 +57,9 @@ class PlanView:
 
 @dataclass(frozen=True, slots=True)
 class StepView:
-    """A step's answer, the plan's frame (for the answer's meters) and every cell the dynamic
-    obstacles blocked (circles as the cells they cover)."""
+    """A step's answer, the plan's frame (for the answer's meters) and every cell the client's
+    dynamic obstacles blocked (circles as the cells they cover; the live layer's marks are
+    read on their own, ``GET /maps/{map_id}/live``)."""
 
     step: planner.Step
     frame: planner.MapFrame
@@ -72,8 +73,9 @@ class StepView:
 
 
 async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
+    params = overrides(body) if body.fleet is None else fleets.fleet_robot(overrides(body))
     plan, cache_hit = await engine.build_plan(
-        body.map_id, where(body.start), where(body.goal), body.preset, overrides(body),
+        body.map_id, where(body.start), where(body.goal), body.preset, params,
         goal_tolerance=body.goal_tolerance,
         waypoints=[where(point) for point in body.waypoints],
     )  # fmt: skip
@@ -92,8 +94,11 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
         "legs": plan_legs(plan),
         "cache_hit": cache_hit,
         "state": stored,
+        "detour": plan.summary()["detour"],  # a plan rebuilt from its record has none
         **await passages.crossings(engine, body.map_id, plan),
     }
+    if body.name is not None:
+        record["name"] = body.name
     append = stored.pop("trajectory")
     if body.fleet is None:
         await engine.store.put_plan(plan_id, record, append=append)
@@ -106,7 +111,9 @@ async def create_plan(engine: Engine, body: PlanCreate) -> PlanView:
             now = fleets.empty(body.map_id, plan)
         fmap = await fleets.fleet_map(engine, now)
         most = engine.settings.max_fleet_robots
-        joined = fleets.join(body.fleet, plan_id, body.map_id, plan, fmap, most=most)
+        joined = fleets.join(
+            body.fleet, plan_id, body.map_id, plan, fmap, most=most, name=body.name
+        )
         await engine.store.put_fleet_plan(plan_id, record, joined, append=append)
         await fleets.solve_now(engine, plan_id)
     return PlanView(plan_id, record, plan, state)
@@ -199,6 +206,11 @@ async def step(
         else:
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
+        client_cells = obstacles  # the client's, which the viewer draws (the marks: GET /live)
+        if not replayed:  # the live layer's marks: obstacles like the client's (docs/live.md)
+            here = (state.position[0], state.position[1])
+            marks = await live.step_marks(engine, record["map_id"], plan, body, here)
+            obstacles = live.with_marks(obstacles, marks)
         waiting_for, new_fleet = None, None
         if fleet is not None and "params" not in fleet:
             fleet = None  # a fleet of an older version: its robots join a new one as they step
@@ -221,12 +233,12 @@ async def step(
             if fleet is not None:
                 waiting_for = fleet["robots"].get(plan_id, {}).get("waiting_for")
             return Update(
-                StepView(result, frame, obstacles, True, plan.analysis.zones, waiting_for)
+                StepView(result, frame, client_cells, True, plan.analysis.zones, waiting_for)
             )
         stored = session.state.as_dict()
         appended = stored.pop("trajectory")[known:]
         view = StepView(
-            result, frame, obstacles, zones=plan.analysis.zones, waiting_for=waiting_for
+            result, frame, client_cells, zones=plan.analysis.zones, waiting_for=waiting_for
         )
         message = None if event is None else event(view)
         return Update(view, {**record, "state": stored}, appended, message, new_fleet)

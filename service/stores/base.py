@@ -18,6 +18,7 @@ import orjson
 
 from planner import MapFrame, RobotMap, Zones, quote
 from service.errors import NotFound, TooManyPlans
+from service.stores.live import Seen
 
 __all__ = [
     "Cells",
@@ -269,6 +270,16 @@ class Store(ABC):
     @abstractmethod
     async def get_fleet(self, fleet: str) -> FleetRecord | None:
         """The fleet's state (its live robots), or None when it has none."""
+
+    @abstractmethod
+    async def observe(self, map_id: str, seen: Seen) -> int:
+        """A scan's update of the map's live layer (docs/live.md), at once: marks whose time
+        passed and those the scan's rays cleared go, its returns' cells are marked for
+        ``seen.seconds``. Answers how many marks the map has now."""
+
+    @abstractmethod
+    async def live_marks(self, map_id: str) -> npt.NDArray[np.int64]:
+        """The map's live marks now: flat cell indices, sorted (none: an empty array)."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:

@@ -6,6 +6,8 @@ import time
 from collections import OrderedDict
 from collections.abc import Awaitable, Callable
 
+import numpy as np
+import numpy.typing as npt
 import orjson
 
 from planner import RobotMap
@@ -25,6 +27,7 @@ from service.stores.base import (
     unknown_map,
     unpack,
 )
+from service.stores.live import LiveLayers, Seen
 from service.stores.map_room import MapRoom
 from service.tenants import TENANT, scoped
 
@@ -71,6 +74,7 @@ class MemoryStore(Store):
         self._plans: OrderedDict[str, _Entry] = OrderedDict()
         self._locks = PlanLocks()
         self._fleets: dict[str, FleetRecord] = {}  # by scoped fleet name: read-only records
+        self._live = LiveLayers(clock)
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = scoped(map_id)
@@ -201,6 +205,12 @@ class MemoryStore(Store):
         self._plans.move_to_end(key)
         if map_key is not None:
             self._maps.touch(map_key)
+
+    async def observe(self, map_id: str, seen: Seen) -> int:
+        return self._live.observe(scoped(map_id), seen)
+
+    async def live_marks(self, map_id: str) -> npt.NDArray[np.int64]:
+        return self._live.marks(scoped(map_id))
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         self._expire()

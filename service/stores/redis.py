@@ -2,7 +2,7 @@
 
 Keys live under ``planner:`` (``map:``, ``plan:``, ``path:``); a step is one version-fenced
 script call, so no lock is held in Redis. redis-py's errors become :class:`StoreUnavailable`
-(or :class:`InsufficientStorage` at Redis's ``maxmemory``) here. Design: docs/architecture-redis.md.
+(or :class:`InsufficientStorage` at Redis's ``maxmemory``) here. Design: docs/redis-store.md.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from service.stores.base import (
     unpack,
 )
 from service.stores.redis_fleets import FLEET_TRIES, CachedFleet, FleetSteps
+from service.stores.redis_live import LIVE_MARKS, OBSERVE, LiveLayer
 from service.stores.redis_values import plans_of, split
 from service.stores.scripts import FLEET_DELETE, FLEET_PUT, FLEET_STEP, PUT, STEP
 from service.tenants import scoped
@@ -61,7 +62,7 @@ _Cached = tuple[int, PlanRecord]
 step decides on)."""
 
 
-class RedisStore(FleetSteps, Store):
+class RedisStore(FleetSteps, LiveLayer, Store):
     """Maps and plans in Redis, for any number of replicas.
 
     A step decides on the record this replica last read or wrote, then one script writes it
@@ -100,11 +101,14 @@ class RedisStore(FleetSteps, Store):
         self._fleet_step = _Collector(self._redis, self._redis.register_script(FLEET_STEP))
         self._fleet_put = self._redis.register_script(FLEET_PUT)
         self._fleet_delete = self._redis.register_script(FLEET_DELETE)
+        self._observe = self._redis.register_script(OBSERVE)
+        self._live_marks = self._redis.register_script(LIVE_MARKS)
         self._locks = PlanLocks()
         # Scoped plan key -> (version, record: read-only), least recently used first.
         self._plans: OrderedDict[str, _Cached] = OrderedDict()
         # Scoped fleet name -> (version, state or None: no fleet), as last read or written.
         self._fleets: OrderedDict[str, CachedFleet] = OrderedDict()
+        self._progress = {}  # scoped fleet name -> its robots' progress as last read
 
     async def put_map(self, map_id: str, robot_map: RobotMap) -> bool:
         key = f"planner:map:{scoped(map_id)}"

@@ -75,15 +75,46 @@ return 1
 )
 
 
-# The fleet's version check, shared by the fleet scripts: KEYS[5] the fleet, ARGV[e] the version
-# prefix decided on ('': there was no fleet). Returns {4, value} ('' for none) when it moved on.
-def _fence(e: int) -> str:
+# A fleet is two keys: its record (KEYS[5], version-prefixed JSON: the joint plan, a snapshot of
+# every robot's progress) and its robots' progress (KEYS[6], a hash: robot -> JSON, the fields
+# its own steps change). A fleet script's ARGV, from index ``e``: the record's version prefix
+# decided on ('': there was no fleet), its new value ('': unchanged), then three counted lists:
+# the progress to write (robot, JSON), the robots gone, and the fence (robot, moves told as the
+# decision read them; a robot told more since fails it). Every fleet script answers
+# {code, plan, fleet, progress}: the plan's value (code 2) and the fleet record's (code 4: it
+# moved on, or a fenced robot was told more) to decide again on, else '', and the progress hash.
+def _fleet(e: int) -> str:
     return f"""
-local fleet = redis.call('GET', KEYS[5])
-if ARGV[{e}] == '' then
-  if fleet then return {{4, fleet}} end
-elseif not fleet then return {{4, ''}}
-elseif string.sub(fleet, 1, #ARGV[{e}]) ~= ARGV[{e}] then return {{4, fleet}} end
+local fleet_at = {e}
+local progress = function() return redis.call('HGETALL', KEYS[6]) end
+local function fleet_moved()
+  local fleet = redis.call('GET', KEYS[5])
+  local prefix = ARGV[fleet_at]
+  if prefix == '' then
+    if fleet then return fleet end
+  elseif not fleet then return ''
+  elseif string.sub(fleet, 1, #prefix) ~= prefix then return fleet end
+  local at = fleet_at + 2
+  local n = tonumber(ARGV[at]); at = at + 1 + 2 * n
+  n = tonumber(ARGV[at]); at = at + 1 + n
+  n = tonumber(ARGV[at])
+  for i = 1, n do
+    local was = redis.call('HGET', KEYS[6], ARGV[at + 2 * i - 1])
+    if was and (cjson.decode(was)['told'] or 0) ~= tonumber(ARGV[at + 2 * i]) then return fleet end
+  end
+  return false
+end
+local function write_fleet(ttl)
+  if ARGV[fleet_at + 1] ~= '' then redis.call('SET', KEYS[5], ARGV[fleet_at + 1], 'PX', ttl)
+  else redis.call('PEXPIRE', KEYS[5], ttl) end
+  local at = fleet_at + 2
+  local n = tonumber(ARGV[at])
+  for i = 1, n do redis.call('HSET', KEYS[6], ARGV[at + 2 * i - 1], ARGV[at + 2 * i]) end
+  at = at + 1 + 2 * n
+  n = tonumber(ARGV[at])
+  for i = 1, n do redis.call('HDEL', KEYS[6], ARGV[at + i]) end
+  redis.call('PEXPIRE', KEYS[6], ttl)
+end
 """
 
 
@@ -94,39 +125,69 @@ def _edit(script: str, old: str, new: str) -> str:
     return script.replace(old, new)
 
 
-# A fleet robot's step in one round trip: STEP's keys (the plan, its path, its tenant's plans,
-# its map) and arguments, then KEYS[5] the fleet, ARGV[9] the fleet's version prefix decided
-# on, ARGV[10] its new value. Besides STEP's answers, {4, value}: another robot of the fleet was
-# recorded first (the fleet's value now, to decide again on).
-_WRITE_FLEET = "redis.call('SET', KEYS[5], ARGV[10], 'PX', ARGV[3])\n"
-FLEET_STEP = _edit(
-    _edit(STEP, "if map_gone(ARGV[5])", _fence(9) + "if map_gone(ARGV[5])"),
-    "if ARGV[6] ~= '' then",
-    _WRITE_FLEET + "if ARGV[6] ~= '' then",
+# A fleet robot's step in one round trip: STEP's keys and arguments, then the fleet's keys
+# (KEYS[5], KEYS[6]) and arguments (from ARGV[9]). Codes as STEP's, and 4.
+FLEET_STEP = _fleet(9) + _edit(
+    _edit(
+        _edit(
+            _edit(
+                _edit(
+                    STEP,
+                    "if not now then return {0} end",
+                    "if not now then return {0, '', '', {}} end",
+                ),
+                "if ARGV[2] ~= '' and now == ARGV[2] then return {1} end",
+                "if ARGV[2] ~= '' and now == ARGV[2] then return {1, '', '', progress()} end",
+            ),
+            "then return {2, now} end\nif ARGV[2] == '' then return {1} end\n",
+            "then return {2, now, fleet_moved() or '', progress()} end\n"
+            "if ARGV[2] == '' then return {1, '', '', progress()} end\n"
+            "local moved = fleet_moved()\n"
+            "if moved then return {4, '', moved, progress()} end\n",
+        ),
+        "if map_gone(ARGV[5]) then return {3} end",
+        "if map_gone(ARGV[5]) then return {3, '', '', {}} end",
+    ),
+    "return {1}\n",
+    "write_fleet(ARGV[3])\nreturn {1, '', '', progress()}\n",
 )
 
-# A new plan of a fleet, joining it: PUT's keys and arguments, then KEYS[5] the fleet, ARGV[7]
-# the fleet's version prefix, ARGV[8] its new value; PUT's answers as {answer}, or {4, value}.
-FLEET_PUT = _fence(7) + _edit(
+# A new plan of a fleet, joining it: PUT's keys and arguments, then the fleet's (from ARGV[7]).
+# Its code: PUT's answer, or 4.
+FLEET_PUT = _fleet(7) + _edit(
     _edit(
-        _edit(PUT, "then return 0 end", "then return {0} end"),
+        _edit(
+            PUT,
+            "if map_gone(ARGV[4]) then return 0 end",
+            "local moved = fleet_moved()\n"
+            "if moved then return {4, '', moved, progress()} end\n"
+            "if map_gone(ARGV[4]) then return {0, '', '', {}} end",
+        ),
         "then return -held end",
-        "then return {-held} end",
+        "then return {-held, '', '', {}} end",
     ),
     "return 1\n",
-    "redis.call('SET', KEYS[5], ARGV[8], 'PX', ARGV[2])\nreturn {1}\n",
+    "write_fleet(ARGV[2])\nreturn {1, '', '', progress()}\n",
 )
 
 # A fleet's plan deleted, leaving it: KEYS the plan, its path, its tenant's plans, (unused), the
-# fleet; ARGV[1] the fleet's version prefix, ARGV[2] its new value ('': the fleet goes with its
-# last robot), ARGV[3] the plan's member in its tenant's set. {1, deleted keys}, or {4, value}.
+# fleet's two keys; ARGV[1] the plan's member in its tenant's set, then the fleet's (from
+# ARGV[2]; its new value '': the fleet goes with its last robot). {1, deleted keys} or code 4.
 FLEET_DELETE = (
-    _fence(1)
+    _fleet(2)
     + """
+local moved = fleet_moved()
+if moved then return {4, '', moved, progress()} end
 local gone = redis.call('DEL', KEYS[1], KEYS[2])
-redis.call('ZREM', KEYS[3], ARGV[3])
-if ARGV[2] == '' then redis.call('DEL', KEYS[5])
-else redis.call('SET', KEYS[5], ARGV[2], 'KEEPTTL') end
+redis.call('ZREM', KEYS[3], ARGV[1])
+if ARGV[3] == '' then redis.call('DEL', KEYS[5], KEYS[6])
+else
+  redis.call('SET', KEYS[5], ARGV[3], 'KEEPTTL')
+  local at = 4
+  local n = tonumber(ARGV[at]); at = at + 1 + 2 * n
+  n = tonumber(ARGV[at])
+  for i = 1, n do redis.call('HDEL', KEYS[6], ARGV[at + i]) end
+end
 return {1, gone}
 """
 )

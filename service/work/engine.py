@@ -16,6 +16,8 @@ settled cells (:meth:`Engine.step`).
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import dataclasses
 import math
 import threading
@@ -174,9 +176,32 @@ class Engine:
             while len(self._plans) > PLAN_MEMO:
                 self._plans.popitem(last=False)
 
-    async def warm(self) -> None:
-        """Compile (or load) every kernel now, so that no request pays for it."""
-        await self.pool.run(planner.warm_up)
+    async def warm(self, wait_seconds: float) -> asyncio.Future[None] | None:
+        """Compile (or load from numba's cache) every kernel, the kernels of a service's plans
+        and steps first, on a thread of its own; wait for it ``wait_seconds`` at most. None when
+        done (no request pays for a kernel), else the warm-up still running: meanwhile a
+        request waits for the kernels it needs, and steps run on step workers (a kernel
+        compiled on the event loop would hold every request)."""
+        loop = asyncio.get_running_loop()
+        done: asyncio.Future[None] = loop.create_future()
+
+        def warm_up() -> None:
+            failure: BaseException | None = None
+            try:
+                planner.warm_up()
+            except BaseException as exc:  # handed to the waiter
+                failure = exc
+            with contextlib.suppress(RuntimeError):  # the service stopped meanwhile
+                loop.call_soon_threadsafe(_settle, done, failure)
+
+        # A daemon thread: a service stopped while compiling does not wait for the compiler.
+        threading.Thread(target=warm_up, name="warm-up", daemon=True).start()
+        try:
+            await asyncio.wait_for(asyncio.shield(done), timeout=wait_seconds)
+        except TimeoutError:
+            return done
+        self.pool.warm = True
+        return None
 
     async def robot_map(self, map_id: str) -> planner.RobotMap:
         """An uploaded map; ``NotFound`` when unknown."""
@@ -380,7 +405,8 @@ class Engine:
         (never queued behind analyses): it may search (A*, up to the whole map), or wait for
         the thread growing its wave."""
         wave = session.plan.wave
-        if len(obstacles) > OBSTACLES_ON_LOOP:  # checking them alone takes milliseconds
+        # Before the warm-up's end a step may need a kernel not compiled yet: never on the loop.
+        if len(obstacles) > OBSTACLES_ON_LOOP or not self.pool.warm:
             return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
         if not isinstance(wave, planner.ResumableWave):
             if session.may_replan_at(position, obstacles):
@@ -402,6 +428,13 @@ class Engine:
             finally:
                 wave.release()
         return await self.pool.run_step(session.step, obstacles, position=position, seq=seq)
+
+
+def _settle(done: asyncio.Future[None], exc: BaseException | None) -> None:
+    if exc is None:
+        done.set_result(None)
+    else:
+        done.set_exception(exc)
 
 
 def _analyse(

@@ -48,7 +48,10 @@ class Pool:
         self.queued = 0
         """Heavy calls waiting for a free worker (``/metrics``)."""
         self.warm = False
-        """Whether the kernels are compiled (set by the app's lifespan; ``/readyz``)."""
+        """Whether every kernel is compiled (set by the app's lifespan; ``/readyz``)."""
+        self.serving = False
+        """Whether the warm-up ended or had its time (``PLANNER_WARMUP_WAIT_SECONDS``): the
+        service is ready, the kernels not yet compiled compiling in the background."""
         self._counts = threading.Lock()
         self._executor = ThreadPoolExecutor(max_workers=size, thread_name_prefix="planner")
         self._steps = ThreadPoolExecutor(max_workers=step_size, thread_name_prefix="step")

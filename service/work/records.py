@@ -19,11 +19,17 @@ def plan_key(record: PlanRecord) -> Hashable:
     ends = record.get("ends") or {}
     return (
         TENANT.get(), record["map_id"], tuple(record["start"]), tuple(record["goal"]),
-        record["preset"], tuple(record["params"].items()), record["narrow_fallback"],
+        record["preset"], tuple((k, _frozen(v)) for k, v in record["params"].items()),
+        record["narrow_fallback"],
         record.get("plain", True),
         tuple((k, tuple(v) if isinstance(v, list) else v) for k, v in sorted(ends.items())),
         repr(record.get("legs")),
     )  # fmt: skip
+
+
+def _frozen(value: Any) -> Any:
+    """A parameter's value as a key: a footprint's vertices (lists once stored) as tuples."""
+    return tuple(_frozen(v) for v in value) if isinstance(value, list | tuple) else value
 
 
 def plan_ends(plan: planner.Plan) -> dict[str, Any]:

@@ -227,6 +227,9 @@ def test_bad_inputs_are_named() -> None:
         ({"robot_radius": True}, "robot_radius", "number"),
         ({"start": (9.0, 1.0)}, "start", "outside"),
         ({"start": {"x": 1}}, "start", "'x' and 'y'"),
+        # The one point parser (planner.parsing.point): no unknown key, no far coordinate.
+        ({"start": {"x": 1.5, "y": 1.5, "z": 0}}, "start", "no other key"),
+        ({"goal": {"x": 1e12, "y": 1.5}}, "goal", "at most 1e.09"),
         ({"goal": "here"}, "goal", "point"),
         ({"goal_yaw": float("inf")}, "goal_yaw", "finite"),
         ({"start": (0.6, 3.4)}, "start", "START_OCCUPIED"),

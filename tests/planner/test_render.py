@@ -13,7 +13,9 @@ from PIL import Image
 import planner
 from planner.cli import main
 from planner.experiment.environments import environment
+from planner.maps.robot_maps import grid_map
 from planner.render import draw, render_episode, render_map, render_plan
+from planner.render_axes import known_window
 from planner.render_legend import COLOURS, legend_entries
 from tests.conftest import grid_from
 
@@ -216,3 +218,32 @@ def test_the_legend_names_the_trajectory_and_the_planned_path() -> None:
     named = legend_entries(preview=True, named=[((1, 2, 3), "nav2")])
     assert [label for _, label in named][-1] == "nav2"
     assert "path" not in {label for _, label in named}
+
+
+def test_a_robot_map_is_cropped_to_its_known_part_with_axes_in_meters() -> None:
+    """A map 90 % unknown: the picture keeps the known rows and columns (and a margin of 4
+    cells), the map's top-left pixel first; the axes below and right of it, in meters."""
+    occ = np.full((60, 80), -1, dtype=np.int8)
+    occ[20:30, 30:50] = 0
+    occ[20, 30:50] = 1
+    robot_map = grid_map(occ, resolution=0.1, origin=(-2.0, 1.0, 0.0))
+    p = planner.plan(robot_map, (25, 35), (25, 45), robot_radius=0.1)
+    assert known_window(p.analysis) == (16, 34, 26, 54)
+    whole = draw(p.analysis, cell=4)
+    cropped = draw(p.analysis, cell=4, crop=True)
+    assert cropped.height < whole.height
+    bare = draw(p.analysis, cell=4, crop=True, legend=False)  # no legend: no axes either
+    assert bare.size == ((54 - 26) * 4, (34 - 16) * 4)
+    assert bare.getpixel((0, 0)) == whole.getpixel((26 * 4, 16 * 4))
+    # The axes sit right of and below the map: its pixels are where the bare picture has them.
+    assert cropped.getpixel((5 * 4, 8 * 4)) == bare.getpixel((5 * 4, 8 * 4))
+    assert cropped.getpixel((bare.width, 10)) != bare.getpixel((bare.width - 1, 10))  # the axis
+
+
+def test_render_draws_a_ros_map_from_the_command_line(tmp_path: Path) -> None:
+    out = tmp_path / "depot.png"
+    depot = Path(__file__).resolve().parents[2] / "examples" / "maps" / "depot.yaml"
+    args = ["render", str(depot), "--start", "40", "20"]
+    args += ["--goal", "40", "200", "--param", "robot_radius=0.22", "--out", str(out)]
+    assert main(args) == 0
+    assert out.read_bytes()[1:4] == b"PNG"

@@ -70,6 +70,9 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     ("unknown preset", "POST", "/plan", {"map_id": "{map}", **OK, "preset": "fast"}, 422, ["preset", "'fast'"]),
     ("unknown parameter", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"gamma": 1}}, 422, ["params.gamma", "'gamma'"]),
     ("alpha out of range", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"alpha": 99}}, 422, ["alpha", "99"]),
+    ("max_detour below 1", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"max_detour": 0.9}}, 422, ["max_detour must be a finite number", "0.9", "shortest route"]),
+    ("max_detour too big", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"max_detour": 1000}}, 422, ["max_detour", "finite number from 1 to 100", "1000"]),
+    ("max_detour mistyped", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"max_detour": "1.5"}}, 422, ["max_detour must be a number", "'1.5'"]),
     ("rho is no parameter", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"rho": 0.5}}, 422, ["rho is not a parameter"]),
     ("radius not an integer", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"clean_radius": 1.5}}, 422, ["clean_radius", "1.5"]),
     ("seal_tunnels mistyped", "POST", "/plan", {"map_id": "{map}", **OK, "params": {"seal_tunnels": "yes"}}, 422, ["seal_tunnels", "'yes'"]),
@@ -100,7 +103,7 @@ CASES: list[tuple[str, str, str, Any, int, list[str]]] = [
     # Strict: unknown fields are refused, and nothing is coerced.
     ("unknown field in a step", "POST", "/plan/{plan}/step", {"obstacles": [[1, 1]]}, 422, ["obstacles", "unknown field"]),
     ("unknown field in a plan", "POST", "/plan", {"map_id": "{map}", **OK, "colour": "red"}, 422, ["colour", "unknown field"]),
-    ("unknown field in a map", "POST", "/maps", {"rows": ROWS, "name": "hall"}, 422, ["name", "unknown field"]),
+    ("unknown field in a map", "POST", "/maps", {"rows": ROWS, "label": "hall"}, 422, ["label", "unknown field"]),
     ("unknown field to simulate", "POST", "/maps/{map}/simulate", {**OK, "dynamic": 3}, 422, ["dynamic", "unknown field"]),
     ("goal of booleans", "POST", "/plan", {"map_id": "{map}", "start": [0, 0], "goal": [False, 0]}, 422, ["goal[0]", "False"]),
     ("start of strings", "POST", "/plan", {"map_id": "{map}", "start": ["0", "0"], "goal": [4, 5]}, 422, ["start[0]", "'0'"]),

@@ -394,6 +394,8 @@ ROUTES = {
     "fleet": ("get", "/fleets/{fleet}"),
     "change_goal": ("patch", "/plan/{plan_id}"),
     "mapf": ("post", "/maps/{map_id}/mapf"),
+    "observe": ("post", "/maps/{map_id}/observations"),
+    "live": ("get", "/maps/{map_id}/live"),
 }
 
 
@@ -471,7 +473,7 @@ def test_the_client_sends_every_field_of_the_request_models() -> None:
     zones = set(get_type_hints(ZonesFields))
     assert zones == set(schemas.ZonesCreate.model_fields) - {"image"}  # the YAML's image is read
     route = set(get_type_hints(RouteFields))
-    assert route - plan_fields == {"waypoints", "fleet"}
+    assert route - plan_fields == {"waypoints", "fleet", "name"}
     plan = set(inspect.signature(PlannerClient.plan).parameters) - {"self", "options"}
     assert plan | route == set(schemas.PlanCreate.model_fields)
 

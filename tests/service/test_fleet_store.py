@@ -153,3 +153,73 @@ async def test_a_step_decided_on_a_replicas_stale_fleet_decides_again(
     finally:
         await a.close()
         await b.close()
+
+
+def _progress(plan_id: str, told: int, seen: list[dict[str, int]], *, change: bool) -> Any:
+    """A step telling its robot ``told`` moves (its progress), and with ``change`` changing the
+    fleet's record too (as a solve does); ``seen`` gets the robots' moves told it decided on."""
+
+    async def decide(record: dict[str, Any], fleet: FleetRecord | None) -> Update[int]:
+        assert fleet is not None
+        seen.append({k: int(r.get("told", 0)) for k, r in fleet["robots"].items()})
+        me = {**fleet["robots"][plan_id], "told": told}
+        state = {**fleet, "robots": {**fleet["robots"], plan_id: me}}
+        if change:
+            state["solve_id"] = f"{plan_id}-{told}"
+        return Update(told, {**record, "n": record["n"] + 1}, (), None, state)
+
+    return decide
+
+
+async def test_robots_progress_on_two_replicas_does_not_outdate_each_other(
+    redis_server: RedisServer,
+) -> None:
+    """Two robots stepping on two replicas, each only its own progress: no step decides twice
+    (the fleet's record is not rewritten); each replica knows the other robot's progress as
+    its own last write was answered (a step late: a robot then only waits a step longer)."""
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        await a.put_map("m", MAP)
+        for plan_id in ("x", "y"):
+            await a.put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
+        seen: list[dict[str, int]] = []
+        for told in range(1, 6):
+            await a.step_plan("x", _progress("x", told, seen, change=False))
+            await b.step_plan("y", _progress("y", told, seen, change=False))
+        assert len(seen) == 10  # one decision a step
+        # Own progress exact, the other robot's as of the replica's last write: a step late.
+        assert seen[-2:] == [{"x": 4, "y": 3}, {"x": 4, "y": 4}]
+        fleet = await a.get_fleet("f")
+        assert fleet is not None
+        assert {k: r["told"] for k, r in fleet["robots"].items()} == {"x": 5, "y": 5}
+    finally:
+        await a.close()
+        await b.close()
+
+
+async def test_a_fleet_change_decided_on_a_robots_stale_progress_decides_again(
+    redis_server: RedisServer,
+) -> None:
+    """A change of the fleet's record (a solve) decided while another robot was told more
+    moves on another replica is refused and decided again on that robot's progress: the
+    robot may already be on its way through those moves."""
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        await a.put_map("m", MAP)
+        for plan_id in ("x", "y"):
+            await a.put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
+        seen: list[dict[str, int]] = []
+        await a.step_plan("x", _progress("x", 1, seen, change=False))  # a reads y: told 0
+        await b.step_plan("y", _progress("y", 3, seen, change=False))  # y told 3 on b
+        seen.clear()
+        await a.step_plan("x", _progress("x", 2, seen, change=True))
+        assert [s["y"] for s in seen] == [0, 3]  # decided again on y's progress
+        fleet = await b.get_fleet("f")
+        assert fleet is not None
+        assert fleet["solve_id"] == "x-2"
+        assert {k: r["told"] for k, r in fleet["robots"].items()} == {"x": 2, "y": 3}
+    finally:
+        await a.close()
+        await b.close()

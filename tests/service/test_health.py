@@ -8,6 +8,7 @@ import os
 import time
 from pathlib import Path
 
+import anyio
 import httpx
 import pytest
 from fastapi import FastAPI
@@ -80,15 +81,45 @@ async def test_liveness_asks_nothing_of_the_store_and_readiness_does(
 
 
 @pytest.mark.anyio
-async def test_readiness_waits_for_a_warm_pool(app: FastAPI, client: httpx.AsyncClient) -> None:
+async def test_readiness_waits_for_the_warm_up(app: FastAPI, client: httpx.AsyncClient) -> None:
     engine: Engine = app.state.engine
-    engine.pool.warm = False
+    engine.pool.serving = False
     r = await client.get("/readyz")
     assert r.status_code == 503
-    assert r.json()["pool"]["warm"] is False
     assert (await client.get("/healthz")).status_code == 200
+    engine.pool.serving = True
+    engine.pool.warm = False  # the rest still compiling in the background: ready, and says so
+    r = await client.get("/readyz")
+    assert r.status_code == 200
+    assert r.json()["pool"]["warm"] is False
     engine.pool.warm = True
     assert (await client.get("/readyz")).status_code == 200
+
+
+@pytest.mark.anyio
+@pytest.mark.parametrize("settings", [Settings(pool_size=2, warmup_wait_seconds=0)])
+async def test_past_the_warm_up_wait_it_serves_while_the_rest_compiles(
+    app: FastAPI, client: httpx.AsyncClient
+) -> None:
+    """With no wait the service is ready at once, says the kernels are not all compiled, serves
+    a plan and its steps meanwhile (off the event loop), then says they are."""
+    engine: Engine = app.state.engine
+    r = await client.get("/readyz")
+    assert r.status_code == 200
+    rows = ["......", "......", "..@@..", "......", "......"]
+    created = await client.post("/maps", json={"rows": rows, "start": [0, 0], "goal": [4, 5]})
+    assert created.status_code == 201, created.text
+    plan_id = created.json()["plan"]["plan_id"]
+    for seq in range(3):
+        step = await client.post(
+            f"/plan/{plan_id}/step", json={"seq": seq, "dynamic_obstacles": []}
+        )
+        assert step.status_code == 200, step.text
+    deadline = time.monotonic() + 600
+    while not engine.pool.warm:
+        assert time.monotonic() < deadline, "the background warm-up never ended"
+        await anyio.sleep(0.05)
+    assert (await client.get("/readyz")).json()["pool"]["warm"] is True
 
 
 def test_redis_killed_then_back_on_its_port(tmp_path: Path) -> None:

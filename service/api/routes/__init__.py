@@ -5,6 +5,7 @@ from fastapi import APIRouter
 from service.api.routes import (
     fleets,
     health,
+    live,
     mapf,
     maps,
     metrics,
@@ -18,7 +19,7 @@ __all__ = ["routers"]
 
 routers: tuple[APIRouter, ...] = tuple(
     module.router
-    for module in (plans, maps, zones, fleets, mapf, simulate, viewer, health, metrics)
+    for module in (plans, maps, zones, live, fleets, mapf, simulate, viewer, health, metrics)
 )
 """Every router, in the order their routes are matched: plans first. The app includes each
 directly (a router nested in another costs a level of matching on every request); the step, the

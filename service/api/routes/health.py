@@ -28,16 +28,18 @@ async def healthz(request: Request) -> LivePublic:
 
 @router.get(
     "/readyz",
-    summary="Readiness: the store answers and the pool is warm",
+    summary="Readiness: the store answers and the warm-up is done or had its time",
     responses={503: {"model": ReadyPublic, "description": "Not ready: see `store`, `pool`."}},
 )
 async def readyz(engine: EngineDep, response: Response) -> ReadyPublic:
-    """`200` with `status: ok` when the store answers and the kernels are compiled; `503`
-    with `status: unavailable` otherwise, the store's reason under `store.detail`. Recovers by
-    itself when the store comes back. Also shows the pool's load and the cache's figures."""
+    """`200` with `status: ok` when the store answers and the kernels are compiled, or had
+    `PLANNER_WARMUP_WAIT_SECONDS` to compile (`pool.warm` says when all are: the rest compile in
+    the background); `503` with `status: unavailable` otherwise, the store's reason under
+    `store.detail`. Recovers by itself when the store comes back. Also shows the pool's load and
+    the cache's figures."""
     problem = await engine.store.check()
     pool = engine.pool
-    ready = problem is None and pool.warm
+    ready = problem is None and pool.serving
     if not ready:
         response.status_code = status.HTTP_503_SERVICE_UNAVAILABLE
     c = engine.cache

@@ -106,7 +106,7 @@ async def get_passages(
         Query(
             gt=0,
             le=1000,
-            description="Narrow means narrower than this, meters (default `2 * robot_radius + "
+            description="Narrow means at most this wide, meters (default `2 * robot_radius + "
             "0.3`); more than the robot's diameter.",
         ),
     ] = None,

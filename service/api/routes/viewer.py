@@ -41,16 +41,19 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     `.speed-zone` polygons labelled by `.speed-label` with their max speed), updated
     live from `/plan/{plan_id}/events` as steps arrive; on a robot map, the map's narrow
     passages for the plan's robot (`.passage`, from `/maps/{map_id}/passages`: a dot and its
-    width in meters). Everything it loads comes from the service."""
+    width in meters) and the map's live marks (`.live-mark`, from `/maps/{map_id}/live`, read
+    each second). Everything it loads comes from the service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
     zones = view_.plan.analysis.zones
-    passages = None
+    passages = live = None
     if not view_.plan.analysis.plain:  # relative to the page: /maps/{map_id}/passages
         radius = view_.plan.params.robot_radius
         passages = f"../../maps/{view_.record['map_id']}/passages?robot_radius={radius!r}"
+        live = f"../../maps/{view_.record['map_id']}/live"
     data = {
         "plan_id": plan_id,
+        "name": view_.record.get("name"),
         "height": height,
         "width": width,
         "cell": max(1, min(32, 800 // max(height, width))),
@@ -61,6 +64,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "last_step": _last_step(view_.state.last_step),
         "zones": None if zones is None else zones.as_dict(),
         "passages_url": passages,
+        "live_url": live,
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")

@@ -1,0 +1,129 @@
+"""Bounded detours (``params.max_detour``): the ``wide`` route is never longer than
+``max_detour`` times the shortest route on the same configuration space. Width goes first: the
+wall term is scaled down until the route is within the bound (the widest of ``1/2, 1/4, ...,
+1/16``, then none: the shortest route on the sealed grid, found by bisection in three trials at
+most), and as a last resort the tunnels sealing shut are opened (the shortest route itself).
+The wall term is linear in its weight and the shares are powers of two, so the analysis made
+with the weights given up is the scaled one to the bit: a plan rebuilt from its effective
+``params`` follows the same route."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol, TypeVar
+
+import numpy as np
+
+from planner.analysis.analyse import Analysis, params_key
+from planner.params import Params
+from planner.plans.resumable_wave import resumable_wave
+from planner.plans.whole_wave import Wave, goal_wave
+
+__all__ = ["SCALES", "Detour", "bound_detour"]
+
+#: The shares of the wall term tried, in order, until the route is within the bound.
+SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
+
+#: Relative slack on the bound (float sums along a path).
+_SLACK = 1e-9
+
+
+class Bounded(Protocol):
+    """What a bound reads of a plan: a :class:`~planner.Plan` (this module does not import it:
+    ``planning`` imports this one)."""
+
+    @property
+    def params(self) -> Params: ...
+    @property
+    def analysis(self) -> Analysis: ...
+    @property
+    def goal(self) -> tuple[int, int]: ...
+    @property
+    def narrow_fallback(self) -> bool: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def elapsed_ms(self) -> float: ...
+
+
+Plan = TypeVar("Plan", bound=Bounded)
+
+
+@dataclass(frozen=True)
+class Detour:
+    """How a ``wide`` route compares with the shortest: ``shortest`` (cells, diagonals sqrt 2)
+    on the same configuration space, tunnels open; ``width_kept`` the share of the wall term
+    (``clean_weight`` / ``wide_weight``) the route was planned with, 1 when nothing was given
+    up, 0 for the shortest route on the sealed grid; ``tunnels_opened`` when even that was
+    longer than the bound and the route is the shortest one, through tunnels."""
+
+    shortest: float
+    width_kept: float = 1.0
+    tunnels_opened: bool = False
+
+
+def bound_detour(result: Plan, *, whole: bool = False, t0: float | None = None) -> Plan:
+    """``result`` (a ``wide`` plan) within ``max_detour`` times the shortest route, with its
+    :class:`Detour`; width given up as little as :data:`SCALES` allow. New waves are whole-map
+    ones with ``whole``, else resumable; ``t0`` (``perf_counter``) restarts the plan's time."""
+    p = result.params
+    shortest_plan = _scaled(result, 0.0, narrow=True, whole=whole)
+    shortest = shortest_plan.length
+    bound = p.max_detour * shortest * (1 + _SLACK)
+    chosen, detour = result, Detour(shortest)
+    if shortest > 0 and result.length > bound:
+        chosen, detour = shortest_plan, Detour(shortest, width_kept=0.0, tunnels_opened=True)
+        # The widest share within the bound, by bisection (a route gets no longer as the wall
+        # term shrinks; were it to, a share within the bound is still taken, a narrower one).
+        low, high = 0, len(SCALES)
+        while low < high:
+            middle = (low + high) // 2
+            trial = _scaled(result, SCALES[middle], narrow=result.narrow_fallback, whole=whole)
+            if trial.length <= bound:
+                chosen, detour = trial, Detour(shortest, width_kept=SCALES[middle])
+                high = middle
+            else:
+                low = middle + 1
+    elapsed = chosen.elapsed_ms if t0 is None else (time.perf_counter() - t0) * 1e3
+    return _keeping_path(chosen, detour=detour, elapsed_ms=elapsed)
+
+
+def _keeping_path(plan: Plan, **changes: Any) -> Plan:
+    """``plan`` with ``changes`` to fields its path does not depend on, its path kept."""
+    out: Plan = dataclasses.replace(plan, **changes)  # type: ignore[type-var]
+    vars(out).update({k: v for k, v in vars(plan).items() if k in ("path", "_cost")})
+    return out
+
+
+def _scaled(result: Plan, scale: float, *, narrow: bool, whole: bool) -> Plan:
+    """``result`` planned again with its wall term's weights times ``scale`` (``narrow``: over
+    the unsealed grid)."""
+    p = result.params
+    params = dataclasses.replace(
+        p, clean_weight=p.clean_weight * scale, wide_weight=p.wide_weight * scale
+    )
+    analysis = scaled_analysis(result.analysis, params, scale)
+    new = goal_wave if whole else resumable_wave
+    wave: Wave = new(analysis, result.goal, diagonal_cost=p.diagonal_cost, narrow=narrow)
+    out: Plan = dataclasses.replace(  # type: ignore[type-var]
+        result,
+        params=params,
+        analysis=analysis,
+        wave=wave,
+        narrow_fallback=narrow or result.narrow_fallback,
+    )
+    return out
+
+
+def scaled_analysis(analysis: Analysis, params: Params, scale: float) -> Analysis:
+    """``analysis`` with its wall term times ``scale``: the analysis of ``params`` (whose
+    weights are the analysis's times ``scale``, a power of two or 0)."""
+    clean = (analysis.clean * np.float32(scale)).astype(np.float32)
+    return dataclasses.replace(
+        analysis,
+        clean=clean,
+        clean_weight=analysis.clean_weight * scale,
+        params_key=params_key(params, plain=analysis.plain),
+    )

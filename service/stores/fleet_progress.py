@@ -1,0 +1,71 @@
+"""A fleet's state in two parts, as the Redis store keeps it (docs/redis-store.md): its record
+(the joint plan, the robots' goals and moves: written when the fleet changes, with a snapshot of
+every robot's progress) and each robot's progress (the fields its own steps change: written by
+that robot's step alone, beside the record, without outdating the other robots' steps; laid
+over the record's snapshot when read)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from service.stores.base import FleetRecord
+
+__all__ = ["PROGRESS", "FleetWrite", "changes"]
+
+PROGRESS = frozenset(
+    {
+        "done",
+        "told",
+        "seen",
+        "status",
+        "waiting_for",
+        "cell",
+        "previous",
+        "held",
+        "arrived",
+        "until",
+    }
+)
+"""A robot's fields that its own steps change (every step, or nearly): its progress."""
+
+
+@dataclass(frozen=True, slots=True)
+class FleetWrite:
+    """What a decision changed in a fleet: its new ``record`` (None when only progress
+    changed), the robots whose progress to write, the robots ``gone``, and ``told``: the other
+    robots' moves told as the decision read them, which the write checks are still so (a
+    robot told more since may be on its way to a node the new state gives another)."""
+
+    record: FleetRecord | None
+    progress: dict[str, dict[str, Any]]
+    gone: list[str] = field(default_factory=list)
+    told: dict[str, int] = field(default_factory=dict)
+
+
+def changes(old: FleetRecord | None, new: FleetRecord, plan_id: str | None) -> FleetWrite:
+    """What to write of ``new``, decided from ``old`` (both whole states) by the step of
+    ``plan_id``'s robot (None: no robot's): the record when anything but progress changed
+    (with every other robot's ``told`` fenced), else only the progress that changed."""
+    before = {} if old is None else old["robots"]
+    changed = old is None or any(
+        new.get(k) is not old.get(k) and new.get(k) != old.get(k)
+        for k in new.keys() | old.keys()
+        if k != "robots"
+    )
+    progress: dict[str, dict[str, Any]] = {}
+    for k, robot in new["robots"].items():
+        was = before.get(k)
+        if robot is was:
+            continue
+        keys = robot.keys() | (() if was is None else was.keys())
+        if was is None or any(robot.get(f) != was.get(f) for f in keys - PROGRESS):
+            changed = True
+        if was is None or any(robot.get(f) != was.get(f) for f in PROGRESS):
+            progress[k] = {f: robot[f] for f in PROGRESS if f in robot}
+    gone = [k for k in before if k not in new["robots"]]
+    if not (changed or gone):
+        told = {k: int(before[k].get("told", 0)) for k in progress if k != plan_id and k in before}
+        return FleetWrite(None, progress, [], told)
+    told = {k: int(robot.get("told", 0)) for k, robot in before.items() if k != plan_id}
+    return FleetWrite(new, progress, gone, told)

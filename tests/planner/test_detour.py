@@ -1,0 +1,131 @@
+"""Bounded detours: the ``wide`` route is never longer than ``params.max_detour`` times the
+shortest route on the same configuration space; it gives up width first, and says so."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import planner
+from planner import InvalidInput, NoValidPath
+from planner.plans.bounded import SCALES
+
+RES = 0.05
+START, GOAL = {"x": 1.5, "y": 6.0}, {"x": 4.5, "y": 6.2}
+
+
+def fence() -> planner.RobotMap:
+    """A 6 x 7 m room split by a fence of 0.3 m pillars 0.80 m apart, open 1.7 m at its foot:
+    the wide way round is more than three times as long as the way between two pillars."""
+    grid = np.zeros((140, 120), dtype=np.int8)
+    grid[0, :] = grid[-1, :] = grid[:, 0] = grid[:, -1] = 1
+    for r in range(0, 100, 22):
+        grid[r : r + 6, 57:63] = 1
+    return planner.grid_map(grid, resolution=RES)
+
+
+def shortest(robot_map: planner.RobotMap, radius: float) -> planner.Plan:
+    return planner.plan(robot_map, START, GOAL, preset="shortest", robot_radius=radius)
+
+
+@pytest.mark.parametrize("max_detour", [1.0, 1.1, 1.3, 2.0])
+def test_pillars_080_apart_the_route_stays_within_the_bound(max_detour: float) -> None:
+    robot_map = fence()
+    free = planner.plan(robot_map, START, GOAL, robot_radius=0.22, max_detour=100.0)
+    short = shortest(robot_map, 0.22)
+    assert free.length > 3 * short.length  # unbounded, wide goes round the fence
+    p = planner.plan(robot_map, START, GOAL, robot_radius=0.22, max_detour=max_detour)
+    assert p.length <= max_detour * short.length * (1 + 1e-9)
+    detour = p.summary()["detour"]
+    assert detour["shortest_m"] == pytest.approx(short.length_m)
+    assert detour["ratio"] == pytest.approx(p.length / short.length, abs=1e-6)
+    assert detour["width_kept"] < 1  # width given up, as little as the steps allow
+    assert p.params.wide_weight == 80.0 * detour["width_kept"]
+    assert p.params.max_detour == max_detour
+    wider = [s for s in (1.0, *SCALES) if s > detour["width_kept"]]
+    for scale in wider:  # every wider trial was over the bound
+        trial = planner.plan(
+            robot_map, START, GOAL, robot_radius=0.22, max_detour=100.0, wide_weight=80.0 * scale
+        )
+        assert trial.length > max_detour * short.length
+
+
+def test_within_the_bound_nothing_is_given_up() -> None:
+    p = planner.plan(fence(), {"x": 1.5, "y": 1.0}, {"x": 4.5, "y": 1.0}, robot_radius=0.22)
+    detour = p.summary()["detour"]
+    assert detour["width_kept"] == 1.0
+    assert p.params.wide_weight == 80.0
+    assert detour["ratio"] <= 1.3
+
+
+def test_the_effective_params_plan_the_same_route() -> None:
+    """A plan rebuilt from its record's params (the weights given up) follows the same path:
+    the wall term scaled by a power of two is the analysis of the scaled weight to the bit."""
+    robot_map = fence()
+    p = planner.plan(robot_map, START, GOAL, robot_radius=0.22)
+    assert p.params.wide_weight < 80.0
+    again = planner.plan(robot_map, START, GOAL, **{**p.params.as_dict(), "max_detour": 100.0})
+    np.testing.assert_array_equal(again.path, p.path)
+    assert again.analysis.clean.tobytes() == p.analysis.clean.tobytes()
+
+
+def test_the_paper_decision_is_not_bounded() -> None:
+    p = planner.plan([[0, 0, 0], [0, 1, 0], [0, 0, 0]], [0, 0], [2, 2], preset="wfs-mmas")
+    assert p.detour is None
+    assert planner.plan([[0, 0], [0, 0]], [0, 0], [1, 1], preset="shortest").detour is None
+
+
+@pytest.mark.parametrize(
+    ("value", "words"),
+    [
+        (0.99, "max_detour must be a finite number from 1 to 100"),
+        (math.inf, "finite number"),
+        (math.nan, "finite number"),
+        (101, "from 1 to 100"),
+        ("2", "max_detour must be a number"),
+        (True, "max_detour must be a number"),
+    ],
+)
+def test_max_detour_is_checked(value: object, words: str) -> None:
+    with pytest.raises(InvalidInput) as info:
+        planner.resolve_params("wide", max_detour=value)
+    assert info.value.field == "params.max_detour"
+    assert words in info.value.message
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(6, 24),
+    st.integers(6, 24),
+    st.floats(0.0, 0.45),
+    st.floats(1.0, 2.0),
+    st.sampled_from(["wide", "wfs-mmas"]),
+)
+def test_never_longer_than_max_detour_times_the_shortest(
+    seed: int, H: int, W: int, density: float, max_detour: float, preset: str
+) -> None:
+    """On random maps, the ``wide`` route is at most ``max_detour`` times the shortest route
+    (the ``shortest`` preset: tunnels open, no wall term), whatever the weights given."""
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((H, W)) < density).astype(np.int8)
+    free = np.argwhere(grid == 0)
+    assume(len(free) >= 2)
+    start, goal = (free[i].tolist() for i in rng.choice(len(free), 2, replace=False))
+    weight = float(rng.choice([0.5, 2.0, 8.0]))
+    try:
+        short = planner.plan(grid, start, goal, preset="shortest")
+    except NoValidPath:
+        assume(False)
+        return
+    p = planner.plan(  # wfs-mmas: the paper's sealing and weights, with the wide decision
+        grid, start, goal, preset=preset, decision="wide", clean_weight=weight,
+        diagonal_cost=math.sqrt(2), max_detour=max_detour,
+    )  # fmt: skip
+    assert p.length <= max_detour * short.length * (1 + 1e-9) + 1e-9
+    assert p.detour is not None
+    assert p.detour.shortest == pytest.approx(short.length)
