@@ -4,6 +4,7 @@ shortest route on the same configuration space; it gives up width first, and say
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,3 +130,17 @@ def test_never_longer_than_max_detour_times_the_shortest(
     assert p.length <= max_detour * short.length * (1 + 1e-9) + 1e-9
     assert p.detour is not None
     assert p.detour.shortest == pytest.approx(short.length)
+
+
+def test_among_tb3_sandboxs_pillars(ros: Path) -> None:
+    """tb3_sandbox's pillars stand 0.80 m apart: unbounded, a wide route across them goes round
+    at twice the shortest length; bounded, within 1.3 times it."""
+    robot_map = planner.read_ros_map(ros / "tb3_sandbox.yaml")
+    start, goal = {"x": -0.6, "y": -1.2}, {"x": 1.2, "y": 0.6}
+    short = planner.plan(robot_map, start, goal, preset="shortest", robot_radius=0.22)
+    free = planner.plan(robot_map, start, goal, robot_radius=0.22, max_detour=100.0)
+    assert free.length > 2 * short.length
+    p = planner.plan(robot_map, start, goal, robot_radius=0.22)
+    assert p.length <= 1.3 * short.length * (1 + 1e-9)
+    assert p.detour is not None
+    assert p.detour.width_kept < 1
