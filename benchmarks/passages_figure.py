@@ -2,7 +2,7 @@
 robot, each labelled with its id and width (one figure for each shared map, as the page says)::
 
     .venv/bin/python benchmarks/passages_figure.py     # depot -> docs/figures/passages-depot.png
-    .venv/bin/python benchmarks/passages_figure.py --map tb3_sandbox --radius 0.22 --max-width 0.74 --cell 3
+    .venv/bin/python benchmarks/passages_figure.py --map tb3_sandbox --radius 0.22 --cell 3
 """
 
 from __future__ import annotations
