@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, NoValidPath
-from planner.plans.bounded import SCALES
+from planner.plans.bounded import SCALES, scaled_analysis
 
 RES = 0.05
 START, GOAL = {"x": 1.5, "y": 6.0}, {"x": 4.5, "y": 6.2}
@@ -144,3 +144,21 @@ def test_among_tb3_sandboxs_pillars(ros: Path) -> None:
     assert p.length <= 1.3 * short.length * (1 + 1e-9)
     assert p.detour is not None
     assert p.detour.width_kept < 1
+
+
+@pytest.mark.parametrize("robot_radius", [0.0, 0.15])
+def test_a_scaled_wall_term_is_the_analysis_of_the_scaled_weight(robot_radius: float) -> None:
+    """Both wall terms (``cells`` on a plain grid, ``meters`` with a radius), every share."""
+    grid = (np.random.default_rng(3).random((40, 50)) < 0.2).astype(np.int8)
+    robot_map = planner.grid_map(grid, resolution=1.0 if robot_radius == 0 else 0.05)
+    params = planner.resolve_params("wide", robot_radius=robot_radius, clean_weight=0.7)
+    full = planner.analyse_map(robot_map, params)
+    for scale in SCALES:
+        scaled = planner.resolve_params(
+            "wide", robot_radius=robot_radius, clean_weight=0.7 * scale, wide_weight=80.0 * scale
+        )
+        mine = scaled_analysis(full, scaled, scale)
+        theirs = planner.analyse_map(robot_map, scaled)
+        assert mine.clean.tobytes() == theirs.clean.tobytes()
+        assert mine.params_key == theirs.params_key
+        assert mine.penalised == theirs.penalised
