@@ -1,8 +1,8 @@
-"""The figure of ``docs/passages.md``: a shared ROS map with its narrow passages for a round
-robot, each labelled with its id and width, and one plan through them::
+"""The figures of ``docs/passages.md``: a shared ROS map with its narrow passages for a round
+robot, each labelled with its id and width (one figure for each shared map, as the page says)::
 
     .venv/bin/python benchmarks/passages_figure.py     # depot -> docs/figures/passages-depot.png
-    .venv/bin/python benchmarks/passages_figure.py --map tb3_sandbox --radius 0.35
+    .venv/bin/python benchmarks/passages_figure.py --map tb3_sandbox --radius 0.22 --cell 3
 """
 
 from __future__ import annotations

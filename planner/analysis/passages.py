@@ -45,8 +45,8 @@ __all__ = ["Passage", "crossed_passages", "find_passages", "path_narrowest"]
 #: Slack added to ``2 * robot_radius`` for the default ``max_width``, in meters.
 MAX_WIDTH_SLACK = 0.3
 
-#: How far above ``max_width / 2`` (in cells, as a distance) a neck's skeleton may rise and
-#: still be one neck, less than (see ``_passages``).
+#: A neck's skeleton may rise less than this above ``max_width / 2`` (in cells, as a
+#: distance) and still be one neck (see ``_passages``).
 HYSTERESIS = 0.5
 
 _EIGHT = np.ones((3, 3), dtype=bool)

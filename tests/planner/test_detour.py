@@ -4,6 +4,7 @@ shortest route on the same configuration space; it gives up width first, and say
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, NoValidPath
-from planner.plans.bounded import SCALES
+from planner.plans.bounded import SCALES, scaled_analysis
 
 RES = 0.05
 START, GOAL = {"x": 1.5, "y": 6.0}, {"x": 4.5, "y": 6.2}
@@ -129,3 +130,35 @@ def test_never_longer_than_max_detour_times_the_shortest(
     assert p.length <= max_detour * short.length * (1 + 1e-9) + 1e-9
     assert p.detour is not None
     assert p.detour.shortest == pytest.approx(short.length)
+
+
+def test_among_tb3_sandboxs_pillars(ros: Path) -> None:
+    """tb3_sandbox's pillars stand 0.80 m apart: unbounded, a wide route across them goes round
+    at twice the shortest length; bounded, within 1.3 times it."""
+    robot_map = planner.read_ros_map(ros / "tb3_sandbox.yaml")
+    start, goal = {"x": -0.6, "y": -1.2}, {"x": 1.2, "y": 0.6}
+    short = planner.plan(robot_map, start, goal, preset="shortest", robot_radius=0.22)
+    free = planner.plan(robot_map, start, goal, robot_radius=0.22, max_detour=100.0)
+    assert free.length > 2 * short.length
+    p = planner.plan(robot_map, start, goal, robot_radius=0.22)
+    assert p.length <= 1.3 * short.length * (1 + 1e-9)
+    assert p.detour is not None
+    assert p.detour.width_kept < 1
+
+
+@pytest.mark.parametrize("robot_radius", [0.0, 0.15])
+def test_a_scaled_wall_term_is_the_analysis_of_the_scaled_weight(robot_radius: float) -> None:
+    """Both wall terms (``cells`` on a plain grid, ``meters`` with a radius), every share."""
+    grid = (np.random.default_rng(3).random((40, 50)) < 0.2).astype(np.int8)
+    robot_map = planner.grid_map(grid, resolution=1.0 if robot_radius == 0 else 0.05)
+    params = planner.resolve_params("wide", robot_radius=robot_radius, clean_weight=0.7)
+    full = planner.analyse_map(robot_map, params)
+    for scale in SCALES:
+        scaled = planner.resolve_params(
+            "wide", robot_radius=robot_radius, clean_weight=0.7 * scale, wide_weight=80.0 * scale
+        )
+        mine = scaled_analysis(full, scaled, scale)
+        theirs = planner.analyse_map(robot_map, scaled)
+        assert mine.clean.tobytes() == theirs.clean.tobytes()
+        assert mine.params_key == theirs.params_key
+        assert mine.penalised == theirs.penalised

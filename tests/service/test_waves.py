@@ -287,7 +287,9 @@ async def test_concurrent_steps_of_plans_sharing_a_wave_match_sequential_ones(
     for start in starts:
         assert grid[start] == 0
     ids = [
-        (await upload_and_plan(client, grid, s, GOAL, params={"patience": 1}))[1] for s in starts
+        # Unbounded detours: both plans keep the preset's weights, so share the goal's wave.
+        (await upload_and_plan(client, grid, s, GOAL, params={"patience": 1, "max_detour": 100}))[1]
+        for s in starts
     ]
     records = [await engine.store.get_plan(i) for i in ids]
     plans = [await engine.plan_of(rec) for rec in records if rec is not None]
@@ -297,7 +299,7 @@ async def test_concurrent_steps_of_plans_sharing_a_wave_match_sequential_ones(
     shared.budget = grid.size  # resumed by both threads to the end, never handed over
     assert len(cached_waves(engine)) == 1
     sessions = [planner.Session(p) for p in plans]
-    refs = [reference(grid, s, GOAL, patience=1) for s in starts]
+    refs = [reference(grid, s, GOAL, patience=1, max_detour=100) for s in starts]
     # A stray at every other step: both threads resume the one search, often at once.
     scripts = [episode(grid, 20 + i, 60, strays=0.5, reach=200) for i in range(2)]
     barrier = threading.Barrier(2)
