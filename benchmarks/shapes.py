@@ -265,23 +265,26 @@ def main() -> None:
         for motion in args.motions:
             ours(robot_map, analysis, pairs[0], motion)  # warm: numba compiled, tables made
             mine, theirs = [], []
+            solved = [0, 0]
             for ends in pairs:
                 a = ours(robot_map, analysis, ends, motion)
                 b = ompl(grid, ends, motion, args.seconds)
+                solved[0] += a is not None
+                solved[1] += b is not None
                 if a is not None and b is not None:
                     mine.append(a)
                     theirs.append(b)
-            rows.append((name, motion, len(pairs), mine, theirs))
+            rows.append((name, motion, len(pairs), solved, mine, theirs))
         disc_rows.append((name, *disc_or_rectangle(robot_map, pairs), *gained(robot_map, 10, 1)))
-    print("| map | motion | routes | both solved | length / OMPL's (median, max) | plan s "
-          "(median, max) | OMPL s | least clearance m (ours, OMPL) | max curvature 1/m "
+    print("| map | motion | routes | solved: ours, OMPL, both | length / OMPL's (median, max) | "
+          "plan s (median, max) | OMPL s | least clearance m (ours, OMPL) | max curvature 1/m "
           "(ours, OMPL) |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|---|")
-    for name, motion, n, mine, theirs in rows:
+    for name, motion, n, solved, mine, theirs in rows:
         ratio = [a["length"] / b["length"] for a, b in zip(mine, theirs, strict=True)]
         secs = [a["seconds"] for a in mine]
         print(
-            f"| {name} | {motion} | {n} | {len(mine)} | {median(ratio)}, "
+            f"| {name} | {motion} | {n} | {solved[0]}, {solved[1]}, {len(mine)} | {median(ratio)}, "
             f"{max(ratio, default=0):.3f} | {median(secs)}, {max(secs, default=0):.3f} | "
             f"{median([b['seconds'] for b in theirs])} | "
             f"{median([a['clearance'] for a in mine])}, "

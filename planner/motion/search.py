@@ -32,6 +32,11 @@ MOTIONS = ("diff", "car", "car_reverse")
 
 STRAIGHT, ARC, ROTATE = 0, 1, 2
 
+HEURISTIC_WEIGHT = 1.5
+"""The heuristic's weight (weighted A*: a path at most this much dearer than the best, found
+with far fewer nodes where the footprint's wall term outgrows the inscribed disc's that the
+wave counts)."""
+
 
 @dataclass(frozen=True, slots=True)
 class Primitives:
@@ -51,13 +56,17 @@ def primitives(
     """The primitives of ``motion`` for a turning ``radius`` (cells) on ``bins`` heading bins:
     a straight move and arcs at the radius turning a whole number of bins, each at least a
     cell's diagonal long (so that it leaves its cell); ``diff``: a straight move and turns in
-    place by one bin. Each primitive's footprint is checked every ``check_step`` cells and
+    place by one, six and eighteen bins. Each primitive's footprint is checked every
+    ``check_step`` cells and
     ``check_angle`` radians."""
     delta = 2 * math.pi / bins
     rows: list[tuple[float, float, float, float, float, float]] = []
     if motion == "diff":
         rows.append((1.5, 0.0, 0.0, 1.5, 1.0, STRAIGHT))
-        rows.extend((0.0, 0.0, s * delta, 0.0, 1.0, ROTATE) for s in (1.0, -1.0))
+        # Turns by one bin, six and eighteen (5, 30 and 90 degrees): a corner is a few nodes.
+        rows.extend(
+            (0.0, 0.0, s * k * delta, 0.0, 1.0, ROTATE) for k in (1, 6, 18) for s in (1.0, -1.0)
+        )
     else:
         least = 2 * math.asin(min(1.0, math.sqrt(2) / (2 * radius)))
         turn = max(1, math.ceil(least / delta - 1e-9)) * delta
@@ -330,8 +339,8 @@ def _search(
                 index[k] = j
             pose[j, 0], pose[j, 1], pose[j, 2] = nu, nv, nt
             g[j], parent[j], move[j] = ng, i, p
-            f_of[j] = ng + h
-            heapq.heappush(heap, (ng + h, j))
+            f_of[j] = ng + HEURISTIC_WEIGHT * h
+            heapq.heappush(heap, (f_of[j], j))
     return (
         empty,
         np.empty(0, dtype=np.int64),

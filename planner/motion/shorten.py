@@ -83,11 +83,14 @@ def _shortcut(
     """The curve from pose ``i`` to pose ``j`` sampled at most a cell apart, when it may replace
     the piece between them; else None."""
     if motion == "diff":
-        piece = _turn_and_go(poses[i], poses[j], step, 2 * cells.pad_angle)
-        turned = np.abs(np.angle(np.exp(1j * np.diff(piece[:, 2])))).sum()
+        a, b = poses[i], poses[j]
+        face = math.atan2(b[1] - a[1], b[0] - a[0])
+        first = math.remainder(face - a[2], 2 * math.pi)
+        turned = abs(first) + abs(math.remainder(b[2] - a[2] - first, 2 * math.pi))
         was = np.abs(np.angle(np.exp(1j * np.diff(poses[i : j + 1, 2])))).sum()
-        if math.dist(poses[i][:2], poses[j][:2]) >= along[j] - along[i] - 1e-6 or turned > was:
+        if math.dist(a[:2], b[:2]) >= along[j] - along[i] - 1e-6 or turned > was + 1e-9:
             return None
+        piece = _turn_and_go(a, b, step, 2 * cells.pad_angle)
         piece_dir = np.ones(len(piece), dtype=np.int8)
     else:
         make = reeds_shepp if motion == "car_reverse" else dubins

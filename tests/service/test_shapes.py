@@ -56,7 +56,7 @@ async def test_a_car_reverses_into_the_bay(client: httpx.AsyncClient) -> None:
     assert 1 in direction
     assert naive_shapes.curvatures(poses).max() <= 2.0 + 1e-6
     assert abs(math.remainder(poses[-1, 2] - goal["yaw"], 2 * math.pi)) <= math.radians(2)
-    assert answer["params"]["footprint"] == RECTANGLE[::-1] or len(answer["params"]["footprint"])
+    assert answer["params"]["footprint"] == [[float(x), float(y)] for x, y in RECTANGLE[::-1]]
     assert answer["params"]["robot_radius"] == pytest.approx(0.2)
     # At most 0.5 m/s, stopped at each cusp: longer than the length at 0.5 m/s.
     assert answer["preview"]["duration_s"] > answer["preview"]["length_poses_m"] / 0.5
