@@ -206,7 +206,7 @@ def _check(name: str, value: Any) -> Any:
         )
         raise InvalidInput(msg, field=field)
     if name not in _FIELDS:
-        msg = f"unknown parameter {quote(name, 40)}; known: {' '.join(sorted(_FIELDS))}"
+        msg = f"unknown parameter {quote(name, 20)}; known: {' '.join(sorted(_FIELDS))}"
         raise InvalidInput(msg, field=field)
     if name == "decision":
         if value not in ("wide", "paper"):
