@@ -65,7 +65,24 @@ def changes(old: FleetRecord | None, new: FleetRecord, plan_id: str | None) -> F
             progress[k] = {f: robot[f] for f in PROGRESS if f in robot}
     gone = [k for k in before if k not in new["robots"]]
     if not (changed or gone):
-        told = {k: int(before[k].get("told", 0)) for k in progress if k != plan_id and k in before}
+        # The robots whose moves told the decision read: those whose progress it writes, and
+        # those the joint plan does not order against the stepping robot (it kept clear of
+        # wherever their told moves may have brought them).
+        read = set(progress) | _unordered(old, plan_id)
+        told = {k: int(before[k].get("told", 0)) for k in read if k != plan_id and k in before}
         return FleetWrite(None, progress, [], told)
     told = {k: int(robot.get("told", 0)) for k, robot in before.items() if k != plan_id}
     return FleetWrite(new, progress, gone, told)
+
+
+def _unordered(state: FleetRecord | None, plan_id: str | None) -> set[str]:
+    """The robots the fleet's joint plan does not order against ``plan_id``'s: every other one
+    when it is outside the plan, else the parked ones and those outside the plan."""
+    if state is None or plan_id is None:
+        return set()
+    robots = state["robots"]
+    agents = set(state.get("agents", ()))
+    me = robots.get(plan_id)
+    if me is None or plan_id not in agents or me.get("agent", -1) < 0:
+        return set(robots)
+    return {k for k, r in robots.items() if k not in agents or r.get("parked")}

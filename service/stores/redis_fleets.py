@@ -140,7 +140,7 @@ class FleetSteps(ABC):
             except Exception:
                 # Refused on this replica's copies, which other replicas may have outdated? Its
                 # plan first (a robot's steps on two replicas: its record is the other's).
-                now = await self._read(key)
+                now = await self._read_step(key, fleet_key)
                 if now is None:
                     return None
                 if now[0] != version:
@@ -228,7 +228,7 @@ class FleetSteps(ABC):
         if answer[0] == 4 or (answer[0] == 2 and answer[2]):
             self._parse_fleet(fleet_key, answer[2])
         if answer[0] in (1, 2, 4):
-            self._progress_of(fleet_key).learn(answer[3])
+            self._progress_of(fleet_key).learn(answer[3], int(answer[4]))
 
     def _progress_of(self, fleet_key: str) -> _Progress:
         found = self._progress.get(fleet_key)
@@ -281,9 +281,23 @@ class FleetSteps(ABC):
             async with self._redis.pipeline(transaction=True) as pipe:
                 pipe.get(record)
                 pipe.hgetall(progress)
-                value, robots = await pipe.execute()
-        self._progress_of(fleet_key).learn(robots)
+                pipe.time()
+                value, robots, (seconds, micros) = await pipe.execute()
+        self._progress_of(fleet_key).learn(robots, seconds * 1_000_000 + micros)
         return self._parse_fleet(fleet_key, value or b"")
+
+    async def _read_step(self, key: str, fleet_key: str) -> _Cached | None:
+        """A plan's record and its fleet's robots' progress, read at once: a step decided
+        again on a record another replica wrote decides on its own progress as that replica
+        left it (never on an older copy of it)."""
+        with self._reaching:
+            async with self._redis.pipeline(transaction=True) as pipe:
+                pipe.get(f"planner:plan:{key}")
+                pipe.hgetall(_fleet_keys(fleet_key)[1])
+                pipe.time()
+                value, robots, (seconds, micros) = await pipe.execute()
+        self._progress_of(fleet_key).learn(robots, seconds * 1_000_000 + micros)
+        return None if value is None else self._parse(key, value)
 
     def _parse_fleet(self, fleet_key: str, value: object) -> CachedFleet:
         assert isinstance(value, bytes)  # no decode_responses
@@ -339,9 +353,10 @@ class _Progress:
     """A fleet's robots' progress as this replica last read it (each robot's JSON, and parsed:
     only the entries that changed are parsed again), and laid over the fleet's record."""
 
-    __slots__ = ("_merged", "_raw", "_record", "robots")
+    __slots__ = ("_at", "_merged", "_raw", "_record", "robots")
 
     def __init__(self) -> None:
+        self._at = 0
         self._raw: dict[bytes, bytes] = {}
         self.robots: dict[str, dict[str, Any]] = {}
         self._record: FleetRecord | None = None
@@ -360,9 +375,14 @@ class _Progress:
             }
         return {**record, "robots": dict(self._merged)}
 
-    def learn(self, answer: list[bytes] | dict[bytes, bytes]) -> None:
+    def learn(self, answer: list[bytes] | dict[bytes, bytes], at: int) -> None:
         """Take the progress hash as Redis answered it (HGETALL: a flat list from a script, a
-        dict from the client)."""
+        dict from the client) at Redis's time ``at`` (microseconds), unless a later one was
+        taken already: answers of calls in flight at once may come back in any order, and a
+        robot's own progress must never go back to an older copy."""
+        if at < self._at:
+            return
+        self._at = at
         pairs = (
             answer
             if isinstance(answer, dict)

@@ -81,12 +81,17 @@ return 1
 # decided on ('': there was no fleet), its new value ('': unchanged), then three counted lists:
 # the progress to write (robot, JSON), the robots gone, and the fence (robot, moves told as the
 # decision read them; a robot told more since fails it). Every fleet script answers
-# {code, plan, fleet, progress}: the plan's value (code 2) and the fleet record's (code 4: it
-# moved on, or a fenced robot was told more) to decide again on, else '', and the progress hash.
+# {code, plan, fleet, progress, time}: the plan's value (code 2) and the fleet record's (code 4:
+# it moved on, or a fenced robot was told more) to decide again on, else '', the progress hash,
+# and Redis's time (microseconds) when it was read: a replica keeps only the latest it heard.
 def _fleet(e: int) -> str:
     return f"""
 local fleet_at = {e}
 local progress = function() return redis.call('HGETALL', KEYS[6]) end
+local function now_us()
+  local t = redis.call('TIME')
+  return tonumber(t[1]) * 1000000 + tonumber(t[2])
+end
 local function fleet_moved()
   local fleet = redis.call('GET', KEYS[5])
   local prefix = ARGV[fleet_at]
@@ -137,19 +142,20 @@ FLEET_STEP = _fleet(9) + _edit(
                     "if not now then return {0, '', '', {}} end",
                 ),
                 "if ARGV[2] ~= '' and now == ARGV[2] then return {1} end",
-                "if ARGV[2] ~= '' and now == ARGV[2] then return {1, '', '', progress()} end",
+                "if ARGV[2] ~= '' and now == ARGV[2] then\n"
+                "  return {1, '', '', progress(), now_us()}\nend",
             ),
             "then return {2, now} end\nif ARGV[2] == '' then return {1} end\n",
-            "then return {2, now, fleet_moved() or '', progress()} end\n"
-            "if ARGV[2] == '' then return {1, '', '', progress()} end\n"
+            "then return {2, now, fleet_moved() or '', progress(), now_us()} end\n"
+            "if ARGV[2] == '' then return {1, '', '', progress(), now_us()} end\n"
             "local moved = fleet_moved()\n"
-            "if moved then return {4, '', moved, progress()} end\n",
+            "if moved then return {4, '', moved, progress(), now_us()} end\n",
         ),
         "if map_gone(ARGV[5]) then return {3} end",
         "if map_gone(ARGV[5]) then return {3, '', '', {}} end",
     ),
     "return {1}\n",
-    "write_fleet(ARGV[3])\nreturn {1, '', '', progress()}\n",
+    "write_fleet(ARGV[3])\nreturn {1, '', '', progress(), now_us()}\n",
 )
 
 # A new plan of a fleet, joining it: PUT's keys and arguments, then the fleet's (from ARGV[7]).
@@ -160,14 +166,14 @@ FLEET_PUT = _fleet(7) + _edit(
             PUT,
             "if map_gone(ARGV[4]) then return 0 end",
             "local moved = fleet_moved()\n"
-            "if moved then return {4, '', moved, progress()} end\n"
+            "if moved then return {4, '', moved, progress(), now_us()} end\n"
             "if map_gone(ARGV[4]) then return {0, '', '', {}} end",
         ),
         "then return -held end",
         "then return {-held, '', '', {}} end",
     ),
     "return 1\n",
-    "write_fleet(ARGV[2])\nreturn {1, '', '', progress()}\n",
+    "write_fleet(ARGV[2])\nreturn {1, '', '', progress(), now_us()}\n",
 )
 
 # A fleet's plan deleted, leaving it: KEYS the plan, its path, its tenant's plans, (unused), the
@@ -177,7 +183,7 @@ FLEET_DELETE = (
     _fleet(2)
     + """
 local moved = fleet_moved()
-if moved then return {4, '', moved, progress()} end
+if moved then return {4, '', moved, progress(), now_us()} end
 local gone = redis.call('DEL', KEYS[1], KEYS[2])
 redis.call('ZREM', KEYS[3], ARGV[1])
 if ARGV[3] == '' then redis.call('DEL', KEYS[5], KEYS[6])

@@ -155,6 +155,18 @@ async def test_a_step_decided_on_a_replicas_stale_fleet_decides_again(
         await b.close()
 
 
+def _planned(agents: list[str]) -> Any:
+    """A step putting the fleet's robots in one joint plan (its ``agents``, in order)."""
+
+    async def decide(record: dict[str, Any], fleet: FleetRecord | None) -> Update[None]:
+        assert fleet is not None
+        robots = {k: {**r, "agent": agents.index(k)} for k, r in fleet["robots"].items()}
+        state = {**fleet, "agents": agents, "robots": robots}
+        return Update(None, {**record, "n": record["n"] + 1}, (), None, state)
+
+    return decide
+
+
 def _progress(plan_id: str, told: int, seen: list[dict[str, int]], *, change: bool) -> Any:
     """A step telling its robot ``told`` moves (its progress), and with ``change`` changing the
     fleet's record too (as a solve does); ``seen`` gets the robots' moves told it decided on."""
@@ -183,6 +195,7 @@ async def test_robots_progress_on_two_replicas_does_not_outdate_each_other(
         await a.put_map("m", MAP)
         for plan_id in ("x", "y"):
             await a.put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
+        await a.step_plan("x", _planned(["x", "y"]))  # both in one joint plan
         seen: list[dict[str, int]] = []
         for told in range(1, 6):
             await a.step_plan("x", _progress("x", told, seen, change=False))
@@ -220,6 +233,43 @@ async def test_a_fleet_change_decided_on_a_robots_stale_progress_decides_again(
         assert fleet is not None
         assert fleet["solve_id"] == "x-2"
         assert {k: r["told"] for k, r in fleet["robots"].items()} == {"x": 2, "y": 3}
+    finally:
+        await a.close()
+        await b.close()
+
+
+async def test_a_robot_stepping_on_two_replicas_decides_on_its_own_last_progress(
+    redis_server: RedisServer,
+) -> None:
+    """A robot's steps alternating between replicas: each replica's copy of its plan is the
+    older one, which a step refuses (as a step's ``seq`` does) and reads again; the step then
+    decides on the robot's progress as the other replica left it, never on an older copy (a
+    robot told fewer moves than it was may be sent where another is going)."""
+    a = RedisStore(redis_server.url, ttl_seconds=60)
+    b = RedisStore(redis_server.url, ttl_seconds=60)
+    try:
+        await a.put_map("m", MAP)
+        for plan_id in ("x", "y"):
+            await a.put_fleet_plan(plan_id, dict(RECORD), _join(plan_id))
+        await a.step_plan("x", _planned(["x", "y"]))
+        await b.step_plan("y", _planned(["x", "y"]))  # b has read the fleet too
+        own: list[int] = []
+
+        def step(told: int) -> Any:
+            async def decide(record: dict[str, Any], fleet: FleetRecord | None) -> Update[int]:
+                assert fleet is not None
+                if record["n"] != told:  # a stale copy of the plan: refused, read again
+                    raise planner.SequenceConflict(f"n {record['n']}", field="seq")
+                own.append(int(fleet["robots"]["x"].get("told", 0)))
+                me = {**fleet["robots"]["x"], "told": told}
+                state = {**fleet, "robots": {**fleet["robots"], "x": me}}
+                return Update(told, {**record, "n": record["n"] + 1}, (), None, state)
+
+            return decide
+
+        for told in range(1, 7):
+            await (a, b)[told % 2].step_plan("x", step(told))
+        assert own == [0, 1, 2, 3, 4, 5]
     finally:
         await a.close()
         await b.close()
