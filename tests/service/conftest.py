@@ -180,16 +180,20 @@ class Replica:
             )
 
     def wait_ready(self) -> None:
+        """Until it answers, and every kernel is compiled (``/readyz``'s ``pool.warm``, whatever
+        the store's state): a test's requests never wait for a compile, nor share the CPU with
+        the background warm-up."""
         deadline = time.monotonic() + 120
         with httpx.Client(base_url=self.url, trust_env=False) as client:
             while True:
                 assert self.process.poll() is None, self.log.read_text()
                 assert time.monotonic() < deadline, f"uvicorn did not start: {self.log.read_text()}"
                 try:
-                    client.get("/healthz", timeout=5)
-                    return
+                    if client.get("/readyz", timeout=5).json()["pool"]["warm"]:
+                        return
                 except httpx.TransportError:
-                    time.sleep(0.05)
+                    pass
+                time.sleep(0.05)
 
     def kill(self) -> None:
         if self.process.poll() is None:
