@@ -9,13 +9,13 @@ from dataclasses import KW_ONLY, dataclass
 from functools import cached_property
 from typing import Any
 
-import edt
 import numpy as np
 import numpy.typing as npt
 
 from planner.analysis.cells import BLOCKED_CELL, FREE, TUNNEL, classify, gate_cells
 from planner.analysis.clean import clean_field
 from planner.analysis.cspace import CSpace, configuration_space, wide_clean
+from planner.analysis.distance import squared_distances
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame
 from planner.maps.grids import as_grid
@@ -106,9 +106,8 @@ class Analysis:
         if self.cspace is not None:
             return self.cspace.distance
         free = np.ascontiguousarray(self.state != BLOCKED_CELL)
-        out: npt.NDArray[np.float32] = edt.edt(free, black_border=True).astype(
-            np.float32, copy=False
-        )
+        squared = squared_distances(free, outside_blocked=True)
+        out: npt.NDArray[np.float32] = np.sqrt(squared, out=squared).astype(np.float32)
         out.flags.writeable = False
         return out
 

@@ -14,11 +14,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 
+from planner.analysis.distance import squared_distances
 from planner.errors import InvalidInput, quote
 from planner.maps.frames import MapFrame, point_xy
 from planner.maps.robot_maps import RobotMap
@@ -90,7 +90,7 @@ def configuration_space(
         blocked |= occ < 0
     open_ = np.ascontiguousarray(~blocked)
     if blocked.any() or unknown == "blocked":
-        squared = edt.edtsq(open_, black_border=unknown == "blocked").astype(np.float64)
+        squared = squared_distances(open_, outside_blocked=unknown == "blocked")
     else:
         squared = np.full(occ.shape, np.inf)
     # Distances squared are whole numbers of cells squared: compare them, so that a cell exactly

@@ -27,13 +27,13 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 from scipy import ndimage
 
 from planner.analysis.cspace import CSpace, configuration_space
+from planner.analysis.distance import squared_distances
 from planner.analysis.medial import medial_axis
 from planner.analysis.walls import MIN_WALL, find_walls, two_sided
 from planner.errors import InvalidInput, quote
@@ -166,7 +166,7 @@ def _passages(
     walls = find_walls(robot_map.occupancy, res, min_wall, cspace.occupied_threshold)
     free = np.ascontiguousarray(~walls.obstacles)
     # The outside of the map counts as blocked, for the distances and for the skeleton.
-    distance = np.sqrt(edt.edtsq(free, black_border=True).astype(np.float64))
+    distance = np.sqrt(squared_distances(free, outside_blocked=True))
     skeleton = medial_axis(free, distance)
     limit = max_width / res / 2  # in cells, as a distance
     tolerance = 1e-9 * max(1.0, limit)

@@ -13,7 +13,6 @@ import math
 import time
 from dataclasses import replace
 
-import edt
 import numpy as np
 import numpy.typing as npt
 
@@ -21,6 +20,7 @@ from planner.analysis.analyse import Analysis, analysis_params
 from planner.analysis.cells import BLOCKED_CELL, FREE, TUNNEL, classify, gate_cells
 from planner.analysis.clean import clean_field
 from planner.analysis.cspace import CSpace, wall_term
+from planner.analysis.distance import squared_distances
 from planner.maps.robot_maps import RobotMap
 from planner.params import Params
 
@@ -101,8 +101,7 @@ def rezone_analysis(
     distance = cs.distance.copy()
     distance[inner] = np.minimum(cs.distance[inner], near)
     traversable = cs.traversable.copy()
-    squared = near_sq.astype(np.float64)
-    reach = squared > limit + 1e-9 * max(1.0, limit)
+    reach = near_sq > limit + 1e-9 * max(1.0, limit)
     traversable[inner] &= reach.astype(np.uint8)
     traversable[inner] &= (~added[inner]).astype(np.uint8)
     new_blocked = blocked.astype(np.uint8)
@@ -138,12 +137,12 @@ def rezone_analysis(
 
 def _near(
     added: npt.NDArray[np.bool_], box: Box
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float32]]:
     """Distances squared and distances (cells) from each cell of ``box`` to the nearest added
     cell, as :func:`~planner.analysis.cspace.configuration_space` rounds them."""
     r0, r1, c0, c1 = box
-    squared = edt.edtsq(np.ascontiguousarray(~added[r0:r1, c0:c1]), black_border=False)
-    return squared, np.sqrt(squared.astype(np.float64)).astype(np.float32)
+    squared = squared_distances(~added[r0:r1, c0:c1], outside_blocked=False)
+    return squared, np.sqrt(squared).astype(np.float32)
 
 
 def _grow(box: Box, margin: int, H: int, W: int) -> Box:

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import math
 
-import edt
 import numpy as np
 import pytest
 
 import planner
+from planner.analysis.distance import squared_distances
 from planner.footprint import MAX_VERTICES, footprint_cells, footprint_of
 from planner.motion import Grid, footprint_clearance, poses_free
 from tests import naive_shapes
@@ -66,7 +66,7 @@ def _random_grid(seed: int, shape: tuple[int, int], res: float) -> Grid:
     rng = np.random.default_rng(seed)
     blocked = (rng.random(shape) < 0.004).astype(np.uint8)
     blocked[20:24, 10:50] = 1
-    dist = np.sqrt(edt.edtsq(np.ascontiguousarray(blocked == 0), black_border=True))
+    dist = np.sqrt(squared_distances(blocked == 0, outside_blocked=True))
     frame = planner.MapFrame(shape, res, (1.0, -2.0, 0.3))
     return Grid(blocked, dist.astype(np.float32), True, frame)
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import edt
 import numpy as np
 import pytest
 from hypothesis import example, given
@@ -14,6 +13,7 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput
+from planner.analysis.distance import squared_distances
 from planner.poses import smooth_path
 from tests import naive_poses
 from tests.conftest import ROS_MAP_NAMES
@@ -213,7 +213,7 @@ def test_corners_are_rounded_and_the_wall_kept() -> None:
 def test_bad_inputs_are_named() -> None:
     free = np.ones((4, 4), dtype=bool)
     free[0, 0] = False
-    D = edt.edt(free, black_border=True).astype(np.float32)
+    D = np.sqrt(squared_distances(free, outside_blocked=True)).astype(np.float32)
     cases: list[tuple[dict[str, object], str, str]] = [
         ({"path": [[1, 1, 1]]}, "path", "shape"),
         ({"path": []}, "path", "n >= 1"),
