@@ -42,7 +42,9 @@ def squared_distances(
         )
         raise InvalidInput(msg, field="free")
     out = np.empty(free.shape, dtype=np.float64)
-    _squared_distances(np.ascontiguousarray(free), bool(outside_blocked), out)
+    # One layout for the kernel (numba compiles apart for read-only arrays).
+    free = np.require(free, requirements=["C_CONTIGUOUS", "WRITEABLE"])
+    _squared_distances(free, bool(outside_blocked), out)
     return out
 
 
