@@ -9,14 +9,10 @@ from numba import njit
 
 from planner.plans.heap import heap_pop, heap_push
 from planner.plans.moves import DC, DR, octile, on_grid
-from planner.plans.search import SETTLED, SHIFT, TILE_MASK
+from planner.plans.search import SETTLED
+from planner.plans.tiles import TILE_CELLS, claim_tile, tile_offset, tile_slot, tiles_wide
 
 __all__ = ["detour_cells"]
-
-# The search's own tiles: 16 x 16 cells (a detour touches few cells: small tiles, little to fill).
-_SHIFT = 4
-_MASK = (1 << _SHIFT) - 1
-_CELLS = 1 << (2 * _SHIFT)
 
 _NO_FIELD = np.zeros((0, 0), dtype=np.float64)
 _NO_TILES = (
@@ -37,10 +33,9 @@ def _exact(
     tile_of, g_kw, status_kw = tiles
     if tile_of.shape[0] == 0:
         return np.inf
-    s = tile_of[(r >> SHIFT) * ((W + TILE_MASK) >> SHIFT) + (c >> SHIFT)]
-    o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
-    if s >= 0 and status_kw[s, o] == SETTLED:
-        return float(g_kw[s, o])
+    s = tile_slot(tile_of, tiles_wide(W), r, c)
+    if s >= 0 and status_kw[s, tile_offset(r, c)] == SETTLED:
+        return float(g_kw[s, tile_offset(r, c)])
     return np.inf
 
 
@@ -62,14 +57,14 @@ def _descends_clear(
 ) -> bool:
     """Whether the wave's descent from flat cell ``x`` (the move of least ``cost + clean +
     kw`` over exactly known ``kw``, each lowering it) enters no blocked cell of the search's
-    own tiles (``own``, ``blocked``) before it leaves ``seen``, the cells of the map in the
-    bounded search's square (its corner at ``top``, ``left``), or reaches the goal, or finds no
-    known way down.
+    own tiles (index ``own``, ``blocked`` flags) before it leaves ``seen``, the cells of the
+    map in the bounded search's square (its corner at ``top``, ``left``), or reaches the goal,
+    or finds no known way down.
 
     ``seen`` remembers the answer for the cells of the square it walks (-1: not known yet, 0:
     clear, 1: not): descents merge, so each cell is walked down at most once a search."""
     W = codes.shape[1]
-    own_w = (W + _MASK) >> _SHIFT
+    own_w = tiles_wide(W)
     r = x // W
     c = x - r * W
     if seen[r - top, c - left] >= 0:
@@ -100,8 +95,8 @@ def _descends_clear(
             break  # no known way down from here: nothing more to check
         if not (0 <= br - top < seen.shape[0] and 0 <= bc - left < seen.shape[1]):
             break  # out of the square: clear so far
-        t = own[(br >> _SHIFT) * own_w + (bc >> _SHIFT)]
-        if t >= 0 and blocked[t * _CELLS + (((br & _MASK) << _SHIFT) | (bc & _MASK))]:
+        t = tile_slot(own, own_w, br, bc)
+        if t >= 0 and blocked[t, tile_offset(br, bc)]:
             verdict = 1
             break
         if seen[br - top, bc - left] >= 0:
@@ -154,7 +149,7 @@ def _detour(
     """
     H, W = codes.shape
     tile_of, g_kw, status_kw = tiles
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     gr = goal // W
     gc = goal - gr * W
     sr = start // W
@@ -163,11 +158,13 @@ def _detour(
     has_field = field.shape[0] > 0
     has_tiles = tile_of.shape[0] > 0
     # The search's own memory, in tiles allocated on first touch: g, parents, blocked flags.
-    own_w = (W + _MASK) >> _SHIFT
-    own = np.full(((H + _MASK) >> _SHIFT) * own_w, -1, dtype=np.int32)
-    g = np.empty(16 * _CELLS, dtype=np.float64)  # tile s holds cells s * _CELLS + offset
-    parent = np.empty(16 * _CELLS, dtype=np.int64)
-    blocked = np.empty(16 * _CELLS, dtype=np.uint8)
+    own_w = tiles_wide(W)
+    own = np.full(tiles_wide(H) * own_w, -1, dtype=np.int32)  # rows of tiles: as wide
+    g = np.empty((4, TILE_CELLS), dtype=np.float64)
+    parent = np.empty((4, TILE_CELLS), dtype=np.int64)
+    blocked = np.empty((4, TILE_CELLS), dtype=np.uint8)
+    at_slot = np.empty(9, dtype=np.int64)  # where x's neighbours are in the tiles, x last
+    at_offset = np.empty(9, dtype=np.int64)
     used = 0
     outer = 2 * within if within >= 0 else H + W  # the bounded search's square
     # The descents' verdicts over that square's cells of the map (see _descends_clear).
@@ -188,7 +185,6 @@ def _detour(
     first.append(goal)
     first.append(start)
     ok = np.empty(8, dtype=np.bool_)
-    at = np.empty(9, dtype=np.int64)  # where x's neighbours are in the tiles, x last
     keys = np.empty((1024, 2), dtype=np.float64)
     cells = np.empty(1024, dtype=np.int64)
     size = 0
@@ -196,7 +192,7 @@ def _detour(
     found = False
     j = 0
     while j < len(first) or size > 0:
-        if (used + 9) * _CELLS > g.shape[0]:  # room for the tiles of a 3 x 3 square, and some
+        if used + 4 > g.shape[0]:  # room for the tiles of a 3 x 3 square
             g = np.concatenate((g, np.empty_like(g)))
             parent = np.concatenate((parent, np.empty_like(parent)))
             blocked = np.concatenate((blocked, np.empty_like(blocked)))
@@ -217,28 +213,26 @@ def _detour(
                 ok[k] = on_grid(codes, open_, goal, yr, yc)
                 if not ok[k]:
                     continue
-            ti = (yr >> _SHIFT) * own_w + (yc >> _SHIFT)
-            s = own[ti]
-            if s < 0:
-                s = used
+            s = claim_tile(own, own_w, yr, yc, used)
+            if s == used:
                 used += 1
-                own[ti] = s
-                g[s * _CELLS : (s + 1) * _CELLS] = np.inf
-                parent[s * _CELLS : (s + 1) * _CELLS] = -1
-                blocked[s * _CELLS : (s + 1) * _CELLS] = 0
-            at[k] = s * _CELLS + (((yr & _MASK) << _SHIFT) | (yc & _MASK))
+                g[s, :] = np.inf
+                parent[s, :] = -1
+                blocked[s, :] = 0
+            at_slot[k] = s
+            at_offset[k] = tile_offset(yr, yc)
         if j < len(first):
             if j < marked:
-                blocked[at[8]] = 1
-            elif x == goal and blocked[at[8]]:
+                blocked[at_slot[8], at_offset[8]] = 1
+            elif x == goal and blocked[at_slot[8], at_offset[8]]:
                 if max(abs(gr - sr), abs(gc - sc)) <= outer:  # the goal cut off
                     return np.empty(0, dtype=np.int64), False
             elif x == start:
-                g[at[8]] = 0.0
+                g[at_slot[8], at_offset[8]] = 0.0
                 size = heap_push(keys, cells, 0, 0.0, 0.0, start)
             j += 1
             continue
-        if gx > g[at[8]]:
+        if gx > g[at_slot[8], at_offset[8]]:
             continue  # stale: reached more cheaply since
         if x == goal:
             found = True
@@ -261,7 +255,7 @@ def _detour(
             break
         for i in range(8):
             if ok[i]:
-                ok[i] = blocked[at[i]] == 0
+                ok[i] = blocked[at_slot[i], at_offset[i]] == 0
         for i in range(8):
             if not ok[i] or (i & 1 and not (ok[i - 1] and ok[(i + 1) & 7])):
                 continue
@@ -274,8 +268,8 @@ def _detour(
                 if h == np.inf:
                     continue
             else:
-                s = tile_of[(yr >> SHIFT) * tiles_w + (yc >> SHIFT)] if has_tiles else -1
-                o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+                s = tile_slot(tile_of, tiles_w, yr, yc) if has_tiles else -1
+                o = tile_offset(yr, yc)
                 if s >= 0 and status_kw[s, o] == SETTLED:
                     h = g_kw[s, o]
                 elif exhausted:
@@ -283,9 +277,9 @@ def _detour(
                 else:
                     h = octile(yr, yc, gr, gc, diagonal_cost, 0.0)
             ng = gx + (diagonal_cost if i & 1 else 1.0) + clean[yr, yc]
-            if ng < g[at[i]]:
-                g[at[i]] = ng
-                parent[at[i]] = x
+            if ng < g[at_slot[i], at_offset[i]]:
+                g[at_slot[i], at_offset[i]] = ng
+                parent[at_slot[i], at_offset[i]] = x
                 if size + 1 > cells.shape[0]:
                     grown_keys = np.empty((2 * cells.shape[0], 2), dtype=np.float64)
                     grown_keys[:size] = keys[:size]
@@ -300,8 +294,7 @@ def _detour(
     while path[-1] != start:
         r = path[-1] // W
         c = path[-1] - r * W
-        s = own[(r >> _SHIFT) * own_w + (c >> _SHIFT)]
-        path.append(parent[s * _CELLS + (((r & _MASK) << _SHIFT) | (c & _MASK))])
+        path.append(parent[tile_slot(own, own_w, r, c), tile_offset(r, c)])
     out = np.empty(len(path) - 1, dtype=np.int64)
     for j in range(len(path) - 1):
         out[j] = path[len(path) - 2 - j]

@@ -10,13 +10,16 @@ from numba import njit
 from planner.analysis.analyse import Analysis
 from planner.plans.heap import heap_pop, heap_push, heapify
 from planner.plans.moves import DC, DR, octile, on_grid
+from planner.plans.tiles import (
+    TILE_CELLS,
+    claim_tile,
+    tile_index,
+    tile_offset,
+    tile_slot,
+    tiles_wide,
+)
 
 __all__ = ["GoalSearch"]
-
-SHIFT = 5
-TILE = 1 << SHIFT
-TILE_MASK = TILE - 1
-TILE_CELLS = TILE * TILE
 
 DONE = 0
 EXHAUSTED = 1  # the open list is empty: every cell not settled is unreachable
@@ -56,12 +59,6 @@ def _heuristic(r: int, c: int, tr: int, tc: int, diagonal_cost: float, slack: fl
 
 
 @njit(cache=True, nogil=True)
-def tile_slot(tile_of: np.ndarray, tiles_w: int, r: int, c: int) -> int:
-    """The tile holding (r, c), or -1 when none is allocated."""
-    return int(tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)])
-
-
-@njit(cache=True, nogil=True)
 def _start(
     state: np.ndarray,
     root: int,
@@ -71,13 +68,13 @@ def _start(
     robot's cell) queued at cost 0."""
     tile_of, g, status, keys, cells, meta = memory
     W = state.shape[1]
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     r = root // W
     c = root - r * W
-    tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)] = 0
+    claim_tile(tile_of, tiles_w, r, c, 0)
     g[0, :] = np.inf
     status[0, :] = UNSEEN
-    o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+    o = tile_offset(r, c)
     g[0, o] = 0.0
     status[0, o] = OPEN
     meta[TILES_USED] = 1
@@ -115,7 +112,7 @@ def _resume(
     X -> Y at ``g(Y) (+ clean(Y)) + step``.
     """
     W = state.shape[1]
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     heap_cap = keys.shape[0]
     tile_cap = g.shape[0]
     remaining = 0
@@ -124,7 +121,7 @@ def _resume(
         r = t // W
         c = t - r * W
         s = tile_slot(tile_of, tiles_w, r, c)
-        if s < 0 or status[s, ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)] != SETTLED:
+        if s < 0 or status[s, tile_offset(r, c)] != SETTLED:
             remaining += 1
     size = meta[HEAP_SIZE]
     used = meta[TILES_USED]
@@ -145,7 +142,7 @@ def _resume(
         yr = y // W
         yc = y - yr * W
         ys = tile_slot(tile_of, tiles_w, yr, yc)
-        yo = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+        yo = tile_offset(yr, yc)
         if status[ys, yo] == SETTLED:
             continue  # a stale entry: the cell was queued again at a lower cost
         status[ys, yo] = SETTLED
@@ -169,15 +166,12 @@ def _resume(
                 continue
             xr = yr + DR[i]
             xc = yc + DC[i]
-            ti = (xr >> SHIFT) * tiles_w + (xc >> SHIFT)
-            xs = tile_of[ti]
-            if xs < 0:
-                xs = used
+            xs = claim_tile(tile_of, tiles_w, xr, xc, used)
+            if xs == used:
                 used += 1
-                tile_of[ti] = xs
                 g[xs, :] = np.inf
                 status[xs, :] = UNSEEN
-            xo = ((xr & TILE_MASK) << SHIFT) | (xc & TILE_MASK)
+            xo = tile_offset(xr, xc)
             if status[xs, xo] == SETTLED:
                 continue
             nd = base + (diagonal_cost if i & 1 else 1.0)
@@ -203,14 +197,14 @@ def _rekey(
 ) -> None:
     """Key the open list for a new heuristic target, dropping stale entries, and re-heap it."""
     tile_of, g, status, keys, cells, meta = memory
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     n = 0
     for j in range(meta[HEAP_SIZE]):
         x = cells[j]
         r = x // W
         c = x - r * W
         s = tile_slot(tile_of, tiles_w, r, c)
-        o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+        o = tile_offset(r, c)
         if status[s, o] != OPEN:
             continue
         keys[n, 0] = g[s, o] + _heuristic(r, c, tr, tc, diagonal_cost, slack)
@@ -226,14 +220,14 @@ def _settled_values(
     W: int, tile_of: np.ndarray, g: np.ndarray, status: np.ndarray, targets: np.ndarray
 ) -> np.ndarray:
     """The cost-to-go of each cell of ``targets``: exact when settled, else +inf."""
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     out = np.full(targets.shape[0], np.inf)
     for j in range(targets.shape[0]):
         r = targets[j] // W
         c = targets[j] - r * W
         s = tile_slot(tile_of, tiles_w, r, c)
         if s >= 0:
-            o = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
+            o = tile_offset(r, c)
             if status[s, o] == SETTLED:
                 out[j] = g[s, o]
     return out
@@ -242,12 +236,12 @@ def _settled_values(
 @njit(cache=True, nogil=True)
 def _all_settled(W: int, tile_of: np.ndarray, status: np.ndarray, targets: np.ndarray) -> bool:
     """Whether every cell of ``targets`` (flat indices) is settled."""
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     for j in range(targets.shape[0]):
         r = targets[j] // W
         c = targets[j] - r * W
         s = tile_slot(tile_of, tiles_w, r, c)
-        if s < 0 or status[s, ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)] != SETTLED:
+        if s < 0 or status[s, tile_offset(r, c)] != SETTLED:
             return False
     return True
 
@@ -257,11 +251,11 @@ class GoalSearch:
 
     The heuristic is the octile distance to the robot (every move costs at least its octile
     length and ``clean >= 0``: consistent for ``k`` and ``kw`` alike, so a settled cell's
-    cost-to-go is exact). Values live in 32 x 32 tiles allocated on first touch, found through
-    one small index of tiles; mutable scalars travel in ``meta`` (int64): ``[tiles used, heap
-    size, cells settled]``. When the pools are nearly full a kernel returns ``NEED_SPACE``
-    before touching anything; the search grows them and calls again, so every kernel is
-    resumable at any return.
+    cost-to-go is exact). Values live in the tiled grid memory (``tiles``): tiles allocated on
+    first touch, found through one small index of tiles; mutable scalars travel in ``meta``
+    (int64): ``[tiles used, heap size, cells settled]``. When the pools are nearly full a
+    kernel returns ``NEED_SPACE`` before touching anything; the search grows them and calls
+    again, so every kernel is resumable at any return.
     """
 
     def __init__(
@@ -284,9 +278,8 @@ class GoalSearch:
         self.open = open_
         self.use_clean = use_clean
         self.diagonal_cost = diagonal_cost
-        tiles = ((H + TILE_MASK) >> SHIFT) * ((W + TILE_MASK) >> SHIFT)
-        self.tile_of = np.full(tiles, -1, dtype=np.int32)
-        cap = min(4, tiles)
+        self.tile_of = tile_index(H, W)
+        cap = min(4, self.tile_of.shape[0])
         self.g = np.empty((cap, TILE_CELLS), dtype=np.float64)
         self.status = np.empty((cap, TILE_CELLS), dtype=np.uint8)
         self.keys = np.empty((1024, 2), dtype=np.float64)  # rows: f, g
@@ -308,10 +301,9 @@ class GoalSearch:
     def seen(self, cell: int) -> bool:
         """Whether the search has reached ``cell`` (a flat index): queued or settled."""
         r, c = divmod(cell, self.width)
-        tiles_w = (self.width + TILE_MASK) >> SHIFT
-        slot = int(self.tile_of[(r >> SHIFT) * tiles_w + (c >> SHIFT)])
-        offset = ((r & TILE_MASK) << SHIFT) | (c & TILE_MASK)
-        return slot >= 0 and int(self.status[slot, offset]) != UNSEEN
+        tiles_w = tiles_wide(self.width)
+        slot = tile_slot(self.tile_of, tiles_w, r, c)
+        return slot >= 0 and int(self.status[slot, tile_offset(r, c)]) != UNSEEN
 
     def done(self, targets: npt.NDArray[np.int64]) -> bool:
         """Whether :meth:`settle` would have nothing to do for ``targets``."""

@@ -10,7 +10,8 @@ from numba import njit
 
 from planner.plans.decide import MODE_PAPER, MODE_WIDE, MOVE, Rule, decide_core
 from planner.plans.moves import DC, DR, on_grid
-from planner.plans.search import SETTLED, SHIFT, TILE_MASK, GoalSearch, tile_slot
+from planner.plans.search import SETTLED, GoalSearch
+from planner.plans.tiles import tile_offset, tile_slot, tiles_wide
 from planner.plans.whole_wave import WaveView
 
 __all__ = [
@@ -133,12 +134,12 @@ def _settled_around(
     """Whether every cell a decision at (r, c) reads is settled in both searches."""
     tile_of_k, _, status_k, tile_of_kw, _, status_kw = tiles
     W = state.shape[1]
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     targets = _neighbourhood(state, open_, goal, r, c)
     for j in range(targets.shape[0]):
         yr = targets[j] // W
         yc = targets[j] - yr * W
-        o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+        o = tile_offset(yr, yc)
         s = tile_slot(tile_of_k, tiles_w, yr, yc)
         if s < 0 or status_k[s, o] != SETTLED:
             return False
@@ -162,7 +163,7 @@ def _window(
     (outside the map: not passable, +inf, 0); unsettled cells read +inf."""
     tile_of_k, g_k, status_k, tile_of_kw, g_kw, status_kw = tiles
     H, W = state.shape
-    tiles_w = (W + TILE_MASK) >> SHIFT
+    tiles_w = tiles_wide(W)
     passable = np.zeros((3, 3), dtype=np.uint8)
     k = np.full((3, 3), np.inf)
     kw = np.full((3, 3), np.inf)
@@ -179,7 +180,7 @@ def _window(
             if not on_grid(state, open_, goal, yr, yc):
                 continue
             passable[dr, dc] = 1
-            o = ((yr & TILE_MASK) << SHIFT) | (yc & TILE_MASK)
+            o = tile_offset(yr, yc)
             s = tile_slot(tile_of_k, tiles_w, yr, yc)
             if s >= 0 and status_k[s, o] == SETTLED:
                 k[dr, dc] = g_k[s, o]
