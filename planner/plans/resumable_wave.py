@@ -18,6 +18,7 @@ from planner.params import SQRT2
 from planner.plans.decide import MODE_PAPER, MOVE, Rule, decide
 from planner.plans.detour import detour_cells
 from planner.plans.moves import DC, DR, OPEN_SEALED, OPEN_UNSEALED, octile, on_grid
+from planner.plans.pockets import Pockets
 from planner.plans.search import SETTLED_COUNT, GoalSearch
 from planner.plans.walk import (
     WALK_ARRIVED,
@@ -63,11 +64,6 @@ def _locked(
 _BUDGET_SHARE = 64
 _BUDGET_LEAST = 4096
 
-# A robot on a cell the goal's search has not reached yet may be cut off from the goal (a
-# pocket): a search from the robot of at most this many cells finds most pockets at once.
-_PROBE = 4096
-_POCKETS = 4
-
 
 class ResumableWave(Wave):
     """A goal wave settled on demand.
@@ -109,7 +105,7 @@ class ResumableWave(Wave):
                 diagonal_cost=diagonal_cost,
             )  # fmt: skip
         self._whole: Wave | None = None
-        self._pockets: list[GoalSearch] = []
+        self._pockets = Pockets(analysis, goal, open_=self._open, diagonal_cost=diagonal_cost)
         self._lock = threading.RLock()
         self._held = 0
         self.on_resize: Callable[[], None] | None = None
@@ -156,22 +152,16 @@ class ResumableWave(Wave):
         self._settle(targets, (r, c), self.diagonal_cost)
 
     def _cut_off(self, r: int, c: int) -> bool:
-        """Whether a small search from (r, c) runs out of cells before reaching the goal: then
-        the goal's search need not run through its whole region to prove it. The last pockets
-        found are kept (a robot in one asks again at every step)."""
+        """Whether (r, c) is in a pocket cut off from the goal (:mod:`planner.plans.pockets`):
+        then the goal's search need not run through its whole region to prove it."""
         flat = r * self.analysis.shape[1] + c
-        if any(pocket.seen(flat) for pocket in self._pockets):
+        if self._pockets.holds(flat):
             return True
         self._searching()
-        probe = GoalSearch(
-            self.analysis, self._flat_goal, open_=self._open, use_clean=False,
-            diagonal_cost=self.diagonal_cost, root=flat,
-        )  # fmt: skip
-        probe.settle(np.array([self._flat_goal], dtype=np.int64), self.goal, 0.0, _PROBE)
-        if probe.exhausted:
-            self._pockets = [probe, *self._pockets[: _POCKETS - 1]]
-            self._resized()
-        return probe.exhausted
+        if not self._pockets.probe(flat):
+            return False
+        self._resized()
+        return True
 
     def _settle(self, targets: npt.NDArray[np.int64], aim: tuple[int, int], slack: float) -> None:
         if self._whole is not None:
@@ -418,7 +408,7 @@ class ResumableWave(Wave):
             self.elapsed_ms += (time.perf_counter() - t0) * 1e3
             self._k_search.release()
             self._kw_search.release()
-            self._pockets = []
+            self._pockets.clear()
             self._resized()
         return self._whole
 
@@ -440,9 +430,9 @@ class ResumableWave(Wave):
 
     @property
     def nbytes(self) -> int:
-        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search, *self._pockets)}
+        searches = {id(s): s.nbytes for s in (self._k_search, self._kw_search)}
         whole = 0 if self._whole is None else self._whole.nbytes
-        return sum(searches.values()) + whole
+        return sum(searches.values()) + self._pockets.nbytes + whole
 
 
 def resumable_wave(
