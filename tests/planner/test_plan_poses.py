@@ -259,3 +259,31 @@ def test_the_tolerance_search_reaches_what_a_wave_reaches(seed: int) -> None:
             if got != (best[1], best[2]):  # a tie within rounding: the same distance
                 x, y = analysis.frame.centers([list(got)])[0]
                 assert float(np.hypot(x - xy[0], y - xy[1])) == pytest.approx(best[0], rel=1e-6)
+
+
+def test_a_goal_tolerance_looks_at_its_disc_only() -> None:
+    """What the tolerance search holds beyond the map's own labels (its grid and their labels:
+    5 bytes a cell) is a few bytes a cell of the disc's square: nothing for a small disc on a
+    large map, ~6 bytes a cell for one over the whole map (issue 36: per-cell coordinates took
+    2.15 GB for 100 m at 0.05 m)."""
+    import tracemalloc
+
+    from planner.plans.ends import nearest_reachable
+
+    side = 1000
+    grid = np.zeros((side, side), dtype=np.int8)
+    grid[250:750, 250:750] = 1  # the goal inside a block, as benchmarks/abuse_heavy.py's
+    robot_map = planner.grid_map(grid, resolution=0.05)
+    analysis = planner.analyse_map(robot_map, planner.resolve_params("wfs-mmas", unknown="free"))
+    labels = 5 * side * side
+    for tolerance, bound, expected in ((1.0, 0.3, None), (100.0, 7.0, (249, 499))):
+        tracemalloc.start()
+        try:
+            got = nearest_reachable(
+                analysis, (0, 0), (25.0, 25.0), tolerance, diagonal_cost=1.4, allow_narrow=False
+            )  # fmt: skip
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        assert got == expected
+        assert peak - labels < bound * side * side, (tolerance, peak)

@@ -96,11 +96,11 @@ async def test_the_memory_store_sizes_a_map_once_and_never_sums_the_others(
     assert store.map_bytes == 301 * each + 151 * zoned.zones.nbytes
 
 
-def test_a_mask_of_another_resolution_is_refused_before_it_is_decoded(
+def test_a_mask_off_the_maps_frame_is_refused_before_it_is_decoded(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Its YAML's resolution and origin are checked with the image's header: a 16 M pixel
-    mask of the wrong resolution is refused without decoding a pixel."""
+    """Its size (from the image's header), its YAML's resolution and origin are checked first:
+    a 16 M pixel mask of the wrong resolution is refused without decoding a pixel."""
     import planner
     from service.resources import zones
 
@@ -114,13 +114,16 @@ def test_a_mask_of_another_resolution_is_refused_before_it_is_decoded(
     monkeypatch.setattr(planner, "decode_map_image", counted)
     frame = planner.MapFrame((4, 6), 0.05, (0.0, 0.0, 0.0))
     image = b"P5\n6 4\n255\n" + bytes(24)
-    for yaml, field in (
-        (b"image: m.pgm\nresolution: 0.1\norigin: [0.0, 0.0, 0.0]\n", "yaml.resolution"),
-        (b"image: m.pgm\nresolution: 0.05\norigin: [1.0, 0.0, 0.0]\n", "yaml.origin"),
+    wider = b"P5\n7 4\n255\n" + bytes(28)
+    same = b"image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"
+    for yaml, picture, field in (
+        (b"image: m.pgm\nresolution: 0.1\norigin: [0.0, 0.0, 0.0]\n", image, "yaml.resolution"),
+        (b"image: m.pgm\nresolution: 0.05\norigin: [1.0, 0.0, 0.0]\n", image, "yaml.origin"),
+        (same, wider, "image"),
     ):
         with pytest.raises(planner.InvalidInput) as error:
-            zones._mask(frame, yaml, image)
+            zones._mask(frame, yaml, picture)
         assert error.value.field == field
     assert decoded == []
-    zones._mask(frame, b"image: m.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n", image)
+    zones._mask(frame, same, image)
     assert decoded == [1]
