@@ -46,19 +46,24 @@ def free_map(side: int) -> Callable[[Service], str]:
     return setup
 
 
+def rooms(side: int) -> np.ndarray:
+    """The blocked cells of rooms 128 cells (6.4 m) a side, walls 4 cells thick, a door of 14
+    cells (0.7 m) in each wall of each room: a passage for a robot of 0.2 m at every door."""
+    blocked = np.zeros((side, side), dtype=bool)
+    for k in range(0, side, 128):
+        blocked[k : k + 4, :] = True
+        blocked[:, k : k + 4] = True
+    for k in range(64, side, 128):
+        blocked[k : k + 14, :] = False
+        blocked[:, k : k + 14] = False
+    return blocked
+
+
 def rooms_map(side: int) -> Callable[[Service], str]:
-    """Rooms 128 cells (6.4 m) a side, walls 4 cells thick, a door of 14 cells (0.7 m) in each
-    wall of each room: a passage for a robot of 0.2 m at every door."""
+    """:func:`rooms`, uploaded."""
 
     def setup(service: Service) -> str:
-        blocked = np.zeros((side, side), dtype=bool)
-        for k in range(0, side, 128):
-            blocked[k : k + 4, :] = True
-            blocked[:, k : k + 4] = True
-        for k in range(64, side, 128):
-            blocked[k : k + 14, :] = False
-            blocked[:, k : k + 14] = False
-        return _upload(service, blocked)
+        return _upload(service, rooms(side))
 
     return setup
 

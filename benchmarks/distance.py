@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import edt
 import numpy as np
+from abuse_heavy import rooms
 from common import ROOT
 from scipy import ndimage
 
@@ -36,15 +37,12 @@ def maps(side: int) -> dict[str, np.ndarray]:
     block = np.ones((side, side), dtype=bool)
     edge = side // 8
     block[edge:-edge, edge:-edge] = False
-    rooms = np.ones((side, side), dtype=bool)
-    for k in range(0, side, 128):
-        rooms[k : k + 4, :] = False
-        rooms[:, k : k + 4] = False
-    for k in range(64, side, 128):
-        rooms[k : k + 14, :] = True
-        rooms[:, k : k + 14] = True
     scattered = np.random.default_rng(0).random((side, side)) >= 0.1
-    return {"a block in the middle": block, "rooms": rooms, "10 % blocked at random": scattered}
+    return {
+        "a block in the middle": block,
+        "rooms": ~rooms(side),
+        "10 % at random": scattered,
+    }
 
 
 def transforms(scipy: bool) -> dict[str, Callable[[np.ndarray], np.ndarray]]:
