@@ -9,7 +9,7 @@ from numba import njit
 
 from planner.plans.heap import heap_pop, heap_push
 from planner.plans.moves import DC, DR, octile, on_grid
-from planner.plans.search import SETTLED
+from planner.plans.search import settled_value
 from planner.plans.tiles import TILE_CELLS, claim_tile, tile_offset, tile_slot, tiles_wide
 
 __all__ = ["detour_cells"]
@@ -33,10 +33,7 @@ def _exact(
     tile_of, g_kw, status_kw = tiles
     if tile_of.shape[0] == 0:
         return np.inf
-    s = tile_slot(tile_of, tiles_wide(W), r, c)
-    if s >= 0 and status_kw[s, tile_offset(r, c)] == SETTLED:
-        return float(g_kw[s, tile_offset(r, c)])
-    return np.inf
+    return settled_value(tile_of, tiles_wide(W), g_kw, status_kw, r, c)
 
 
 @njit(cache=True, nogil=True)
@@ -268,13 +265,12 @@ def _detour(
                 if h == np.inf:
                     continue
             else:
-                s = tile_slot(tile_of, tiles_w, yr, yc) if has_tiles else -1
-                o = tile_offset(yr, yc)
-                if s >= 0 and status_kw[s, o] == SETTLED:
-                    h = g_kw[s, o]
-                elif exhausted:
-                    continue  # the goal's search proved it unreachable
-                else:
+                h = np.inf
+                if has_tiles:
+                    h = settled_value(tile_of, tiles_w, g_kw, status_kw, yr, yc)
+                if h == np.inf:
+                    if exhausted:
+                        continue  # the goal's search proved it unreachable
                     h = octile(yr, yc, gr, gc, diagonal_cost, 0.0)
             ng = gx + (diagonal_cost if i & 1 else 1.0) + clean[yr, yc]
             if ng < g[at_slot[i], at_offset[i]]:

@@ -19,7 +19,7 @@ from planner.plans.tiles import (
     tiles_wide,
 )
 
-__all__ = ["GoalSearch"]
+__all__ = ["GoalSearch", "is_settled", "settled_value"]
 
 DONE = 0
 EXHAUSTED = 1  # the open list is empty: every cell not settled is unreachable
@@ -56,6 +56,24 @@ _REAIM = 8.0
 def _heuristic(r: int, c: int, tr: int, tc: int, diagonal_cost: float, slack: float) -> float:
     """The key's heuristic: :func:`~planner.plans.moves.octile`, shrunk (see ``_SHRINK``)."""
     return octile(r, c, tr, tc, diagonal_cost, slack) * _SHRINK
+
+
+@njit(cache=True, nogil=True)
+def is_settled(tile_of: np.ndarray, tiles_w: int, status: np.ndarray, r: int, c: int) -> bool:
+    """Whether a search (its tile index and states) has settled cell (r, c)."""
+    s = tile_slot(tile_of, tiles_w, r, c)
+    return s >= 0 and status[s, tile_offset(r, c)] == SETTLED
+
+
+@njit(cache=True, nogil=True)
+def settled_value(
+    tile_of: np.ndarray, tiles_w: int, g: np.ndarray, status: np.ndarray, r: int, c: int
+) -> float:
+    """A search's cost-to-go at cell (r, c): exact where settled, else +inf."""
+    s = tile_slot(tile_of, tiles_w, r, c)
+    if s >= 0 and status[s, tile_offset(r, c)] == SETTLED:
+        return float(g[s, tile_offset(r, c)])
+    return np.inf
 
 
 @njit(cache=True, nogil=True)
@@ -117,11 +135,8 @@ def _resume(
     tile_cap = g.shape[0]
     remaining = 0
     for j in range(targets.shape[0]):
-        t = targets[j]
-        r = t // W
-        c = t - r * W
-        s = tile_slot(tile_of, tiles_w, r, c)
-        if s < 0 or status[s, tile_offset(r, c)] != SETTLED:
+        r = targets[j] // W
+        if not is_settled(tile_of, tiles_w, status, r, targets[j] - r * W):
             remaining += 1
     size = meta[HEAP_SIZE]
     used = meta[TILES_USED]
@@ -224,12 +239,7 @@ def _settled_values(
     out = np.full(targets.shape[0], np.inf)
     for j in range(targets.shape[0]):
         r = targets[j] // W
-        c = targets[j] - r * W
-        s = tile_slot(tile_of, tiles_w, r, c)
-        if s >= 0:
-            o = tile_offset(r, c)
-            if status[s, o] == SETTLED:
-                out[j] = g[s, o]
+        out[j] = settled_value(tile_of, tiles_w, g, status, r, targets[j] - r * W)
     return out
 
 
@@ -239,9 +249,7 @@ def _all_settled(W: int, tile_of: np.ndarray, status: np.ndarray, targets: np.nd
     tiles_w = tiles_wide(W)
     for j in range(targets.shape[0]):
         r = targets[j] // W
-        c = targets[j] - r * W
-        s = tile_slot(tile_of, tiles_w, r, c)
-        if s < 0 or status[s, tile_offset(r, c)] != SETTLED:
+        if not is_settled(tile_of, tiles_w, status, r, targets[j] - r * W):
             return False
     return True
 

@@ -10,8 +10,8 @@ from numba import njit
 
 from planner.plans.decide import MODE_PAPER, MODE_WIDE, MOVE, Rule, decide_core
 from planner.plans.moves import DC, DR, on_grid
-from planner.plans.search import SETTLED, GoalSearch
-from planner.plans.tiles import tile_offset, tile_slot, tiles_wide
+from planner.plans.search import GoalSearch, is_settled, settled_value
+from planner.plans.tiles import tiles_wide
 from planner.plans.whole_wave import WaveView
 
 __all__ = [
@@ -139,12 +139,9 @@ def _settled_around(
     for j in range(targets.shape[0]):
         yr = targets[j] // W
         yc = targets[j] - yr * W
-        o = tile_offset(yr, yc)
-        s = tile_slot(tile_of_k, tiles_w, yr, yc)
-        if s < 0 or status_k[s, o] != SETTLED:
+        if not is_settled(tile_of_k, tiles_w, status_k, yr, yc):
             return False
-        s = tile_slot(tile_of_kw, tiles_w, yr, yc)
-        if s < 0 or status_kw[s, o] != SETTLED:
+        if not is_settled(tile_of_kw, tiles_w, status_kw, yr, yc):
             return False
     return True
 
@@ -180,13 +177,8 @@ def _window(
             if not on_grid(state, open_, goal, yr, yc):
                 continue
             passable[dr, dc] = 1
-            o = tile_offset(yr, yc)
-            s = tile_slot(tile_of_k, tiles_w, yr, yc)
-            if s >= 0 and status_k[s, o] == SETTLED:
-                k[dr, dc] = g_k[s, o]
-            s = tile_slot(tile_of_kw, tiles_w, yr, yc)
-            if s >= 0 and status_kw[s, o] == SETTLED:
-                kw[dr, dc] = g_kw[s, o]
+            k[dr, dc] = settled_value(tile_of_k, tiles_w, g_k, status_k, yr, yc)
+            kw[dr, dc] = settled_value(tile_of_kw, tiles_w, g_kw, status_kw, yr, yc)
     return passable, k, kw, cl
 
 
