@@ -80,7 +80,7 @@ class Trips(threading.Thread):
         self.start()
 
     def run(self) -> None:
-        with self._redis.monitor() as monitor:
+        with self._redis.monitor() as monitor:  # type: ignore[no-untyped-call]
             while True:
                 try:
                     command = monitor.next_command()
