@@ -9,6 +9,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi.staticfiles import StaticFiles
 
 from schemas import StepCreate
 from service import errors
@@ -127,6 +128,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     step = add_step_route(app)  # the hot route, matched before the routers' ones
     for router in routers:  # each directly, the plans first
         app.include_router(router)
+    # The map pages' shared script (pan and zoom), behind the key as the pages are.
+    app.mount("/viewer", StaticFiles(packages=[("service.viewer", "static")]), name="viewer")
     app.add_middleware(
         Edge,
         metrics=app.state.metrics,

@@ -109,3 +109,16 @@ def test_no_private_name_crosses_a_module() -> None:
     assert unknown == []
     stale = KNOWN_PRIVATE_IMPORTS - {c.split(" imports ")[0] for c in crossings}
     assert stale == set(), "known exceptions that no longer import a private name"
+
+
+def test_the_engine_and_the_stores_know_no_http_schema() -> None:
+    """``service/work`` and ``service/stores`` take plain values: what a body's fields mean is
+    decided above them (``service/resources``), so they serve any front, not only HTTP's."""
+    found = [
+        f"{path.relative_to(ROOT)} imports {module}"
+        for room in ("work", "stores")
+        for path in sorted((ROOT / "service" / room).rglob("*.py"))
+        for module, _ in _imports(path)
+        if module.split(".")[0] == "schemas"
+    ]
+    assert found == []

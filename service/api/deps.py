@@ -17,6 +17,7 @@ from starlette.formparsers import MultiPartException
 
 import planner
 from planner import quote
+from schemas import StepCreate
 from service.config import Settings
 from service.edge.guards import check_depth, check_keys, key_limit
 from service.errors import TooLarge, responses
@@ -30,6 +31,7 @@ __all__ = [
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
+    "StepBody",
     "ZonesRoute",
     "check_json",
     "check_query",
@@ -153,6 +155,17 @@ async def json_body(request: Request, model: type[Model]) -> Model:
         return model.model_validate(raw, from_attributes=True)  # refused, in FastAPI's words
     except ValidationError as exc:
         raise _body_errors(exc, raw, model) from None
+
+
+async def step_body(request: Request) -> StepCreate:
+    """A step's body, read and checked by :func:`json_body` (the step's route is a plain
+    ``APIRoute``: see ``add_step_route``); the step takes no query parameter."""
+    if request.scope["query_string"]:
+        check_query(request, frozenset())
+    return await json_body(request, StepCreate)
+
+
+StepBody = Annotated[StepCreate, Depends(step_body)]
 
 
 def _body_errors(

@@ -135,13 +135,14 @@ async def live_view(engine: Engine, map_id: str) -> dict[str, Any]:
 
 async def step_marks(
     engine: Engine, map_id: str, plan: planner.Plan, body: StepCreate, here: tuple[int, int]
-) -> npt.NDArray[np.int64]:
+) -> tuple[npt.NDArray[np.int64], str]:
     """A step's part of the live layer: its ``scan`` added first (taken at ``scan_pose``, by
     default the step's ``position`` point and yaw), then the cells the map's marks block for
-    this robot (one store call; none on a plain grid, which takes no scan): each mark's cell
-    widened by the robot's radius (as a circle obstacle is), less the marks on the robot's own
-    body (within its radius and a cell of where it is, ``here`` or its reported point):
-    another robot's scan of it is no obstacle to it."""
+    this robot, with the digest of the marks, which the step's write checks (the marks as the
+    store knows them: no store call of their own; none on a plain grid, which takes no scan):
+    each mark's cell widened by the robot's radius (as a circle obstacle is), less the marks on
+    the robot's own body (within its radius and a cell of where it is, ``here`` or its reported
+    point): another robot's scan of it is no obstacle to it."""
     frame = plan.analysis.frame
     radius = plan.params.robot_radius
     point = body.position if isinstance(body.position, Point) else None
@@ -159,8 +160,20 @@ async def step_marks(
         robot = (float(center[0]), float(center[1]))
         await observe(engine, map_id, body.scan, pose, robot=robot, robot_radius=radius, known=True)
     if frame.is_default:  # a plain grid takes no scan: no marks to read
-        return np.zeros((0, 2), dtype=np.int64)
-    cells = _cells(await engine.store.live_marks(map_id), frame)
+        return np.zeros((0, 2), dtype=np.int64), ""
+    known = await engine.store.known_marks(map_id)
+    return await _blocked(engine, frame, _cells(known.cells, frame), center, radius), known.digest
+
+
+async def _blocked(
+    engine: Engine,
+    frame: planner.MapFrame,
+    cells: npt.NDArray[np.int64],
+    center: Any,
+    radius: float,
+) -> npt.NDArray[np.int64]:
+    """The cells ``cells`` (marks) block for a robot of ``radius`` at ``center``, less those on
+    its own body."""
     if not len(cells):
         return cells
     points = frame.centers(cells)

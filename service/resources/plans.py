@@ -207,9 +207,10 @@ async def step(
             obstacles = _obstacle_cells(plan, body.dynamic_obstacles)
         replayed = body.seq is not None and body.seq == state.last_seq
         client_cells = obstacles  # the client's, which the viewer draws (the marks: GET /live)
+        digest = ""  # the marks decided on, which the write checks
         if not replayed:  # the live layer's marks: obstacles like the client's (docs/live.md)
             here = (state.position[0], state.position[1])
-            marks = await live.step_marks(engine, record["map_id"], plan, body, here)
+            marks, digest = await live.step_marks(engine, record["map_id"], plan, body, here)
             obstacles = live.with_marks(obstacles, marks)
         waiting_for, new_fleet = None, None
         if fleet is not None and "params" not in fleet:
@@ -241,7 +242,7 @@ async def step(
             result, frame, client_cells, zones=plan.analysis.zones, waiting_for=waiting_for
         )
         message = None if event is None else event(view)
-        return Update(view, {**record, "state": stored}, appended, message, new_fleet)
+        return Update(view, {**record, "state": stored}, appended, message, new_fleet, digest)
 
     # Written only if the plan still exists: a DELETE that won the race stays a delete.
     update = await engine.store.step_plan(plan_id, decide)

@@ -2,7 +2,9 @@
 
 Store (``base``)            the interface and the formats every store keeps
 ├── MemoryStore (``memory``)  this process only: ``memory://``
-└── RedisStore  (``redis``)   shared by replicas: ``redis://``, ``rediss://``, ``unix://``
+└── RedisStore  (``redis``)   shared by replicas: ``redis://``, ``rediss://``, ``unix://``;
+                              its parts: plans (``redis_plans``), fleets (``redis_fleets``),
+                              the live layer (``redis_live``), on one client (``redis_link``)
 """
 
 from __future__ import annotations

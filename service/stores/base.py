@@ -18,7 +18,7 @@ import orjson
 
 from planner import MapFrame, RobotMap, Zones, quote
 from service.errors import NotFound, TooManyPlans
-from service.stores.live import Seen
+from service.stores.live import Marks, Seen
 
 __all__ = [
     "Cells",
@@ -66,6 +66,9 @@ class Update(Generic[T]):
     event: Event | None = None
     fleet: FleetRecord | None = None
     """A fleet robot's step: its fleet's new state, written with the record (or not at all)."""
+    marks: str = ""
+    """The digest of the live marks the decision stood on (:meth:`Store.known_marks`): written
+    only if they are still the map's marks (else decided again on them)."""
 
 
 Decide = Callable[[PlanRecord], Awaitable[Update[T]]]
@@ -280,6 +283,11 @@ class Store(ABC):
     @abstractmethod
     async def live_marks(self, map_id: str) -> npt.NDArray[np.int64]:
         """The map's live marks now: flat cell indices, sorted (none: an empty array)."""
+
+    @abstractmethod
+    async def known_marks(self, map_id: str) -> Marks:
+        """The map's live marks for a step to decide on, at no round trip: a networked store's
+        as it last heard them, which the step's write checks (``Update.marks``)."""
 
     @abstractmethod
     async def get_plan(self, plan_id: str) -> PlanRecord | None:

@@ -9,9 +9,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import orjson
+
 from service.stores.base import FleetRecord
 
-__all__ = ["PROGRESS", "FleetWrite", "changes"]
+__all__ = ["PROGRESS", "FleetWrite", "Progress", "changes"]
 
 PROGRESS = frozenset(
     {
@@ -86,3 +88,63 @@ def _unordered(state: FleetRecord | None, plan_id: str | None) -> set[str]:
     if me is None or plan_id not in agents or me.get("agent", -1) < 0:
         return set(robots)
     return {k for k, r in robots.items() if k not in agents or r.get("parked")}
+
+
+class Progress:
+    """A fleet's robots' progress as this replica last read it (each robot's JSON, and parsed:
+    only the entries that changed are parsed again), and laid over the fleet's record."""
+
+    __slots__ = ("_at", "_merged", "_raw", "_record", "robots")
+
+    def __init__(self) -> None:
+        self._at = 0
+        self._raw: dict[bytes, bytes] = {}
+        self.robots: dict[str, dict[str, Any]] = {}
+        self._record: FleetRecord | None = None
+        self._merged: dict[str, dict[str, Any]] = {}
+
+    def state(self, record: FleetRecord | None) -> FleetRecord | None:
+        """The fleet's state: ``record`` with each robot's progress laid over its entry (the
+        robots' dict a copy of its own, their entries shared: a decision copies what it
+        changes)."""
+        if record is None:
+            return None
+        if record is not self._record:
+            self._record = record
+            self._merged = {
+                k: {**robot, **self.robots.get(k, {})} for k, robot in record["robots"].items()
+            }
+        return {**record, "robots": dict(self._merged)}
+
+    def learn(self, answer: list[bytes] | dict[bytes, bytes], at: int) -> None:
+        """Take the progress hash as Redis answered it (HGETALL: a flat list from a script, a
+        dict from the client) at Redis's time ``at`` (microseconds), unless a later one was
+        taken already: answers of calls in flight at once may come back in any order, and a
+        robot's own progress must never go back to an older copy."""
+        if at < self._at:
+            return
+        self._at = at
+        pairs = (
+            answer
+            if isinstance(answer, dict)
+            else dict(zip(answer[::2], answer[1::2], strict=True))
+        )
+        raw = self._raw
+        for robot, value in pairs.items():
+            if raw.get(robot) != value:
+                raw[robot] = value
+                self._lay(robot.decode(), orjson.loads(value))
+        if len(raw) != len(pairs):
+            for robot in [r for r in raw if r not in pairs]:
+                del raw[robot]
+                self._lay(robot.decode(), None)
+
+    def _lay(self, name: str, progress: dict[str, Any] | None) -> None:
+        """A robot's progress, new (None: gone), laid over its entry in the record."""
+        if progress is None:
+            self.robots.pop(name, None)
+        else:
+            self.robots[name] = progress
+        own = None if self._record is None else self._record["robots"].get(name)
+        if own is not None:  # replaced, never changed in place: decisions share the entries
+            self._merged[name] = {**own, **(progress or {})}

@@ -13,7 +13,7 @@ import numpy.typing as npt
 
 from planner import Traced
 
-__all__ = ["LiveLayers", "Seen", "cleared_among"]
+__all__ = ["NO_MARKS", "LiveLayers", "Marks", "Seen", "cleared_among"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,6 +24,19 @@ class Seen:
     traced: Traced
     width: int
     seconds: float
+
+
+@dataclass(frozen=True, slots=True)
+class Marks:
+    """A map's live marks as a step decides on them: flat cells, sorted, and their ``digest``
+    (the Redis store's fence: the step is written only if they are still the map's marks; ""
+    where the store needs none)."""
+
+    cells: npt.NDArray[np.int64]
+    digest: str = ""
+
+
+NO_MARKS = Marks(np.zeros(0, dtype=np.int64))
 
 
 def cleared_among(cells: npt.NDArray[np.int64], seen: Seen) -> npt.NDArray[np.bool_]:

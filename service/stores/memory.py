@@ -27,7 +27,7 @@ from service.stores.base import (
     unknown_map,
     unpack,
 )
-from service.stores.live import LiveLayers, Seen
+from service.stores.live import LiveLayers, Marks, Seen
 from service.stores.map_room import MapRoom
 from service.tenants import TENANT, scoped
 
@@ -211,6 +211,9 @@ class MemoryStore(Store):
 
     async def live_marks(self, map_id: str) -> npt.NDArray[np.int64]:
         return self._live.marks(scoped(map_id))
+
+    async def known_marks(self, map_id: str) -> Marks:
+        return Marks(self._live.marks(scoped(map_id)))  # exact: nothing to check at the write
 
     async def get_plan(self, plan_id: str) -> PlanRecord | None:
         self._expire()

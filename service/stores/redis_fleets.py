@@ -9,14 +9,10 @@ from __future__ import annotations
 
 import random
 import time
-from abc import ABC, abstractmethod
 from collections import OrderedDict
-from collections.abc import Awaitable, Callable
-from contextlib import AbstractContextManager
 from typing import Any
 
 import orjson
-from redis.asyncio import Redis
 
 from planner import quote
 from service.errors import StoreUnavailable
@@ -25,7 +21,6 @@ from service.stores.base import (
     FleetDecide,
     FleetJoin,
     FleetRecord,
-    PlanLocks,
     PlanRecord,
     T,
     Update,
@@ -35,8 +30,13 @@ from service.stores.base import (
     too_many_plans,
     unknown_map,
 )
-from service.stores.fleet_progress import FleetWrite, changes
+from service.stores.fleet_progress import FleetWrite, Progress, changes
+from service.stores.redis_batch import Collector
+from service.stores.redis_link import RedisLink
+from service.stores.redis_live import live_key
+from service.stores.redis_plans import PlanCopies
 from service.stores.redis_values import plans_of, split
+from service.stores.scripts import FLEET_DELETE, FLEET_PUT, FLEET_STEP
 from service.tenants import scoped
 
 __all__ = ["FLEET_TRIES", "CachedFleet", "FleetSteps"]
@@ -46,7 +46,6 @@ FLEET_TRIES = 64
 same fleet keep writing first (each lost try means another robot of the fleet was recorded)."""
 CACHED_FLEETS = 4096
 """Fleet states each replica keeps of the fleets it read or wrote last."""
-_Cached = tuple[int, PlanRecord]
 CachedFleet = tuple[int, FleetRecord | None]
 """A fleet's record as this replica last read or wrote it: its version and value (0, None:
 none)."""
@@ -61,74 +60,53 @@ def _with_map(keys: list[str]) -> list[str]:
     return keys
 
 
-class FleetSteps(ABC):
-    """The fleet methods of :class:`~service.stores.redis.RedisStore` (its other half: the
-    plan's record, its cache and its step script)."""
+class FleetSteps:
+    """The fleets' part of :class:`~service.stores.redis.RedisStore`: a fleet robot's step, a
+    plan joining or leaving its fleet, each one script; the fleets' records and their robots'
+    progress as this replica last heard them. A plan's own record, its cache and its locks are
+    ``plans``'."""
 
-    _ttl_ms: int
-    _map_ttl_ms: int
-    _max_plans: int
-    _locks: PlanLocks
-    _plans: OrderedDict[str, _Cached]
-    _fleets: OrderedDict[str, CachedFleet]
-    _progress: dict[str, _Progress]
-    _reaching: AbstractContextManager[None]
-    _redis: Redis
-    _fleet_step: Any  # the step script's collector
-    _fleet_put: Callable[..., Awaitable[Any]]
-    _fleet_delete: Callable[..., Awaitable[Any]]
-
-    @abstractmethod
-    async def update_plan(self, plan_id: str, decide: Any) -> Update[Any] | None: ...
-
-    @abstractmethod
-    async def _read(self, key: str) -> _Cached | None: ...
-
-    @abstractmethod
-    def _parse(self, key: str, value: object) -> _Cached: ...
-
-    @abstractmethod
-    async def _write(self, key: str, version: int, update: Update[T]) -> list[bytes | int]: ...
-
-    @abstractmethod
-    def _remember(self, key: str, version: int, record: PlanRecord) -> _Cached: ...
-
-    @abstractmethod
-    def _keys(self, key: str, record: PlanRecord) -> list[str]: ...
-
-    @abstractmethod
-    async def _get(self, key: str) -> bytes | None: ...
+    def __init__(self, link: RedisLink, plans: PlanCopies) -> None:
+        self._link, self._plans = link, plans
+        self.steps = Collector(link.redis, link.redis.register_script(FLEET_STEP))
+        self._put = link.redis.register_script(FLEET_PUT)
+        self._delete = link.redis.register_script(FLEET_DELETE)
+        # Scoped fleet name -> (version, state or None: no fleet), as last read or written.
+        self._fleets: OrderedDict[str, CachedFleet] = OrderedDict()
+        self._progress: dict[str, Progress] = {}  # scoped fleet name -> its robots' progress
 
     async def step_plan(self, plan_id: str, decide: FleetDecide[T]) -> Update[T] | None:
         key = scoped(plan_id)
-        cached = self._plans.get(key)
+        cached = self._plans.copies.get(key)
         if cached is None:
-            cached = await self._read(key)
+            cached = await self._plans.read(key)
             if cached is None:
                 return None
         fleet = cached[1].get("fleet")
         if fleet is None:
-            return await self.update_plan(plan_id, lambda record: decide(record, None))
+            return await self._plans.update(plan_id, lambda record: decide(record, None))
         fleet_key = scoped(fleet)
         known = self._fleets.get(fleet_key)
         if known is not None and known[1] is not None and not known[1].get("dirty"):
             # Steps that only record their robot's progress do not outdate each other: the
             # fleet's robots step at once (their scripts pipelined), fenced by the fleet's
             # record and each by its plan's.
-            async with self._locks.hold(key):
+            async with self._plans.locks.hold(key):
                 return await self._step_in_fleet(plan_id, key, fleet_key, decide)
         # The fleet changed and is solved again: one step of it at a time on this replica (the
         # fleet's lock, then the plan's), so one solves and the others find it solved.
-        async with self._locks.hold(_FLEET + fleet_key), self._locks.hold(key):
+        locks = self._plans.locks
+        async with locks.hold(_FLEET + fleet_key), locks.hold(key):
             return await self._step_in_fleet(plan_id, key, fleet_key, decide)
 
     async def _step_in_fleet(
         self, plan_id: str, key: str, fleet_key: str, decide: FleetDecide[T]
     ) -> Update[T] | None:
-        cached = self._plans.get(key)
+        plans = self._plans
+        cached = plans.copies.get(key)
         fresh = cached is None
         if cached is None:
-            cached = await self._read(key)
+            cached = await plans.read(key)
             if cached is None:
                 return None
         fleet = self._fleets.get(fleet_key) or await self._read_fleet(fleet_key)
@@ -139,14 +117,18 @@ class FleetSteps(ABC):
                 update = await decide(record, live_fleet(state, time.time()))
             except Exception:
                 # Refused on this replica's copies, which other replicas may have outdated? Its
-                # plan first (a robot's steps on two replicas: its record is the other's).
-                now = await self._read_step(key, fleet_key)
+                # plan first (a robot's steps on two replicas: its record is the other's), read
+                # with its fleet and its map's marks, all as the other replica left them.
+                keys = _fleet_keys(fleet_key)
+                now, read, at = await plans.read_fresh(key, record["map_id"], keys)
+                assert read is not None
+                self._progress_of(fleet_key).learn(read[1], at)
+                again = self._parse_fleet(fleet_key, read[0])
                 if now is None:
                     return None
                 if now[0] != version:
-                    cached, fresh = now, True
+                    cached, fleet, fresh = now, again, True
                     continue
-                again = await self._read_fleet(fleet_key)
                 if again[0] == fleet[0]:
                     raise
                 fleet, fresh = again, True
@@ -154,40 +136,24 @@ class FleetSteps(ABC):
             if update.record is None:  # a replay: only checked
                 if fresh:
                     return update
-                answer = await self._write(key, version, update)
+                answer = await plans.write(key, version, update)
             else:
                 write = changes(
-                    state, stamp_robot(update.fleet or {}, plan_id, self._until()), plan_id
+                    state, stamp_robot(update.fleet or {}, plan_id, self._link.until()), plan_id
                 )
                 answer = await self._write_in_fleet(
                     key, version, fleet_key, fleet[0], write, update
                 )
-            if self._step_ended(key, answer, record):
+            if plans.ended(key, answer, record):
                 return update if answer[0] == 1 else None
             if answer[0] == 2:
-                cached, fresh = self._parse(key, answer[1]), True
+                cached, fresh = plans.parse(key, answer[1]), True
             fleet = self._fleets.get(fleet_key) or await self._read_fleet(fleet_key)
         msg = (
             f"plan_id: plan {quote(plan_id)} is busy: other replicas' steps of its fleet were "
             f"recorded first {FLEET_TRIES} times in a row; retry later"
         )
         raise StoreUnavailable(msg, field="plan_id")
-
-    def _step_ended(self, key: str, answer: list[bytes | int], record: PlanRecord | None) -> bool:
-        """Whether the step script's ``answer`` ends the step: written (1), or the plan gone (0:
-        forgotten here too); the map of ``record`` gone (3) raises. Else another replica's write
-        came first (2: the plan's, 4: the fleet's), to decide again on. For a plan's step
-        outside any fleet too (``RedisStore.update_plan``): its script answers the same."""
-        if answer[0] == 3:
-            assert record is not None  # only a write checks the map
-            raise unknown_map(record["map_id"])
-        if answer[0] == 0:
-            self._plans.pop(key, None)
-        return answer[0] in (0, 1)
-
-    def _until(self) -> float:
-        """When a plan written now expires (its robot's ``until`` in its fleet)."""
-        return time.time() + self._ttl_ms / 1000
 
     async def _write_in_fleet(
         self,
@@ -198,27 +164,24 @@ class FleetSteps(ABC):
         write: FleetWrite,
         update: Update[T],
     ) -> list[bytes | int]:
-        """A fleet robot's step in one round trip: the record as :meth:`_write` writes it, and
-        what it changed of its fleet, if neither the plan nor the fleet's record moved on since
-        ``version`` and ``fleet_version`` (and no robot ``write`` fences was told more)."""
+        """A fleet robot's step in one round trip: the record as ``PlanCopies.write`` writes it,
+        and what it changed of its fleet, if neither the plan nor the fleet's record moved on
+        since ``version`` and ``fleet_version`` (and no robot ``write`` fences was told more),
+        nor the map's marks since the step read them."""
         assert update.record is not None
-        expect = b"%d " % version if version else b"{"
-        written = random.getrandbits(62) + 1
-        channel, message = update.event or ("", b"")
-        keys = [*_with_map(self._keys(key, update.record)), *_fleet_keys(fleet_key)]
+        plans = self._plans
+        keys = [*_with_map(plans.keys(key, update.record)), *_fleet_keys(fleet_key)]
+        keys.append(live_key(update.record["map_id"]))
+        args, written = plans.args(key, version, update)
         fleet_args, fleet_written = _fleet_args(fleet_version, write)
-        args: list[bytes | int | str] = [
-            expect, b"%d %b" % (written, orjson.dumps(update.record)), self._ttl_ms,
-            pack(update.append), self._map_ttl_ms, channel, message, key, *fleet_args,
-        ]  # fmt: skip
-        with self._reaching:
-            answer: list[Any] = await self._fleet_step(keys=keys, args=args)
+        with self._link.reaching:
+            answer: list[Any] = await self.steps(keys=keys, args=[*args, *fleet_args])
         self._learn(fleet_key, answer)
         if answer[0] == 1:
-            self._remember(key, written, update.record)
+            plans.remember(key, written, update.record)
             if write.record is not None:
                 self._remember_fleet(fleet_key, fleet_written, write.record)
-        return answer[:2]
+        return answer
 
     def _learn(self, fleet_key: str, answer: list[Any]) -> None:
         """Keep what a fleet script answered of the fleet: its record when it moved on, and its
@@ -227,13 +190,13 @@ class FleetSteps(ABC):
             return
         if answer[0] == 4 or (answer[0] == 2 and answer[2]):
             self._parse_fleet(fleet_key, answer[2])
-        if answer[0] in (1, 2, 4):
+        if answer[0] in (1, 2, 4, 5):
             self._progress_of(fleet_key).learn(answer[3], int(answer[4]))
 
-    def _progress_of(self, fleet_key: str) -> _Progress:
+    def _progress_of(self, fleet_key: str) -> Progress:
         found = self._progress.get(fleet_key)
         if found is None:
-            found = self._progress[fleet_key] = _Progress()
+            found = self._progress[fleet_key] = Progress()
         return found
 
     async def put_fleet_plan(
@@ -241,23 +204,24 @@ class FleetSteps(ABC):
     ) -> None:
         key, fleet_key = scoped(plan_id), scoped(record["fleet"])
         json = orjson.dumps(record)
-        keys = [*_with_map(self._keys(key, record)), *_fleet_keys(fleet_key)]
-        async with self._locks.hold(_FLEET + fleet_key):
+        link = self._link
+        keys = [*_with_map(self._plans.keys(key, record)), *_fleet_keys(fleet_key)]
+        async with self._plans.locks.hold(_FLEET + fleet_key):
             fleet = await self._read_fleet(fleet_key)
             for _ in range(FLEET_TRIES):
                 state = self._progress_of(fleet_key).state(fleet[1])
-                new = stamp_robot(join(live_fleet(state, time.time())), plan_id, self._until())
+                new = stamp_robot(join(live_fleet(state, time.time())), plan_id, link.until())
                 fleet_args, fleet_version = _fleet_args(fleet[0], changes(state, new, plan_id))
                 version = random.getrandbits(62) + 1
                 args: list[bytes | int | str] = [
-                    b"%d %b" % (version, json), self._ttl_ms, pack(append), self._map_ttl_ms,
-                    self._max_plans, key, *fleet_args,
+                    b"%d %b" % (version, json), link.ttl_ms, pack(append), link.map_ttl_ms,
+                    link.max_plans, key, *fleet_args,
                 ]  # fmt: skip
-                with self._reaching:
-                    answer = await self._fleet_put(keys=keys, args=args)
+                with link.reaching:
+                    answer = await self._put(keys=keys, args=args)
                 self._learn(fleet_key, answer)
                 if answer[0] == 1:
-                    self._remember(key, version, orjson.loads(json))
+                    self._plans.remember(key, version, orjson.loads(json))
                     self._remember_fleet(fleet_key, fleet_version, new)
                     return
                 if answer[0] == 0:
@@ -277,27 +241,14 @@ class FleetSteps(ABC):
     async def _read_fleet(self, fleet_key: str) -> CachedFleet:
         """The fleet's record and its robots' progress, read at once (and kept)."""
         record, progress = _fleet_keys(fleet_key)
-        with self._reaching:
-            async with self._redis.pipeline(transaction=True) as pipe:
+        with self._link.reaching:
+            async with self._link.redis.pipeline(transaction=True) as pipe:
                 pipe.get(record)
                 pipe.hgetall(progress)
                 pipe.time()
                 value, robots, (seconds, micros) = await pipe.execute()
         self._progress_of(fleet_key).learn(robots, seconds * 1_000_000 + micros)
         return self._parse_fleet(fleet_key, value or b"")
-
-    async def _read_step(self, key: str, fleet_key: str) -> _Cached | None:
-        """A plan's record and its fleet's robots' progress, read at once: a step decided
-        again on a record another replica wrote decides on its own progress as that replica
-        left it (never on an older copy of it)."""
-        with self._reaching:
-            async with self._redis.pipeline(transaction=True) as pipe:
-                pipe.get(f"planner:plan:{key}")
-                pipe.hgetall(_fleet_keys(fleet_key)[1])
-                pipe.time()
-                value, robots, (seconds, micros) = await pipe.execute()
-        self._progress_of(fleet_key).learn(robots, seconds * 1_000_000 + micros)
-        return None if value is None else self._parse(key, value)
 
     def _parse_fleet(self, fleet_key: str, value: object) -> CachedFleet:
         assert isinstance(value, bytes)  # no decode_responses
@@ -319,13 +270,13 @@ class FleetSteps(ABC):
             self._progress.pop(gone, None)
         return entry
 
-    async def _leave(self, plan_id: str, key: str, fleet_key: str) -> bool:
+    async def leave(self, plan_id: str, key: str, fleet_key: str) -> bool:
         """Delete a fleet's plan and its robot in the fleet at once."""
         keys = [
             f"planner:plan:{key}", f"planner:path:{key}", plans_of(), f"planner:plan:{key}",
             *_fleet_keys(fleet_key),
         ]  # fmt: skip
-        async with self._locks.hold(_FLEET + fleet_key):
+        async with self._plans.locks.hold(_FLEET + fleet_key):
             fleet = await self._read_fleet(fleet_key)
             for _ in range(FLEET_TRIES):
                 state = self._progress_of(fleet_key).state(fleet[1])
@@ -336,10 +287,10 @@ class FleetSteps(ABC):
                 fleet_args, _ = _fleet_args(fleet[0], write)
                 if state is None or live is None or not live["robots"]:
                     fleet_args[1] = b""  # the fleet goes with its last robot
-                with self._reaching:
-                    answer = await self._fleet_delete(keys=keys, args=[key, *fleet_args])
+                with self._link.reaching:
+                    answer = await self._delete(keys=keys, args=[key, *fleet_args])
                 if answer[0] == 1:
-                    self._plans.pop(key, None)
+                    self._plans.copies.pop(key, None)
                     self._fleets.pop(fleet_key, None)
                     self._progress.pop(fleet_key, None)
                     return bool(answer[1])
@@ -347,66 +298,6 @@ class FleetSteps(ABC):
                 fleet = self._fleets.get(fleet_key) or await self._read_fleet(fleet_key)
         msg = f"plan_id: the fleet of plan {quote(plan_id)} is busy; retry later"
         raise StoreUnavailable(msg, field="plan_id")
-
-
-class _Progress:
-    """A fleet's robots' progress as this replica last read it (each robot's JSON, and parsed:
-    only the entries that changed are parsed again), and laid over the fleet's record."""
-
-    __slots__ = ("_at", "_merged", "_raw", "_record", "robots")
-
-    def __init__(self) -> None:
-        self._at = 0
-        self._raw: dict[bytes, bytes] = {}
-        self.robots: dict[str, dict[str, Any]] = {}
-        self._record: FleetRecord | None = None
-        self._merged: dict[str, dict[str, Any]] = {}
-
-    def state(self, record: FleetRecord | None) -> FleetRecord | None:
-        """The fleet's state: ``record`` with each robot's progress laid over its entry (the
-        robots' dict a copy of its own, their entries shared: a decision copies what it
-        changes)."""
-        if record is None:
-            return None
-        if record is not self._record:
-            self._record = record
-            self._merged = {
-                k: {**robot, **self.robots.get(k, {})} for k, robot in record["robots"].items()
-            }
-        return {**record, "robots": dict(self._merged)}
-
-    def learn(self, answer: list[bytes] | dict[bytes, bytes], at: int) -> None:
-        """Take the progress hash as Redis answered it (HGETALL: a flat list from a script, a
-        dict from the client) at Redis's time ``at`` (microseconds), unless a later one was
-        taken already: answers of calls in flight at once may come back in any order, and a
-        robot's own progress must never go back to an older copy."""
-        if at < self._at:
-            return
-        self._at = at
-        pairs = (
-            answer
-            if isinstance(answer, dict)
-            else dict(zip(answer[::2], answer[1::2], strict=True))
-        )
-        raw = self._raw
-        for robot, value in pairs.items():
-            if raw.get(robot) != value:
-                raw[robot] = value
-                self._lay(robot.decode(), orjson.loads(value))
-        if len(raw) != len(pairs):
-            for robot in [r for r in raw if r not in pairs]:
-                del raw[robot]
-                self._lay(robot.decode(), None)
-
-    def _lay(self, name: str, progress: dict[str, Any] | None) -> None:
-        """A robot's progress, new (None: gone), laid over its entry in the record."""
-        if progress is None:
-            self.robots.pop(name, None)
-        else:
-            self.robots[name] = progress
-        own = None if self._record is None else self._record["robots"].get(name)
-        if own is not None:  # replaced, never changed in place: decisions share the entries
-            self._merged[name] = {**own, **(progress or {})}
 
 
 def _fleet_keys(fleet_key: str) -> list[str]:

@@ -3,7 +3,7 @@ that the plan's map is still there and keeping its tenant's set of live plans.""
 
 from __future__ import annotations
 
-__all__ = ["FLEET_DELETE", "FLEET_PUT", "FLEET_STEP", "PUT", "STEP"]
+__all__ = ["FLEET_DELETE", "FLEET_PUT", "FLEET_STEP", "LIVE_MARKS", "OBSERVE", "PUT", "STEP"]
 
 # The time in Redis, in milliseconds: what the tenants' sets of plans are scored by.
 _NOW = """
@@ -21,23 +21,54 @@ local function map_gone(map_ttl)
 end
 """
 
+# A map's live marks now (docs/live.md; the hash KEYS[live]: cell -> the Redis time, ms, its
+# mark lapses): the cells not lapsed, in ascending order, separated by spaces. A step decided on
+# the marks this replica last heard (the SHA-1 of that string, ARGV[9]; '': it read none) is
+# written only if they are still the map's marks: else it answers them, to decide again on.
+_LIVE = """
+local function live_marks(key)
+  local clock = redis.call('TIME')
+  local ms = tonumber(clock[1]) * 1000 + math.floor(tonumber(clock[2]) / 1000)
+  local all = redis.call('HGETALL', key)
+  local out = {}
+  for k = 1, #all, 2 do
+    if tonumber(all[k + 1]) > ms then out[#out + 1] = tonumber(all[k]) end
+  end
+  table.sort(out)
+  return table.concat(out, ' ')
+end
+local function marks_moved(key, digest)
+  if digest == nil or digest == '' or not key then return false end
+  local marks = live_marks(key)
+  if redis.sha1hex(marks) == digest then return false end
+  return marks
+end
+"""
+
 # A step's one round trip: KEYS the plan, its path, its tenant's set of live plans (scored by
-# expiry) and its map (when the record names one); ARGV the version prefix the step decided
-# on, the new value ('' for none: a replay, only checked), the plan's TTL, the cells to append,
-# the map's TTL, the viewer's channel and message ('': none), the plan's member in the set.
+# expiry), its map and its map's live marks (when the record names one); ARGV the version
+# prefix the step decided on, the new value ('' for none: a replay, only checked), the plan's
+# TTL, the cells to append, the map's TTL, the viewer's channel and message ('': none), the
+# plan's member in the set, the digest of the marks decided on (see _LIVE).
 # Returns {1} (written, or checked), {0} (no such plan: nothing written), {2, value} (another
 # step wrote first: the plan's value now, to decide again on), {3} (its map is gone: nothing
-# written). Every write has a version of its own (random), so a value already there exactly as
-# this call would write it is this call's own write: the same call sent again (the client
-# resends once when an answer is lost) is {1}.
-STEP = (
+# written), {5, marks} (the map's marks moved on: to decide again on). {2, ...} carries the
+# map's marks too when they moved on ('' when not). Every write has a version of its own
+# (random), so a value already there exactly as this call would write it is this call's own
+# write: the same call sent again (the client resends once when an answer is lost) is {1}.
+_STEP = (
     _MAP_GONE
+    + _LIVE
     + """
 local now = redis.call('GET', KEYS[1])
 if not now then return {0} end
 if ARGV[2] ~= '' and now == ARGV[2] then return {1} end
-if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then return {2, now} end
+if string.sub(now, 1, #ARGV[1]) ~= ARGV[1] then
+  return {2, now, marks_moved(live_key, ARGV[9]) or ''}
+end
 if ARGV[2] == '' then return {1} end
+local moved_marks = marks_moved(live_key, ARGV[9])
+if moved_marks then return {5, moved_marks} end
 if map_gone(ARGV[5]) then return {3} end
 redis.call('SET', KEYS[1], ARGV[2], 'PX', ARGV[3])
 if ARGV[4] ~= '' then redis.call('APPEND', KEYS[2], ARGV[4]) end
@@ -51,6 +82,7 @@ if ARGV[6] ~= '' then redis.call('PUBLISH', ARGV[6], ARGV[7]) end
 return {1}
 """
 )
+STEP = "local live_key = KEYS[5]\n" + _STEP
 
 # A new plan (or a replaced one) in one round trip: the same keys; ARGV the value, the TTL, the
 # cells, the map's TTL, the tenant's cap of live plans ('0': none) and the plan's member.
@@ -131,31 +163,43 @@ def _edit(script: str, old: str, new: str) -> str:
 
 
 # A fleet robot's step in one round trip: STEP's keys and arguments, then the fleet's keys
-# (KEYS[5], KEYS[6]) and arguments (from ARGV[9]). Codes as STEP's, and 4.
-FLEET_STEP = _fleet(9) + _edit(
-    _edit(
+# (KEYS[5], KEYS[6]) and its map's marks (KEYS[7]), and the fleet's arguments (from ARGV[10]).
+# Codes as STEP's, and 4; {5, marks, '', progress, time} when the marks moved on.
+FLEET_STEP = (
+    "local live_key = KEYS[7]\n"
+    + _fleet(10)
+    + _edit(
         _edit(
             _edit(
                 _edit(
-                    STEP,
-                    "if not now then return {0} end",
-                    "if not now then return {0, '', '', {}} end",
+                    _edit(
+                        _edit(
+                            _STEP,
+                            "if moved_marks then return {5, moved_marks} end",
+                            "if moved_marks then\n"
+                            "  return {5, moved_marks, '', progress(), now_us()}\nend",
+                        ),
+                        "if not now then return {0} end",
+                        "if not now then return {0, '', '', {}} end",
+                    ),
+                    "if ARGV[2] ~= '' and now == ARGV[2] then return {1} end",
+                    "if ARGV[2] ~= '' and now == ARGV[2] then\n"
+                    "  return {1, '', '', progress(), now_us()}\nend",
                 ),
-                "if ARGV[2] ~= '' and now == ARGV[2] then return {1} end",
-                "if ARGV[2] ~= '' and now == ARGV[2] then\n"
-                "  return {1, '', '', progress(), now_us()}\nend",
+                "  return {2, now, marks_moved(live_key, ARGV[9]) or ''}\nend\n"
+                "if ARGV[2] == '' then return {1} end\n",
+                "  local marks = marks_moved(live_key, ARGV[9]) or ''\n"
+                "  return {2, now, fleet_moved() or '', progress(), now_us(), marks}\nend\n"
+                "if ARGV[2] == '' then return {1, '', '', progress(), now_us()} end\n"
+                "local moved = fleet_moved()\n"
+                "if moved then return {4, '', moved, progress(), now_us()} end\n",
             ),
-            "then return {2, now} end\nif ARGV[2] == '' then return {1} end\n",
-            "then return {2, now, fleet_moved() or '', progress(), now_us()} end\n"
-            "if ARGV[2] == '' then return {1, '', '', progress(), now_us()} end\n"
-            "local moved = fleet_moved()\n"
-            "if moved then return {4, '', moved, progress(), now_us()} end\n",
+            "if map_gone(ARGV[5]) then return {3} end",
+            "if map_gone(ARGV[5]) then return {3, '', '', {}} end",
         ),
-        "if map_gone(ARGV[5]) then return {3} end",
-        "if map_gone(ARGV[5]) then return {3, '', '', {}} end",
-    ),
-    "return {1}\n",
-    "write_fleet(ARGV[3])\nreturn {1, '', '', progress(), now_us()}\n",
+        "return {1}\n",
+        "write_fleet(ARGV[3])\nreturn {1, '', '', progress(), now_us()}\n",
+    )
 )
 
 # A new plan of a fleet, joining it: PUT's keys and arguments, then the fleet's (from ARGV[7]).
@@ -197,3 +241,54 @@ end
 return {1, gone}
 """
 )
+
+
+# A scan's update in one round trip: KEYS the map's marks; ARGV how long a mark lasts (ms), the
+# map's width, the cleared window's top, left, height and width, its cells as bits (row-major,
+# the first cell the high bit of the first byte), then the marked cells. Marks lapsed or
+# cleared go, the scan's are (re)marked; the key lasts as long as its last mark. Returns how
+# many marks the map has now, and them (as LIVE_MARKS answers them).
+OBSERVE = (
+    _NOW
+    + _LIVE
+    + """
+local W, top, left = tonumber(ARGV[2]), tonumber(ARGV[3]), tonumber(ARGV[4])
+local h, w, bits = tonumber(ARGV[5]), tonumber(ARGV[6]), ARGV[7]
+local all = redis.call('HGETALL', KEYS[1])
+local gone = {}
+for k = 1, #all, 2 do
+  local drop = tonumber(all[k + 1]) <= ms
+  if not drop then
+    local cell = tonumber(all[k])
+    local r, c = math.floor(cell / W) - top, cell % W - left
+    if r >= 0 and r < h and c >= 0 and c < w then
+      local i = r * w + c
+      drop = bit.band(string.byte(bits, math.floor(i / 8) + 1), bit.rshift(128, i % 8)) ~= 0
+    end
+  end
+  if drop then gone[#gone + 1] = all[k] end
+end
+for i = 1, #gone, 1000 do
+  redis.call('HDEL', KEYS[1], unpack(gone, i, math.min(i + 999, #gone)))
+end
+local lapse = string.format('%.0f', ms + tonumber(ARGV[1]))
+local marks = {}
+for i = 8, #ARGV do
+  marks[#marks + 1] = ARGV[i]
+  marks[#marks + 1] = lapse
+  if #marks >= 2000 then
+    redis.call('HSET', KEYS[1], unpack(marks))
+    marks = {}
+  end
+end
+if #marks > 0 then redis.call('HSET', KEYS[1], unpack(marks)) end
+local n = redis.call('HLEN', KEYS[1])
+if n > 0 and #ARGV > 7 and redis.call('PTTL', KEYS[1]) < tonumber(ARGV[1]) then
+  redis.call('PEXPIRE', KEYS[1], ARGV[1])
+end
+return {n, live_marks(KEYS[1])}
+"""
+)
+
+# The map's marks live now (KEYS[1]), as _LIVE writes them.
+LIVE_MARKS = _LIVE + "\nreturn live_marks(KEYS[1])\n"

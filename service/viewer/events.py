@@ -205,6 +205,10 @@ class EventBus(ABC):
     def __init__(self, hub: Hub) -> None:
         self.hub = hub
 
+    in_store = False
+    """Whether a store that publishes (``Store.publishes``) reaches this bus's subscribers:
+    then a step's event goes out with the step's write, in its round trip."""
+
     @abstractmethod
     async def publish(self, plan_id: str, event: bytes) -> None:
         """Send ``event`` (JSON) to the plan's current subscribers (never raises)."""
@@ -240,6 +244,8 @@ class RedisBus(EventBus):
     pub/sub connection carries every channel this process's streams listen to (subscribed
     when a plan's first stream opens, unsubscribed when its last closes), and one task reads
     it into the hub: a stream takes no connection of its own."""
+
+    in_store = True
 
     def __init__(self, url: str, hub: Hub) -> None:
         super().__init__(hub)

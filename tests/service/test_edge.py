@@ -14,14 +14,15 @@ from typing import Any
 
 import httpx
 import pytest
-from fastapi import APIRouter, FastAPI, Request, Response
+from fastapi import APIRouter, FastAPI, Response
 from fastapi.routing import APIRoute
 from pydantic import SecretStr
 
 from schemas import StepCreate
-from service.api.deps import OrjsonRoute
+from service.api.deps import EngineDep, OrjsonRoute
 from service.api.routes import plans
 from service.main import create_app
+from service.viewer.events import BusDep
 from service.work.engine import Engine
 from tests.service.conftest import SMALL
 
@@ -56,8 +57,8 @@ def _with_a_body_parameter(app: FastAPI) -> FastAPI:
     """The app, its step served first by a route that takes the body as FastAPI's own body
     parameter (FastAPI reads and validates it), then hands the request to the real step."""
 
-    async def step(plan_id: str, body: StepCreate, request: Request) -> Response:
-        return await plans.step(plan_id, request)
+    async def step(plan_id: str, body: StepCreate, engine: EngineDep, bus: BusDep) -> Response:
+        return await plans.step(plan_id, body, engine, bus)
 
     reference = APIRouter(route_class=OrjsonRoute)
     reference.add_api_route("/plan/{plan_id}/step", step, methods=["POST"])

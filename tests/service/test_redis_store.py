@@ -17,8 +17,7 @@ from pydantic import ValidationError
 import planner
 from service.config import Settings
 from service.errors import StoreUnavailable
-from service.stores import MemoryStore, PlanRecord, RedisStore, open_store
-from service.stores import redis as redis_store
+from service.stores import MemoryStore, PlanRecord, RedisStore, open_store, redis_link, redis_plans
 from service.stores import scripts as redis_scripts
 from service.stores.base import Decide, Update
 from service.viewer.events import Hub, RedisBus, Subscription
@@ -324,7 +323,7 @@ async def test_steps_on_many_plans_at_once_share_round_trips(store: RedisStore) 
     for i, plan_id in enumerate(plans):
         assert await store.get_plan(plan_id) == {"n": 100 * i + 5}
         assert await store.get_trajectory(plan_id) == [(100 * i + k, 0) for k in range(6)]
-    assert 0 < store._step.pipelines < 5 * 12  # some shared a round trip
+    assert 0 < store.plans.steps.pipelines < 5 * 12  # some shared a round trip
 
 
 @pytest.mark.anyio
@@ -395,7 +394,7 @@ async def test_a_silent_redis_times_out_as_unavailable(
 ) -> None:
     """An answer that never comes fails the step within the socket timeout (tried twice), and
     the connection is not reused."""
-    monkeypatch.setattr(redis_store, "SOCKET_TIMEOUT", 0.2)
+    monkeypatch.setattr(redis_link, "SOCKET_TIMEOUT", 0.2)
     store = RedisStore(relay.url, ttl_seconds=60)
     try:
         await store.put_plan("p", {"n": 0})
@@ -489,7 +488,7 @@ async def test_redis_py_options_in_the_url_are_honoured(redis_server: RedisServe
 async def test_a_step_that_keeps_losing_the_race_gets_503(
     redis_server: RedisServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(redis_store, "STEP_TRIES", 3)
+    monkeypatch.setattr(redis_plans, "STEP_TRIES", 3)
     a = RedisStore(redis_server.url, ttl_seconds=60)
     b = RedisStore(redis_server.url, ttl_seconds=60)
     tries: list[int] = []
@@ -566,11 +565,11 @@ async def test_records_written_before_versions_are_stepped_on(store: RedisStore)
 async def test_the_cache_of_records_is_bounded(
     store: RedisStore, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(redis_store, "CACHED_PLANS", 3)
+    monkeypatch.setattr(redis_plans, "CACHED_PLANS", 3)
     for i in range(10):
         await store.put_plan(f"p{i}", {"n": 0})
         await store.update_plan(f"p{i}", _count())
-    assert list(store._plans) == ["p7", "p8", "p9"]
+    assert list(store.plans.copies) == ["p7", "p8", "p9"]
     update = await store.update_plan("p0", _count())  # read again
     assert update is not None
     assert update.answer == 2

@@ -6,7 +6,7 @@ import time
 from typing import Annotated, Any, Literal
 
 import orjson
-from fastapi import APIRouter, FastAPI, Query, Request, Response, status
+from fastapi import APIRouter, FastAPI, Query, Response, status
 from fastapi.routing import APIRoute
 
 from schemas import (
@@ -21,17 +21,10 @@ from schemas import (
     StepPublic,
 )
 from service.api import present
-from service.api.deps import (
-    PNG_ROUTE,
-    CellQuery,
-    EngineDep,
-    OrjsonRoute,
-    check_query,
-    json_body,
-)
+from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, OrjsonRoute, StepBody
 from service.errors import responses
 from service.resources import plans
-from service.viewer.events import EventBus, RedisBus, channel
+from service.viewer.events import BusDep, EventBus, channel
 from service.work.engine import Engine
 
 __all__ = ["add_step_route", "router"]
@@ -44,10 +37,10 @@ STEP_BODY = {
         "content": {"application/json": {"schema": {"$ref": "#/components/schemas/StepCreate"}}},
     }
 }
-"""The step's body in ``/docs``: the route reads it itself (:func:`json_body`)."""
+"""The step's body in ``/docs``: its dependency reads it (:data:`StepBody`)."""
 
 
-async def step(plan_id: str, request: Request) -> Response:
+async def step(plan_id: str, body: StepBody, engine: EngineDep, bus: BusDep) -> Response:
     """Give the dynamic obstacles now, as cells and circles `{x, y, radius}` in meters (and
     optionally where the robot really is, a cell or a point `{x, y, yaw?}`); the answer is the
     cell to move to (and its center `position_xy`), which the service records, and the path
@@ -55,31 +48,30 @@ async def step(plan_id: str, request: Request) -> Response:
     obstacles) with `remaining_m`. `seq`, when given, must be
     the last step's `seq` + 1; the last `seq` again returns the same answer without moving the
     robot (a safe retry); anything else is `409`. Steps on one plan are served one at a time."""
-    if request.scope["query_string"]:
-        check_query(request, NO_QUERY)
-    body = await json_body(request, StepCreate)
-    state = request.app.state
-    engine: Engine = state.engine
-    bus: EventBus = state.bus
+    # Built and encoded directly: `response_model` documents it, and
+    # tests/service/test_api.py checks that its answers validate as StepPublic.
+    answer = await _stepped(engine, bus, plan_id, body)
+    return Response(orjson.dumps(answer), media_type="application/json")
+
+
+async def _stepped(engine: Engine, bus: EventBus, plan_id: str, body: StepCreate) -> dict[str, Any]:
+    """The step's answer, its event published for the live viewer: with the step's write when
+    the store reaches the bus (a step decided again, when another replica wrote first, makes
+    its event again), else after it, when anyone listens."""
     made: list[tuple[plans.StepView, dict[str, Any]]] = []  # the answer, built once
 
     def event(view: plans.StepView) -> tuple[str, bytes]:
         made.append((view, present.step_answer(view)))
         return channel(plan_id), orjson.dumps(_event(made[-1][1], view))
 
-    if isinstance(bus, RedisBus) and engine.store.publishes:
-        # Redis: the step's write publishes its event in the same round trip (a step decided
-        # again, when another replica wrote first, makes its event again).
+    if bus.in_store and engine.store.publishes:
         view = await plans.step(engine, plan_id, body, event=event)
-        answer = made[-1][1] if made and made[-1][0] is view else present.step_answer(view)
-    else:
-        view = await plans.step(engine, plan_id, body)
-        answer = present.step_answer(view)
-        if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
-            await bus.publish(plan_id, orjson.dumps(_event(answer, view)))
-    # Built and encoded directly: `response_model` documents it, and
-    # tests/service/test_api.py checks that its answers validate as StepPublic.
-    return Response(orjson.dumps(answer), media_type="application/json")
+        return made[-1][1] if made and made[-1][0] is view else present.step_answer(view)
+    view = await plans.step(engine, plan_id, body)
+    answer = present.step_answer(view)
+    if not view.replayed and bus.listening(plan_id):  # a retry is not a new step
+        await bus.publish(plan_id, orjson.dumps(_event(answer, view)))
+    return answer
 
 
 def add_step_route(app: FastAPI) -> APIRoute:
@@ -87,9 +79,9 @@ def add_step_route(app: FastAPI) -> APIRoute:
 
     A step is the hot request. FastAPI matches the routes of an included router (``router``)
     through a layer of its own on every request; a route of the app is matched directly. It is a
-    plain ``APIRoute``: the step reads and checks its body itself (``json_body``,
-    ``check_query``), so ``OrjsonRoute``'s second ``Request`` and second look at the body would
-    be work done twice."""
+    plain ``APIRoute``: its body's dependency reads and checks it (``StepBody``), so
+    ``OrjsonRoute``'s second ``Request`` and second look at the body would be work done
+    twice."""
     app.add_api_route(
         "/plan/{plan_id}/step",
         step,
@@ -103,11 +95,6 @@ def add_step_route(app: FastAPI) -> APIRoute:
     route = app.router.routes[-1]
     assert isinstance(route, APIRoute)
     return route
-
-
-NO_QUERY: frozenset[str] = frozenset()
-"""The step takes no query parameter: any is refused (422), as every route refuses those it
-does not take."""
 
 
 def _event(answer: dict[str, Any], view: plans.StepView) -> dict[str, Any]:
