@@ -56,8 +56,9 @@ def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int
     trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), math.ceil(step))
     skeleton = trunk & (clear < step)
     order = _chain_order(np.ascontiguousarray(skeleton), clear)
-    # A piece of free space too small for chain or lattice still gets its widest cell.
-    labels, pieces = ndimage.label(free, np.ones((3, 3), dtype=bool))
+    # A piece of free space too small for chain or lattice still gets its widest cell (pieces
+    # 4-connected: a robot crosses no zero-width diagonal gap).
+    labels, pieces = ndimage.label(free)
     widest = ndimage.maximum_position(clear, labels, np.arange(1, pieces + 1))
     fill = np.array([r * free.shape[1] + c for r, c in widest], dtype=np.int64)
     minimum = separation + 0.5
