@@ -138,6 +138,33 @@ def test_every_corridor_a_robot_fits_through_joins_the_rooms(radius: float, extr
     _check_separation(graph)
 
 
+def _turning(width_cells: int, turn: str, rotation: int, arm: int = 50) -> list[list[int]]:
+    """A corridor ``width_cells`` wide turning a right angle (``"L"``) or two (``"U"``), its
+    arms ``arm`` cells long, rotated ``rotation`` quarter turns."""
+    grid = np.ones((arm + 4, arm + 4), dtype=np.uint8)
+    grid[2 : 2 + width_cells, 2 : arm + 2] = 0
+    grid[2 : arm + 2, arm + 2 - width_cells : arm + 2] = 0
+    if turn == "U":
+        grid[arm + 2 - width_cells : arm + 2, 2 : arm + 2] = 0
+    rows: list[list[int]] = np.rot90(grid, rotation).tolist()
+    return rows
+
+
+@pytest.mark.parametrize("radius", [0.15, 0.3])
+@pytest.mark.parametrize("extra", [0.05, 0.2, 0.4])
+def test_a_corridor_turning_corners_is_one_lane_round_them(radius: float, extra: float) -> None:
+    """Nodes either side of a corner would cut it (the medial axis rounds it off): a node on
+    the corner itself sees down both arms. Every cell a robot's center fits on joins the
+    roadmap, and the roadmap is one piece."""
+    for turn, rotation in [("L", 0), ("L", 1), ("L", 2), ("L", 3), ("U", 0)]:
+        rows = _turning(round((2 * radius + extra) / 0.05), turn, rotation)
+        analysis, graph = _synthetic(rows, radius)
+        joins = attach_all(graph, analysis, np.argwhere(analysis.state != 1))
+        assert (joins >= 0).all(), (turn, rotation)
+        assert len(set(naive_roadmap.components(graph)[joins].tolist())) == 1, (turn, rotation)
+        _check_separation(graph)
+
+
 def _pairs(analysis: planner.Analysis, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Random pairs of two cells a single ``wide`` plan travels between: benchmarks/roadmap.py's."""
     from tests.scripts import load_benchmark
