@@ -1,6 +1,7 @@
 """The fleet roadmap on the shared ROS maps: build time, node and edge counts, coverage (random
-pairs of cells a single robot can travel between, joined through the roadmap) and route length
-(the roadmap's shortest route against the single-robot ``wide`` plan's path)::
+pairs of cells a single robot's ``wide`` plan travels between, joined through the roadmap: the
+goal at its nearest node, the start at the node that leads there best) and route length (that
+route, its straight ends included, against the single-robot ``wide`` plan's path)::
 
     .venv/bin/python benchmarks/roadmap.py                 # every map, r = 0.15, 0.22, 0.3
     .venv/bin/python benchmarks/roadmap.py --pairs 200 --plans 100
@@ -102,10 +103,11 @@ def main() -> None:
     for name in args.maps:
         for radius in args.radii:
             m = measure(name, radius, args.pairs, args.plans, args.seed)
+            covered = f"{m['covered']:.1%} of {m['pairs']}" if m["pairs"] else "no two cells"
+            median, p90 = (f"{m[k]:.3f}" if k in m else "-" for k in ("median", "p90"))
             print(
                 f"| {name} | {radius:g} | {m['nodes']} | {m['edges']} | {m['build_ms']:.1f} | "
-                f"{m['covered']:.1%} of {m['pairs']} | {m.get('median', float('nan')):.3f} | "
-                f"{m.get('p90', float('nan')):.3f} |",
+                f"{covered} | {median} | {p90} |",
                 flush=True,
             )
 

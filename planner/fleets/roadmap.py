@@ -9,7 +9,7 @@ triangular lattice fills open floor.
 >>> a = planner.analyse_map(m, planner.resolve_params("wide", robot_radius=0.1, unknown="free"))
 >>> g = build_roadmap(a, radius=0.1)
 >>> g.nodes, g.edges, attach(g, a, [0, 0])
-(21, 39, 6)
+(20, 37, 6)
 """
 
 from __future__ import annotations
