@@ -341,7 +341,7 @@ def _attach(
     rows: npt.NDArray[np.int64],
 ) -> npt.NDArray[np.int64]:
     """For each query cell, of the nodes in reach, in sight and not taken, the one of least
-    straight distance plus ``togo[rows[q]]`` (finite first), nearest first on ties; -1 if
+    straight distance plus ``togo[rows[q]]`` (finite first), the nearest on ties; -1 if
     none. Nodes are tried nearest first, and the search stops where the distance alone
     exceeds the best found (``togo`` is never negative)."""
     out = np.full(query.shape[0], -1, dtype=np.int64)
@@ -358,7 +358,7 @@ def _attach(
             if nearest < 0:
                 nearest = k
             score = math.sqrt(d[k]) + togo[rows[q], k]
-            if score < best:
+            if score < best - 1e-9:  # a nearer node keeps a tie (up to rounding)
                 best, out[q] = score, k
         if out[q] < 0:
             out[q] = nearest

@@ -14,7 +14,8 @@ import pytest
 
 import planner
 from planner.fleets.graph import Graph, grid_graph
-from planner.fleets.roadmap import attach, attach_all, build_roadmap
+from planner.fleets.roadmap import ATTACH_REACH, attach, attach_all, build_roadmap
+from planner.fleets.roadmap_nodes import spacing
 from planner.fleets.segments import segment_distance, supercover
 from tests import naive_roadmap
 from tests.conftest import ROS_MAP_NAMES
@@ -343,6 +344,18 @@ def test_a_start_heading_for_a_node_joins_the_node_that_leads_there_best() -> No
     assert attach(graph, analysis, start, toward=int(inside[0])) == inside[1]
     with pytest.raises(planner.InvalidInput, match="toward"):
         attach(graph, analysis, start, toward=graph.nodes)
+
+
+def test_attach_is_the_reference(ros: Path) -> None:
+    analysis, graph = _ros(ros, "smoothers_world", 0.3)
+    free = analysis.state != 1
+    rng = np.random.default_rng(4)
+    cells = np.argwhere(free)[rng.integers(int(free.sum()), size=60)]
+    toward = rng.integers(-1, graph.nodes, size=60)
+    reach = ATTACH_REACH * spacing(graph.radius / graph.resolution)
+    got = attach_all(graph, analysis, cells, toward=toward)
+    for cell, node, want in zip(cells.tolist(), toward.tolist(), got.tolist(), strict=True):
+        assert naive_roadmap.attach(graph, free, tuple(cell), reach, node) == want, (cell, node)
 
 
 def test_bad_input_is_refused() -> None:
