@@ -162,6 +162,8 @@ def _bends(
                 fa = u
             if fb == b and _sq(u, b, W) < _sq(u, a, W):
                 fb = u
+        if min(depth[fa], depth[fb]) < 2 * arm:
+            continue  # a chain's end curling, not a bend between two lengths of chain
         found[n], turn[n] = k, -(1.0 + cos)
         best = arm * arm + 1
         for xr in range(max(0, r - arm), min(H, r + arm + 1)):
