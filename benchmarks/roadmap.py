@@ -1,6 +1,7 @@
 """The fleet roadmap on the shared ROS maps: build time, node and edge counts, coverage (random
-pairs of cells a single robot can travel between, joined through the roadmap) and route length
-(the roadmap's shortest route against the single-robot ``wide`` plan's path)::
+pairs of cells a single robot's ``wide`` plan travels between, joined through the roadmap: the
+goal at its nearest node, the start at the node that leads there best) and route length (that
+route, its straight ends included, against the single-robot ``wide`` plan's path)::
 
     .venv/bin/python benchmarks/roadmap.py                 # every map, r = 0.15, 0.22, 0.3
     .venv/bin/python benchmarks/roadmap.py --pairs 200 --plans 100
@@ -30,17 +31,22 @@ MAPS = ("depot", "smoothers_world", "tb3_sandbox", "TenByTen", "testmap")
 def reachable_pairs(
     analysis: planner.Analysis, count: int, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` pairs of free cells in one 8-connected region of free cells, the region
-    chosen in proportion to its size."""
+    """``count`` pairs of two different cells a single robot's ``wide`` plan travels between:
+    cells not blocked (tight tunnels too: the plan falls back to them) in one 4-connected
+    region (a diagonal move needs both cells beside it free, so 8-connected moves join
+    exactly the cells 4-connected ones do). The start is any cell of a region of two cells
+    or more, the goal any other cell of its region."""
     free = analysis.state != 1
-    labels, _ = ndimage.label(free, np.ones((3, 3), dtype=bool))
-    cells = np.argwhere(free)
+    labels, _ = ndimage.label(free)
+    sizes = np.bincount(labels.ravel())
+    cells = np.argwhere(free & (sizes[labels] >= 2))
     if len(cells) == 0:
         return np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
     starts = cells[rng.integers(len(cells), size=count)]
     goals = np.empty_like(starts)
     for k, (r, c) in enumerate(starts.tolist()):
         same = np.argwhere(labels == labels[r, c])
+        same = same[(same[:, 0] != r) | (same[:, 1] != c)]
         goals[k] = same[rng.integers(len(same))]
     return starts, goals
 
@@ -54,8 +60,8 @@ def measure(name: str, radius: float, pairs: int, plans: int, seed: int) -> dict
     build_ms = (time.perf_counter() - t0) * 1e3
     rng = np.random.default_rng(seed)
     starts, goals = reachable_pairs(analysis, pairs, rng)
-    s_nodes = attach_all(graph, analysis, starts)
     g_nodes = attach_all(graph, analysis, goals)
+    s_nodes = attach_all(graph, analysis, starts, toward=g_nodes)
     labels = naive_roadmap.components(graph) if graph.nodes else np.zeros(0, np.int64)
     joined = (s_nodes >= 0) & (g_nodes >= 0)
     joined[joined] &= labels[s_nodes[joined]] == labels[g_nodes[joined]]
@@ -69,8 +75,6 @@ def measure(name: str, radius: float, pairs: int, plans: int, seed: int) -> dict
     ratios = []
     for k in np.flatnonzero(joined)[:plans].tolist():
         s, g = starts[k], goals[k]
-        if (s == g).all():
-            continue
         plan = planner.plan(
             robot_map, s.tolist(), g.tolist(), preset="wide", analysis=analysis,
             robot_radius=radius,
@@ -99,10 +103,11 @@ def main() -> None:
     for name in args.maps:
         for radius in args.radii:
             m = measure(name, radius, args.pairs, args.plans, args.seed)
+            covered = f"{m['covered']:.1%} of {m['pairs']}" if m["pairs"] else "no two cells"
+            median, p90 = (f"{m[k]:.3f}" if k in m else "-" for k in ("median", "p90"))
             print(
                 f"| {name} | {radius:g} | {m['nodes']} | {m['edges']} | {m['build_ms']:.1f} | "
-                f"{m['covered']:.1%} of {m['pairs']} | {m.get('median', float('nan')):.3f} | "
-                f"{m.get('p90', float('nan')):.3f} |",
+                f"{covered} | {median} | {p90} |",
                 flush=True,
             )
 

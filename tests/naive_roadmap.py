@@ -1,6 +1,6 @@
 """Slow, obvious references for the fleet roadmap: the supercover of a segment by exact
 rational arithmetic, every pair of disjoint roadmap elements closer than the separation (by
-integer geometry), and routes through the roadmap by Dijkstra."""
+integer geometry), routes through the roadmap by Dijkstra, and the node a cell joins."""
 
 from __future__ import annotations
 
@@ -154,3 +154,27 @@ def route_lengths(
             + np.hypot(*(graph.cells[g_nodes[k]] - goals[k]))
         )
     return out
+
+
+def attach(graph: Graph, free: np.ndarray, cell: tuple[int, int], reach: float, toward: int) -> int:
+    """The node ``cell`` joins: of the nodes within ``reach`` cells whose straight move from
+    ``cell`` is free (every cell of its exact supercover), the one of least move length plus
+    the shortest route's length on to ``toward`` (-1: plus nothing), the nearer on ties; the
+    nearest such node when none leads to ``toward``; -1 when there is none."""
+    d = np.hypot(*(graph.cells - np.array(cell)).T)
+    togo = (
+        np.zeros(graph.nodes)
+        if toward < 0
+        else dijkstra(lengths_matrix(graph), directed=False, indices=toward)
+    )
+    seen = [
+        k
+        for k in np.argsort(d, kind="stable").tolist()
+        if d[k] <= reach and all(free[c] for c in supercover(cell, tuple(graph.cells[k].tolist())))
+    ]
+    if not seen:
+        return -1
+    least = min(d[k] + togo[k] for k in seen)
+    if not np.isfinite(least):
+        return int(seen[0])
+    return int(next(k for k in seen if d[k] + togo[k] <= least + 1e-9))  # ties: the nearest

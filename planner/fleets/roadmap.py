@@ -9,7 +9,7 @@ triangular lattice fills open floor.
 >>> a = planner.analyse_map(m, planner.resolve_params("wide", robot_radius=0.1, unknown="free"))
 >>> g = build_roadmap(a, radius=0.1)
 >>> g.nodes, g.edges, attach(g, a, [0, 0])
-(21, 39, 6)
+(20, 37, 6)
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from numba import njit
 from planner.analysis.analyse import Analysis
 from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, quote
+from planner.fleets.distances import cost_distances
 from planner.fleets.graph import Graph, grid_graph
 from planner.fleets.roadmap_nodes import roadmap_nodes, spacing
 from planner.fleets.roadmap_repair import join_pieces
@@ -52,7 +53,10 @@ def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Gr
     Costs: the length in cells, plus with ``wide`` the ``clean`` penalty of each cell the move
     enters (its 8-connected line), as the single-robot ``wide`` preset pays it. When
     ``2 * radius`` is at most a cell, the roadmap is the free cells, 4-connected
-    (:func:`~planner.fleets.graph.grid_graph`).
+    (:func:`~planner.fleets.graph.grid_graph`); when it is less than half a cell's diagonal
+    (but not 0: a point robot moves as the Moving AI MAPF agents do), one diagonal of each
+    free 2 x 2 block joins them too, the two directions in a checkerboard so that a diagonal
+    run of either way has a lane of diagonals one cell aside.
     """
     if not isinstance(analysis, Analysis):
         msg = f"analysis: an Analysis expected; {type(analysis).__name__} given"
@@ -72,6 +76,10 @@ def build_roadmap(analysis: Analysis, *, radius: float, wide: bool = True) -> Gr
     if separation <= 1.0:
         g = grid_graph(free, resolution=resolution)
         nodes, edges = g.cells, _pairs(g)
+        if separation > 0.0 and separation * separation + _SLACK < 0.5:
+            pairs = np.ascontiguousarray(np.concatenate([edges, _diagonals(free)]))
+            keep = _accept(free, nodes, pairs, separation * separation + _SLACK, 1.5)
+            edges = pairs[keep]
     else:
         nodes = roadmap_nodes(free, separation)
         edges = _edges(free, nodes, separation)
@@ -102,6 +110,19 @@ def _edges(
     keep = _accept(free, nodes, pairs, separation * separation + _SLACK, reach)
     out: npt.NDArray[np.int64] = pairs[keep]
     return out
+
+
+def _diagonals(free: npt.NDArray[np.bool_]) -> npt.NDArray[np.int64]:
+    """One diagonal ``[a, b]`` (node numbers: free cells in row-major order) of each 2 x 2
+    block of free cells: from its top left where its top left cell's row + column is even,
+    else from its top right."""
+    index = np.cumsum(free.ravel()).reshape(free.shape) - 1
+    block = free[:-1, :-1] & free[:-1, 1:] & free[1:, :-1] & free[1:, 1:]
+    rows, cols = np.nonzero(block)
+    down = (rows + cols) % 2 == 0
+    a = np.where(down, index[rows, cols], index[rows, cols + 1])
+    b = np.where(down, index[rows + 1, cols + 1], index[rows + 1, cols])
+    return np.stack([a, b], axis=1).astype(np.int64)
 
 
 def _pairs(g: Graph) -> npt.NDArray[np.int64]:
@@ -252,17 +273,22 @@ def _accept(
     return keep
 
 
-def attach(graph: Graph, analysis: Analysis, cell: Any, *, exclude: Any = ()) -> int:
-    """The node a robot at ``cell`` (``[row, col]``) joins: the nearest node it reaches by a
-    straight move whose every cell is free, within two lattice spacings, and not one of
-    ``exclude`` (nodes other robots join); -1 if none."""
-    return int(attach_all(graph, analysis, [cell], exclude=exclude)[0])
+def attach(
+    graph: Graph, analysis: Analysis, cell: Any, *, exclude: Any = (), toward: int = -1
+) -> int:
+    """The node a robot at ``cell`` (``[row, col]``) joins, by a straight move whose every
+    cell is free, within two lattice spacings, and not one of ``exclude`` (nodes other robots
+    join): the nearest; or, heading for node ``toward``, the one whose move there plus the
+    roadmap's shortest route on to ``toward`` is least (no joining behind and coming back past
+    the start), the nearest when none leads there. -1 if none."""
+    return int(attach_all(graph, analysis, [cell], exclude=exclude, toward=[toward])[0])
 
 
 def attach_all(
-    graph: Graph, analysis: Analysis, cells: Any, *, exclude: Any = ()
+    graph: Graph, analysis: Analysis, cells: Any, *, exclude: Any = (), toward: Any = None
 ) -> npt.NDArray[np.int64]:
-    """:func:`attach` for each of ``cells`` (``(k, 2)``)."""
+    """:func:`attach` for each of ``cells`` (``(k, 2)``), heading for ``toward`` (``k``
+    nodes, -1 for the nearest; None: the nearest for all)."""
     if analysis.shape != graph.shape:
         msg = f"analysis of shape {analysis.shape!r} for a graph of shape {graph.shape!r}"
         raise InvalidInput(msg, field="analysis")
@@ -270,14 +296,38 @@ def attach_all(
     if query.ndim != 2 or query.shape[1] != 2 or not np.issubdtype(query.dtype, np.integer):
         msg = f"cells: a (k, 2) array of [row, col] integers expected; {quote(cells)} given"
         raise InvalidInput(msg, field="cells")
+    heading = np.full(len(query), -1, dtype=np.int64) if toward is None else np.asarray(toward)
+    if heading.shape != (len(query),) or not np.issubdtype(heading.dtype, np.integer):
+        msg = f"toward: one node (or -1) per cell expected; {quote(toward)} given"
+        raise InvalidInput(msg, field="toward")
+    if len(heading) and not (heading.min() >= -1 and heading.max() < graph.nodes):
+        msg = f"toward: nodes in 0..{graph.nodes - 1} (or -1) expected; {quote(toward)} given"
+        raise InvalidInput(msg, field="toward")
+    # Row 0 costs nothing (the nearest node); row i + 1 is the cost to the i-th node headed for.
+    targets, row = np.unique(heading[heading >= 0], return_inverse=True)
+    togo = np.zeros((1 + len(targets), graph.nodes))
+    togo[1:] = cost_distances(_by_length(graph), targets)
+    rows = np.zeros(len(heading), dtype=np.int64)
+    rows[heading >= 0] = row + 1
     free = np.ascontiguousarray(analysis.state != BLOCKED_CELL)
     reach = ATTACH_REACH * spacing(graph.radius / graph.resolution)
     taken = np.zeros(graph.nodes, dtype=np.bool_)
     taken[np.asarray(list(exclude), dtype=np.int64)] = True
     out: npt.NDArray[np.int64] = _attach(
-        free, np.ascontiguousarray(graph.cells), query.astype(np.int64), reach * reach, taken
-    )
+        free, np.ascontiguousarray(graph.cells), query.astype(np.int64), reach * reach, taken,
+        togo, rows,
+    )  # fmt: skip
     return out
+
+
+def _by_length(graph: Graph) -> Graph:
+    """``graph`` with each edge's length for its cost: a route's length, like a move's."""
+    source = np.repeat(np.arange(graph.nodes), np.diff(graph.indptr))
+    d = (graph.cells[graph.indices] - graph.cells[source]).astype(np.float64)
+    return Graph(
+        graph.cells, graph.indptr, graph.indices, np.hypot(d[:, 0], d[:, 1]), graph.shape,
+        radius=graph.radius, resolution=graph.resolution,
+    )  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -287,18 +337,29 @@ def _attach(
     query: npt.NDArray[np.int64],
     reach_sq: float,
     taken: npt.NDArray[np.bool_],
+    togo: npt.NDArray[np.float64],
+    rows: npt.NDArray[np.int64],
 ) -> npt.NDArray[np.int64]:
+    """For each query cell, of the nodes in reach, in sight and not taken, the one of least
+    straight distance plus ``togo[rows[q]]`` (finite first), the nearest on ties; -1 if
+    none. Nodes are tried nearest first, and the search stops where the distance alone
+    exceeds the best found (``togo`` is never negative)."""
     out = np.full(query.shape[0], -1, dtype=np.int64)
     for q in range(query.shape[0]):
         r, c = query[q, 0], query[q, 1]
         d = (nodes[:, 0] - r) ** 2 + (nodes[:, 1] - c) ** 2
         order = np.argsort(d, kind="mergesort")
+        best, nearest = np.inf, -1
         for k in order:
-            if d[k] > reach_sq:
+            if d[k] > reach_sq or math.sqrt(d[k]) >= best:
                 break
-            if taken[k]:
+            if taken[k] or not segment_free(free, r, c, nodes[k, 0], nodes[k, 1]):
                 continue
-            if segment_free(free, r, c, nodes[k, 0], nodes[k, 1]):
-                out[q] = k
-                break
+            if nearest < 0:
+                nearest = k
+            score = math.sqrt(d[k]) + togo[rows[q], k]
+            if score < best - 1e-9:  # a nearer node keeps a tie (up to rounding)
+                best, out[q] = score, k
+        if out[q] < 0:
+            out[q] = nearest
     return out

@@ -21,6 +21,7 @@ from numba import njit
 from scipy import ndimage
 
 from planner.analysis.medial import medial_axis
+from planner.fleets.segments import segment_free
 
 __all__ = ["SNAP_MARGIN", "roadmap_nodes", "spacing"]
 
@@ -55,12 +56,14 @@ def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int
     step = spacing(separation / 2.0)
     trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), math.ceil(step))
     skeleton = trunk & (clear < step)
-    order = _chain_order(np.ascontiguousarray(skeleton), clear)
-    # A piece of free space too small for chain or lattice still gets its widest cell.
-    labels, pieces = ndimage.label(free, np.ones((3, 3), dtype=bool))
+    minimum = separation + 0.5  # nodes snapped to cells: half a cell more
+    bends = _bends(free, np.ascontiguousarray(skeleton), math.ceil(minimum / 2.0))
+    order = _chain_order(np.ascontiguousarray(skeleton), clear, bends)
+    # A piece of free space too small for chain or lattice still gets its widest cell (pieces
+    # 4-connected: a robot crosses no zero-width diagonal gap).
+    labels, pieces = ndimage.label(free)
     widest = ndimage.maximum_position(clear, labels, np.arange(1, pieces + 1))
     fill = np.array([r * free.shape[1] + c for r, c in widest], dtype=np.int64)
-    minimum = separation + 0.5
     nodes: npt.NDArray[np.int64] = _place(
         free, order, minimum, step * math.sqrt(3.0) / 2.0, step, fill
     )
@@ -96,13 +99,100 @@ def _prune(skeleton: npt.NDArray[np.bool_], rounds: int) -> npt.NDArray[np.bool_
     return out
 
 
+#: A chain bends where its two arms turn by more than this: 1 - cos(35 degrees).
+BEND = 1.0 - math.cos(math.radians(35.0))
+
+
+@njit(cache=True, nogil=True)
+def _bends(
+    free: npt.NDArray[np.bool_], skeleton: npt.NDArray[np.bool_], arm: int
+) -> npt.NDArray[np.int64]:
+    """Where chains bend, sharpest first (flat cells). A skeleton cell is a bend when, of its
+    skeleton cells ``arm`` steps away (breadth first along the skeleton), two are more than
+    ``arm`` cells apart and the directions to them turn by more than ``BEND``. Its node goes
+    on the free cell nearest it (within ``arm``) that sees both arms ``4 * arm`` steps on (or
+    to their ends): in a narrow corridor turning a corner, the corner, from where straight
+    edges run down both arms (nodes either side of it would cut the corner; the medial axis
+    itself rounds it off)."""
+    H, W = skeleton.shape
+    cells = np.flatnonzero(skeleton.ravel())
+    stamp = np.zeros(H * W, dtype=np.int64)
+    depth = np.zeros(H * W, dtype=np.int64)
+    queue = np.empty((8 * arm + 3) ** 2, dtype=np.int64)
+    found = np.empty(cells.size, dtype=np.int64)
+    turn = np.empty(cells.size, dtype=np.float64)
+    n = 0
+    for i in range(cells.size):
+        k = cells[i]
+        r, c = k // W, k % W
+        stamp[k], depth[k], queue[0] = i + 1, 0, k
+        head, tail = 0, 1
+        while head < tail:
+            u = queue[head]
+            head += 1
+            if depth[u] == 4 * arm:
+                continue
+            ur, uc = u // W, u % W
+            for vr in range(max(0, ur - 1), min(H, ur + 2)):
+                for vc in range(max(0, uc - 1), min(W, uc + 2)):
+                    v = vr * W + vc
+                    if skeleton[vr, vc] and stamp[v] != i + 1 and tail < queue.size:
+                        stamp[v], depth[v] = i + 1, depth[u] + 1
+                        queue[tail] = v
+                        tail += 1
+        a, b, most = -1, -1, -1
+        for j in range(tail):
+            if depth[queue[j]] == arm:
+                if a < 0:
+                    a = queue[j]
+                elif _sq(a, queue[j], W) > most:
+                    b, most = queue[j], _sq(a, queue[j], W)
+        if b < 0 or most <= arm * arm:
+            continue  # no two arms
+        ar, ac, br, bc = a // W - r, a % W - c, b // W - r, b % W - c
+        cos = (ar * br + ac * bc) / math.sqrt((ar * ar + ac * ac) * (br * br + bc * bc))
+        if 1.0 + cos <= BEND:
+            continue
+        fa, fb = a, b  # each arm's deepest cell
+        for j in range(tail - 1, -1, -1):
+            u = queue[j]
+            if depth[u] <= arm:
+                break
+            if fa == a and _sq(u, a, W) < _sq(u, b, W):
+                fa = u
+            if fb == b and _sq(u, b, W) < _sq(u, a, W):
+                fb = u
+        if min(depth[fa], depth[fb]) < 2 * arm:
+            continue  # a chain's end curling, not a bend between two lengths of chain
+        found[n], turn[n] = k, -(1.0 + cos)
+        best = arm * arm + 1
+        for xr in range(max(0, r - arm), min(H, r + arm + 1)):
+            for xc in range(max(0, c - arm), min(W, c + arm + 1)):
+                d = (xr - r) ** 2 + (xc - c) ** 2
+                if (
+                    d < best
+                    and free[xr, xc]
+                    and segment_free(free, xr, xc, fa // W, fa % W)
+                    and segment_free(free, xr, xc, fb // W, fb % W)
+                ):
+                    found[n], best = xr * W + xc, d
+        n += 1
+    return found[:n][np.argsort(turn[:n], kind="mergesort")]
+
+
+@njit(cache=True, nogil=True)
+def _sq(a: int, b: int, W: int) -> int:
+    """The squared distance between flat cells ``a`` and ``b`` of a grid ``W`` wide."""
+    return (a // W - b // W) ** 2 + (a % W - b % W) ** 2
+
+
 @njit(cache=True, nogil=True)
 def _chain_order(
-    skeleton: npt.NDArray[np.bool_], clear: npt.NDArray[np.float64]
+    skeleton: npt.NDArray[np.bool_], clear: npt.NDArray[np.float64], bends: npt.NDArray[np.int64]
 ) -> npt.NDArray[np.int64]:
     """The skeleton's cells in the order chain nodes are tried: its junctions (three branches
-    or more meet), widest first, so that crossings get nodes; then every cell breadth first
-    from the first of each piece, so that a chain is walked along."""
+    or more meet), widest first, so that crossings get nodes; then its ``bends``; then every
+    cell breadth first from the first of each piece, so that a chain is walked along."""
     H, W = skeleton.shape
     ring_r = np.array([-1, -1, 0, 1, 1, 1, 0, -1])
     ring_c = np.array([0, 1, 1, 1, 0, -1, -1, -1])
@@ -122,9 +212,10 @@ def _chain_order(
                 junctions[n] = r * W + c
                 width[n] = -clear[r, c]
                 n += 1
-    out = np.empty(H * W + n, dtype=np.int64)
+    out = np.empty(H * W + n + bends.size, dtype=np.int64)
     out[:n] = junctions[:n][np.argsort(width[:n], kind="mergesort")]
-    m = n
+    out[n : n + bends.size] = bends
+    m = n + bends.size
     seen = np.zeros((H, W), dtype=np.bool_)
     for root in range(H * W):
         if not skeleton[root // W, root % W] or seen[root // W, root % W]:

@@ -87,7 +87,9 @@ def resolve(
         nodes = [_renumber(n, robots[k], old_extras, graph, extras) for n in nodes]
         last = nodes[-1]
         if last >= graph.nodes:
-            joined = _join(fleet_map, extras[last - graph.nodes], taken, others(k), reach)
+            at = extras[last - graph.nodes]
+            goal = int(robots[k]["goal_node"])
+            joined = _join(fleet_map, at, goal, taken, others(k), reach)
             if joined < 0:
                 return _failed(fleet, "unreachable", f"robot {k} has no roadmap node in reach")
             nodes.append(joined)
@@ -158,18 +160,20 @@ def resolve(
 def _join(
     fleet_map: FleetMap,
     cell: list[int],
+    goal: int,
     taken: set[int],
     others: list[npt.NDArray[np.float64]],
     reach: float,
 ) -> int:
-    """The node a robot at ``cell`` joins the roadmap at: the nearest it reaches by a straight
-    move that keeps ``reach`` from every other robot's place, else the nearest (then it waits
-    for the robot in its way); -1 when none is in reach."""
+    """The node a robot at ``cell`` heading for node ``goal`` joins the roadmap at: the best
+    (:func:`planner.fleets.attach`'s) it reaches by a straight move that keeps ``reach`` from
+    every other robot's place, else the best of all (then it waits for the robot in its way);
+    -1 when none is in reach."""
     graph, point = fleet_map.graph, np.array(cell, dtype=np.float64)
     rejected = set(taken)
     first = -1
     for _ in range(12):
-        node = attach(graph, fleet_map.analysis, cell, exclude=rejected)
+        node = attach(graph, fleet_map.analysis, cell, exclude=rejected, toward=goal)
         if node < 0:
             break
         first = node if first < 0 else first

@@ -14,7 +14,8 @@ import pytest
 
 import planner
 from planner.fleets.graph import Graph, grid_graph
-from planner.fleets.roadmap import attach, attach_all, build_roadmap
+from planner.fleets.roadmap import ATTACH_REACH, attach, attach_all, build_roadmap
+from planner.fleets.roadmap_nodes import spacing
 from planner.fleets.segments import segment_distance, supercover
 from tests import naive_roadmap
 from tests.conftest import ROS_MAP_NAMES
@@ -138,8 +139,35 @@ def test_every_corridor_a_robot_fits_through_joins_the_rooms(radius: float, extr
     _check_separation(graph)
 
 
+def _turning(width_cells: int, turn: str, rotation: int, arm: int = 50) -> list[list[int]]:
+    """A corridor ``width_cells`` wide turning a right angle (``"L"``) or two (``"U"``), its
+    arms ``arm`` cells long, rotated ``rotation`` quarter turns."""
+    grid = np.ones((arm + 4, arm + 4), dtype=np.uint8)
+    grid[2 : 2 + width_cells, 2 : arm + 2] = 0
+    grid[2 : arm + 2, arm + 2 - width_cells : arm + 2] = 0
+    if turn == "U":
+        grid[arm + 2 - width_cells : arm + 2, 2 : arm + 2] = 0
+    rows: list[list[int]] = np.rot90(grid, rotation).tolist()
+    return rows
+
+
+@pytest.mark.parametrize("radius", [0.15, 0.3])
+@pytest.mark.parametrize("extra", [0.05, 0.2, 0.4])
+def test_a_corridor_turning_corners_is_one_lane_round_them(radius: float, extra: float) -> None:
+    """Nodes either side of a corner would cut it (the medial axis rounds it off): a node on
+    the corner itself sees down both arms. Every cell a robot's center fits on joins the
+    roadmap, and the roadmap is one piece."""
+    for turn, rotation in [("L", 0), ("L", 1), ("L", 2), ("L", 3), ("U", 0)]:
+        rows = _turning(round((2 * radius + extra) / 0.05), turn, rotation)
+        analysis, graph = _synthetic(rows, radius)
+        joins = attach_all(graph, analysis, np.argwhere(analysis.state != 1))
+        assert (joins >= 0).all(), (turn, rotation)
+        assert len(set(naive_roadmap.components(graph)[joins].tolist())) == 1, (turn, rotation)
+        _check_separation(graph)
+
+
 def _pairs(analysis: planner.Analysis, count: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Random pairs of cells in one region of free cells: benchmarks/roadmap.py's."""
+    """Random pairs of two cells a single ``wide`` plan travels between: benchmarks/roadmap.py's."""
     from tests.scripts import load_benchmark
 
     bench = load_benchmark("roadmap")
@@ -149,37 +177,68 @@ def _pairs(analysis: planner.Analysis, count: int, seed: int) -> tuple[np.ndarra
     return pairs
 
 
+def _joins(
+    graph: Graph, analysis: planner.Analysis, starts: np.ndarray, goals: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes the starts and goals join, as a fleet's robots do: each goal its nearest node,
+    each start the node that leads it there best."""
+    g = attach_all(graph, analysis, goals)
+    return attach_all(graph, analysis, starts, toward=g), g
+
+
 @pytest.mark.parametrize("radius", [0.22, 0.3])
-@pytest.mark.parametrize("name", ["depot", "smoothers_world", "tb3_sandbox"])
+@pytest.mark.parametrize("name", ROS_MAP_NAMES)
 def test_random_reachable_pairs_are_joined_through_the_roadmap(
     ros: Path, name: str, radius: float
 ) -> None:
     analysis, graph = _ros(ros, name, radius)
     starts, goals = _pairs(analysis, 200, seed=0)
-    s, g = attach_all(graph, analysis, starts), attach_all(graph, analysis, goals)
+    if len(starts) == 0:  # no two cells a robot of this radius may stand on (testmap, 0.3 m)
+        assert graph.edges == 0
+        return
+    s, g = _joins(graph, analysis, starts, goals)
     labels = naive_roadmap.components(graph)
     joined = (s >= 0) & (g >= 0)
     joined[joined] &= labels[s[joined]] == labels[g[joined]]
     assert joined.mean() >= 0.99, joined.mean()
 
 
+def test_the_pairs_are_the_ones_a_single_wide_plan_travels_between(ros: Path) -> None:
+    """testmap at 0.22 m: four cells a robot's center fits on, three in a column and one
+    diagonal to its end across a zero-width gap; a plan crosses no such gap."""
+    analysis, _ = _ros(ros, "testmap", 0.22)
+    robot_map = planner.read_ros_map(ros / "testmap.yaml")
+    cells = {tuple(c) for c in np.argwhere(analysis.state != 1).tolist()}
+    starts, goals = _pairs(analysis, 50, seed=3)
+    drawn = {tuple(c) for c in np.concatenate([starts, goals]).tolist()}
+    assert len(cells) == 4
+    assert len(drawn) == 3
+    lone = (cells - drawn).pop()
+    with pytest.raises(planner.NoValidPath):
+        planner.plan(
+            robot_map, list(lone), list(drawn.pop()), analysis=analysis, preset="wide",
+            robot_radius=0.22,
+        )  # fmt: skip
+
+
 # 4: route length.
 
 
 @pytest.mark.parametrize("radius", [0.22, 0.3])
-@pytest.mark.parametrize("name", ["depot", "smoothers_world"])
+@pytest.mark.parametrize("name", ROS_MAP_NAMES)
 def test_routes_are_at_most_a_tenth_longer_than_the_wide_plan(
     ros: Path, name: str, radius: float
 ) -> None:
     analysis, graph = _ros(ros, name, radius)
     robot_map = planner.read_ros_map(ros / f"{name}.yaml")
     starts, goals = _pairs(analysis, 30, seed=1)
-    s, g = attach_all(graph, analysis, starts), attach_all(graph, analysis, goals)
+    if len(starts) == 0:  # no route to take (testmap, 0.3 m)
+        assert graph.edges == 0
+        return
+    s, g = _joins(graph, analysis, starts, goals)
     routes = naive_roadmap.route_lengths(graph, starts, goals, s, g) * robot_map.resolution
     ratios = []
     for k in range(len(starts)):
-        if (starts[k] == goals[k]).all():
-            continue
         plan = planner.plan(
             robot_map, starts[k].tolist(), goals[k].tolist(), analysis=analysis,
             preset="wide", robot_radius=radius,
@@ -224,15 +283,40 @@ def test_a_plain_grid_with_radius_zero_is_its_cells_4_connected(movingai: Path) 
     np.testing.assert_array_equal(graph.costs, expected.costs)
 
 
-@pytest.mark.parametrize("radius", [0.01, 0.025])
-def test_a_robot_within_half_a_cell_gets_the_cells_4_connected_and_they_are_apart(
-    radius: float,
-) -> None:
-    rows = _rooms(0.2)
-    analysis, graph = _synthetic(rows, radius)
+def _pillars() -> list[list[int]]:
+    """A 20 x 30 cell room with a pillar and a wall's stub."""
+    grid = np.zeros((20, 30), dtype=np.uint8)
+    grid[8:11, 10:13] = 1
+    grid[0:6, 20] = 1
+    return grid.tolist()
+
+
+def test_a_robot_within_half_a_cell_gets_the_cells_4_connected_and_they_are_apart() -> None:
+    analysis, graph = _synthetic(_pillars(), 0.025)  # 2r = one cell: no diagonal fits
     expected = grid_graph(analysis.state != 1)
     np.testing.assert_array_equal(graph.indices, expected.indices)
     _check_separation(graph)
+
+
+def test_a_robot_within_a_third_of_a_cell_gets_a_checkerboard_of_diagonals_too() -> None:
+    analysis, graph = _synthetic(_pillars(), 0.01)  # 2r = 0.4 cell: one diagonal a block fits
+    free = analysis.state != 1
+    expected = grid_graph(free)
+    np.testing.assert_array_equal(graph.cells, expected.cells)
+    _check_separation(graph)
+    _check_collision_free(graph, analysis)
+    edges = {tuple(e) for e in naive_roadmap.elements(graph)[graph.nodes :].tolist()}
+    assert {tuple(e) for e in naive_roadmap.elements(expected)[expected.nodes :].tolist()} <= edges
+    index = {tuple(c): k for k, c in enumerate(graph.cells.tolist())}
+    blocks = 0
+    for r, c in itertools.product(range(free.shape[0] - 1), range(free.shape[1] - 1)):
+        if not free[r : r + 2, c : c + 2].all():
+            continue
+        blocks += 1
+        down = (index[r, c], index[r + 1, c + 1])
+        up = tuple(sorted((index[r, c + 1], index[r + 1, c])))
+        assert (down in edges, up in edges) == (((r + c) % 2 == 0), ((r + c) % 2 == 1))
+    assert len(edges) == expected.edges + blocks
 
 
 # attach and validation.
@@ -246,6 +330,32 @@ def test_attach_joins_the_nearest_node_in_sight_or_none() -> None:
     assert distances[node] == distances.min()
     assert attach(graph, analysis, [0, 0]) == -1  # a wall
     assert attach_all(graph, analysis, np.zeros((0, 2), dtype=int)).tolist() == []
+
+
+def test_a_start_heading_for_a_node_joins_the_node_that_leads_there_best() -> None:
+    analysis, graph = _synthetic(_rooms(0.45), 0.2)  # a one-lane chain down the corridor
+    inside = np.flatnonzero((graph.cells[:, 1] > 70) & (graph.cells[:, 1] < 110))
+    inside = inside[np.argsort(graph.cells[inside, 1])]
+    a, b = graph.cells[inside[1]], graph.cells[inside[2]]
+    start = [int(a[0]), int((2 * a[1] + b[1]) // 3)]  # a third of the way from a to b
+    east = attach(graph, analysis, [31, 150])
+    assert attach(graph, analysis, start) == inside[1]
+    assert attach(graph, analysis, start, toward=east) == inside[2]
+    assert attach(graph, analysis, start, toward=int(inside[0])) == inside[1]
+    with pytest.raises(planner.InvalidInput, match="toward"):
+        attach(graph, analysis, start, toward=graph.nodes)
+
+
+def test_attach_is_the_reference(ros: Path) -> None:
+    analysis, graph = _ros(ros, "smoothers_world", 0.3)
+    free = analysis.state != 1
+    rng = np.random.default_rng(4)
+    cells = np.argwhere(free)[rng.integers(int(free.sum()), size=60)]
+    toward = rng.integers(-1, graph.nodes, size=60)
+    reach = ATTACH_REACH * spacing(graph.radius / graph.resolution)
+    got = attach_all(graph, analysis, cells, toward=toward)
+    for cell, node, want in zip(cells.tolist(), toward.tolist(), got.tolist(), strict=True):
+        assert naive_roadmap.attach(graph, free, tuple(cell), reach, node) == want, (cell, node)
 
 
 def test_bad_input_is_refused() -> None:
