@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import math
 
-import edt
 import numpy as np
 import numpy.typing as npt
 from numba import njit
 from scipy import ndimage
 
+from planner.analysis.distance import squared_distances
 from planner.analysis.medial import medial_axis
 from planner.fleets.segments import segment_free
 
@@ -52,7 +52,7 @@ def roadmap_nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray
 def _nodes(free: npt.NDArray[np.bool_], separation: float) -> npt.NDArray[np.int64]:
     """Chain nodes along the medial axis where the free space is narrower than two lattice
     spacings, then lattice nodes, each kept only if no node is nearer than the separation."""
-    clear = edt.edt(free, black_border=True).astype(np.float64)
+    clear = np.sqrt(squared_distances(free, outside_blocked=True))
     step = spacing(separation / 2.0)
     trunk = _prune(np.ascontiguousarray(medial_axis(free, clear)), math.ceil(step))
     skeleton = trunk & (clear < step)
