@@ -20,12 +20,12 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, NoValidPath
-from planner.footprint import HEADING_BINS, Footprint, footprint_cells
-from planner.motion.collide import Grid, footprint_clearance, grid_of, poses_free
+from planner.footprint import HEADING_BINS, Footprint, FootprintCells, footprint_cells
+from planner.motion.collide import Grid, grid_of, poses_free
 from planner.motion.search import MOTIONS, ROTATE, Costs, Found, hybrid_search, primitives
 from planner.motion.shorten import shorten
 
-__all__ = ["MotionPath", "Robot", "drive"]
+__all__ = ["MotionPath", "Robot", "check_spacing", "drive"]
 
 EXPANSIONS_PER_SECOND = {"diff": 60_000, "car": 35_000, "car_reverse": 35_000}
 """Nodes the search expands a second, about, by motion (it is given a budget of nodes, not of
@@ -89,10 +89,7 @@ def drive(
     grid = grid_of(analysis)
     res = grid.frame.resolution
     cells = footprint_cells(robot.footprint, res, bins=HEADING_BINS)
-    # Checked this often, each pose's table covers the motion to the next (with a margin for
-    # a pose's chord off its arc: the answer's poses are a cell apart at most).
-    step = 2 * cells.pad - 0.05
-    angle = 2 * cells.pad_angle
+    step, angle = check_spacing(cells)
     radius = robot.min_turning_radius / res if car else 0.0
     seeds = _ends(grid, cells, start, "start")
     goals = _ends(grid, cells, goal, "goal")
@@ -119,6 +116,13 @@ def drive(
         out_poses[-1, 2] = math.remainder(goal[2], 2 * math.pi)
     elapsed = (time.perf_counter() - t0) * 1e3
     return MotionPath(out_poses, direction, found.expansions, elapsed)
+
+
+def check_spacing(cells: FootprintCells) -> tuple[float, float]:
+    """How far apart (cells, radians) poses are checked: then each pose's table covers the
+    motion to the next (with a margin for a pose's chord off its arc: the answer's poses are a
+    cell apart at most)."""
+    return 2 * cells.pad - 0.05, 2 * cells.pad_angle
 
 
 def _ends(
@@ -192,13 +196,3 @@ def _poses(
     keep = np.ones(len(poses), dtype=bool)
     keep[1:] = np.abs(np.diff(poses, axis=0)).max(axis=1) > 1e-9
     return poses[keep], direction[keep]
-
-
-def clearance_along(
-    analysis: Analysis, footprint: Footprint, poses: npt.NDArray[np.float64]
-) -> npt.NDArray[np.float64]:
-    """Meters from the footprint's outline to the nearest blocked cell's center at each pose
-    (map frame)."""
-    grid = grid_of(analysis)
-    cells = footprint_cells(footprint, grid.frame.resolution, bins=HEADING_BINS)
-    return footprint_clearance(grid, cells, grid.to_grid(poses))

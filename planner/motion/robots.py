@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput
 from planner.footprint import Footprint, footprint_of
+from planner.motion.follow import follow
 from planner.motion.hybrid import MotionPath, Robot, drive
 from planner.params import Params
 
@@ -53,17 +56,28 @@ def motion_path(
     params: Params,
     start: tuple[tuple[float, float], float | None],
     goal: tuple[tuple[float, float], float | None],
+    *,
+    guide: Callable[[], npt.NDArray[np.float64]] | None = None,
+    seconds: float = SEARCH_SECONDS,
 ) -> MotionPath | None:
     """The path of the robot of ``params`` from ``start`` to ``goal`` (``((x, y), yaw or
     None)``, meters) on the analysis, with ``wave`` (the plan's goal wave) as the search's
-    heuristic; None for a disc turning in place (its poses are the smoothed grid path's)."""
+    heuristic, found within about ``seconds``; None for a disc turning in place (its poses are
+    the smoothed grid path's). A footprint turning in place follows ``guide``'s poses (the
+    plan's smoothed grid path) where it fits along them (:func:`~planner.motion.follow.follow`);
+    a car is searched for."""
     robot = robot_of(params, analysis.frame.resolution)
     if robot is None:
         return None
     (sx, sy), syaw = start
     (gx, gy), gyaw = goal
-    return drive(
-        analysis, wave.kw, robot, (sx, sy, syaw), (gx, gy, gyaw),
-        wide_weight=params.wide_weight, wide_distance=params.wide_distance,
-        seconds=SEARCH_SECONDS,
-    )  # fmt: skip
+    wide = {"wide_weight": params.wide_weight, "wide_distance": params.wide_distance}
+    if robot.motion == "diff" and guide is not None:
+        try:
+            poses = guide()
+        except InvalidInput:  # the inscribed disc's smoothing refused: the search decides
+            poses = None
+        if poses is not None:
+            return follow(analysis, wave.kw, robot, poses, (sx, sy, syaw), (gx, gy, gyaw),
+                          seconds=seconds, **wide)  # fmt: skip
+    return drive(analysis, wave.kw, robot, (sx, sy, syaw), (gx, gy, gyaw), seconds=seconds, **wide)

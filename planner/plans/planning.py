@@ -164,8 +164,12 @@ class Plan:
         joined (:func:`~planner.plans.route.join_poses`)."""
         if self.route is not None:
             return self.route.poses
-        if self.motion is not None:
-            return self.motion.poses
+        return self._smoothed if self.motion is None else self.motion.poses
+
+    @cached_property
+    def _smoothed(self) -> npt.NDArray[np.float64]:
+        """The grid path smoothed for the analysis's disc (a footprint turning in place follows
+        it where it fits)."""
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -197,7 +201,7 @@ class Plan:
         return motion_path(
             self.analysis, self.wave, self.params,
             (self.start_point or self._center(self.start), self.start_yaw),
-            (goal or self._center(self.goal), self.goal_yaw),
+            (goal or self._center(self.goal), self.goal_yaw), guide=lambda: self._smoothed,
         )  # fmt: skip
 
     @property
