@@ -47,9 +47,9 @@ def follow(
     ``start`` to ``goal``, ``(x, y, yaw or None)``, at most a cell apart), each stretch where
     its footprint is not free driven by :func:`~planner.motion.hybrid.drive` instead (``kw``,
     ``wide_weight``, ``wide_distance`` as there; the whole way from ``start`` to ``goal`` when
-    a stretch cannot be mended), all within about ``seconds``."""
+    a stretch cannot be mended), the searches within about ``seconds`` in all."""
     t0 = time.perf_counter()
-    deadline = t0 + seconds
+    spent = 0.0  # the searches' own seconds (a kernel's first compiling left out)
     grid = grid_of(analysis)
     cells = footprint_cells(robot.footprint, grid.frame.resolution, bins=HEADING_BINS)
     step, angle = check_spacing(cells)
@@ -58,11 +58,19 @@ def follow(
     ok = motions_free(grid, cells, at, step, angle)
 
     def search(a: End, b: End, costs: npt.NDArray[np.float64]) -> MotionPath:
-        left = max(1e-3, deadline - time.perf_counter())
-        return drive(
-            analysis, costs, robot, a, b,
-            wide_weight=wide_weight, wide_distance=wide_distance, seconds=left,
-        )  # fmt: skip
+        nonlocal spent
+        began = time.perf_counter()
+        try:
+            found = drive(
+                analysis, costs, robot, a, b,
+                wide_weight=wide_weight, wide_distance=wide_distance,
+                seconds=max(1e-3, seconds - spent),
+            )  # fmt: skip
+        except NoValidPath:
+            spent += time.perf_counter() - began
+            raise
+        spent += found.search_s
+        return found
 
     if not ends.all():  # the start or the goal does not fit: the search says which
         return search(start, goal, kw)
@@ -86,13 +94,13 @@ def follow(
                 dirs += [np.ones(a - last, dtype=np.int8), piece.direction]
                 last = b + 1
         except NoValidPath:
-            if time.perf_counter() >= deadline:
+            if spent >= seconds:
                 raise
             continue
         rows.append(guide[last:])
         dirs.append(np.ones(len(guide) - last, dtype=np.int8))
         elapsed = (time.perf_counter() - t0) * 1e3
-        return MotionPath(np.concatenate(rows), np.concatenate(dirs), expansions, elapsed)
+        return MotionPath(np.concatenate(rows), np.concatenate(dirs), expansions, elapsed, spent)
     return search(start, goal, kw)
 
 

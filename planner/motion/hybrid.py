@@ -27,10 +27,6 @@ from planner.motion.shorten import shorten
 
 __all__ = ["MotionPath", "Robot", "check_spacing", "drive"]
 
-EXPANSIONS_PER_SECOND = {"diff": 60_000, "car": 35_000, "car_reverse": 35_000}
-"""Nodes the search expands a second, about, by motion (it is given a budget of nodes, not of
-time: a numba kernel reads no clock)."""
-
 
 @dataclass(frozen=True, slots=True)
 class Robot:
@@ -52,6 +48,8 @@ class MotionPath:
     direction: npt.NDArray[np.int8]
     expansions: int
     elapsed_ms: float
+    search_s: float = 0.0
+    """How long its searches ran (their kernels' compiling left out)."""
 
     @property
     def cusps(self) -> int:
@@ -74,7 +72,8 @@ def drive(
     on ``analysis``, with ``kw`` the goal wave's wide cost-to-go on it (the search's
     heuristic; the analysis is the configuration space of the footprint's inscribed disc).
     The wall term is ``wide``'s (``wide_weight``, ``wide_distance`` meters) of the footprint's
-    clearance. The search stops after about ``seconds``: then ``NO_VALID_PATH``."""
+    clearance. The search stops after about ``seconds`` of its own (compiling left out): then
+    ``NO_VALID_PATH``."""
     t0 = time.perf_counter()
     if robot.motion not in MOTIONS:
         msg = f"motion must be one of {', '.join(MOTIONS)}; got {robot.motion!r}"
@@ -95,13 +94,13 @@ def drive(
     goals = _ends(grid, cells, goal, "goal")
     moves = primitives(robot.motion, radius, HEADING_BINS, check_step=step, check_angle=angle)
     costs = Costs(wall_weight=wide_weight, wall_distance=wide_distance / res)
-    budget = max(1000, int(seconds * EXPANSIONS_PER_SECOND[robot.motion]))
     found = hybrid_search(
         grid, cells, kw, moves, seeds, tuple(goals[0]), goal_yaw=goal[2] is not None,
-        motion=robot.motion, radius=radius, costs=costs, budget=budget, step=step, angle=angle,
+        motion=robot.motion, radius=radius, costs=costs, step=step, angle=angle,
+        seconds=seconds,
     )  # fmt: skip
     if not found.found:
-        why = "the search ran out of time" if found.expansions > budget else "no way fits"
+        why = f"the search ran out of its {seconds:.3g} s" if found.stopped else "no way fits"
         msg = (
             f"the footprint cannot drive from start to goal with motion {robot.motion} ({why} "
             f"after {found.expansions} nodes)"
@@ -115,7 +114,7 @@ def drive(
     if goal[2] is not None:
         out_poses[-1, 2] = math.remainder(goal[2], 2 * math.pi)
     elapsed = (time.perf_counter() - t0) * 1e3
-    return MotionPath(out_poses, direction, found.expansions, elapsed)
+    return MotionPath(out_poses, direction, found.expansions, elapsed, found.seconds)
 
 
 def check_spacing(cells: FootprintCells) -> tuple[float, float]:

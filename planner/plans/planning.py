@@ -17,7 +17,7 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
+from planner.motion.robots import SEARCH_SECONDS, MotionPath, check_goal_yaw, motion_path
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
 from planner.plans.decide import Rule
@@ -82,6 +82,8 @@ class Plan:
     None."""
     detour: Detour | None = None
     """How the ``wide`` route compares with the shortest (``params.max_detour``), else None."""
+    search_seconds: float = SEARCH_SECONDS
+    """How long a footprint's or a car's search may run (then ``NO_VALID_PATH``)."""
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
@@ -201,7 +203,8 @@ class Plan:
         return motion_path(
             self.analysis, self.wave, self.params,
             (self.start_point or self._center(self.start), self.start_yaw),
-            (goal or self._center(self.goal), self.goal_yaw), guide=lambda: self._smoothed,
+            (goal or self._center(self.goal), self.goal_yaw),
+            guide=lambda: self._smoothed, seconds=self.search_seconds,
         )  # fmt: skip
 
     @property
@@ -311,6 +314,7 @@ def plan(
     goal_tolerance: Any = 0.0,
     waypoints: Any = None,
     bounded: bool = True,
+    search_seconds: float = SEARCH_SECONDS,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -324,7 +328,8 @@ def plan(
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
     passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
     plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
-    a route's legs: one set of effective parameters holds for the whole route.
+    a route's legs: one set of effective parameters holds for the whole route. A footprint's
+    or a car's search runs for at most about ``search_seconds`` (a request's time left).
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -377,7 +382,7 @@ def plan(
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
             return plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
-                goal_tolerance=tolerance, bounded=False, **params,
+                goal_tolerance=tolerance, bounded=False, search_seconds=search_seconds, **params,
             )  # fmt: skip
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
@@ -435,6 +440,7 @@ def plan(
         goal_yaw=goal_yaw,
         goal_used=goal_used,
         goal_tolerance=tolerance,
+        search_seconds=search_seconds,
     )
     if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
         return bound_detour(result, whole=whole, t0=t0)
