@@ -25,6 +25,7 @@ from planner.maps.frames import MapFrame
 __all__ = [
     "Grid",
     "clearance_at",
+    "densified",
     "densify",
     "footprint_clearance",
     "grid_of",
@@ -214,7 +215,7 @@ def densify(poses: Any, step: float, angle: float) -> npt.NDArray[np.float64]:
     """Poses ``[u, v, theta]`` with poses put between each two so that none is more than
     ``step`` (in the poses' unit) or ``angle`` radians from the next: the motion between them
     (straight, the heading turned the short way) as the checks see it."""
-    return _densified(poses, step, angle)[0]
+    return densified(poses, step, angle)[0]
 
 
 def motions_free(
@@ -222,7 +223,7 @@ def motions_free(
 ) -> npt.NDArray[np.bool_]:
     """Whether the footprint is free along the motion from each grid pose to the next
     (``(n - 1,)``), checked as :func:`densify` places the poses between, both ends included."""
-    dense, seg = _densified(poses, step, angle)
+    dense, seg = densified(poses, step, angle)
     if len(seg) == 0:
         return np.zeros(0, dtype=np.bool_)
     free = poses_free(grid, cells, dense)
@@ -233,11 +234,11 @@ def motions_free(
     return out
 
 
-def _densified(
+def densified(
     poses: Any, step: float, angle: float
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
-    """:func:`densify`'s poses, and for each but the last the motion (the index of the given
-    pose it leaves from) it lies on."""
+    """:func:`densify`'s poses, and for each but the last the motion it lies on (the index of
+    the given pose it leaves from)."""
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     if len(p) < 2:
         return p.copy(), np.zeros(0, dtype=np.int64)
