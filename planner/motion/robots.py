@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -16,7 +16,15 @@ from planner.motion.follow import follow
 from planner.motion.hybrid import MotionPath, Robot, drive
 from planner.params import Params
 
-__all__ = ["SEARCH_SECONDS", "MotionPath", "check_goal_yaw", "motion_path", "robot_of"]
+__all__ = [
+    "SEARCH_SECONDS",
+    "MotionPath",
+    "arrived_as",
+    "check_goal_yaw",
+    "check_waypoint_yaws",
+    "motion_path",
+    "robot_of",
+]
 
 SEARCH_SECONDS = 5.0
 """About how long a plan's hybrid search may run (well within a request's timeout)."""
@@ -48,6 +56,31 @@ def check_goal_yaw(params: Params, goal_yaw: float | None) -> None:
             "meet one): give the goal as {x, y, yaw}"
         )
         raise InvalidInput(msg, field="goal")
+
+
+def check_waypoint_yaws(params: Params, waypoints: list[Any]) -> None:
+    """A car motion needs a yaw at every waypoint, as at the goal: without, 422 naming it."""
+    if params.motion == "diff":
+        return
+    for i, point in enumerate(waypoints):
+        if not isinstance(point, Mapping) or point.get("yaw") is None:
+            msg = (
+                f"a {params.motion} motion needs a yaw at every waypoint (a car cannot turn in "
+                f"place to meet one): give waypoints[{i}] as {{x, y, yaw}}"
+            )
+            raise InvalidInput(msg, field=f"waypoints[{i}]")
+
+
+def arrived_as(params: Params, resolution: float, start: Any, last: Any) -> Any:
+    """A route leg's ``start`` (the waypoint the leg before ended at, its ``last`` pose): for a
+    robot with a footprint or a car motion and a waypoint without a yaw, that pose's point and
+    heading, so that the next leg goes on as the robot arrived (no turn at the join that the
+    footprint was not checked for); else ``start`` as given."""
+    if robot_of(params, resolution) is None or (isinstance(start, Mapping) and
+                                                 start.get("yaw") is not None):  # fmt: skip
+        return start
+    x, y, yaw = (float(v) for v in last)
+    return {"x": x, "y": y, "yaw": yaw}
 
 
 def motion_path(

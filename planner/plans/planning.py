@@ -17,7 +17,15 @@ from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
 from planner.errors import InvalidInput, NoValidPath
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.motion.robots import SEARCH_SECONDS, MotionPath, check_goal_yaw, motion_path
+from planner.motion.robots import (
+    SEARCH_SECONDS,
+    MotionPath,
+    arrived_as,
+    check_goal_yaw,
+    check_waypoint_yaws,
+    motion_path,
+    robot_of,
+)
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
 from planner.plans.decide import Rule
@@ -210,8 +218,15 @@ class Plan:
     @property
     def directions(self) -> npt.NDArray[np.int8]:
         """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        if self.route is not None:
+            return self.route.directions
         m = self.motion
         return np.ones(len(self.poses), np.int8) if m is None else m.direction
+
+    @property
+    def _shaped(self) -> bool:
+        """Whether the robot is more than a disc turning in place (its poses carry directions)."""
+        return robot_of(self.params, self.analysis.frame.resolution) is not None
 
     @property
     def waypoints(self) -> list[tuple[int, int]]:
@@ -279,7 +294,7 @@ class Plan:
             "min_clearance_m": round(self.min_clearance_m, 6),
             "mean_clearance_m": round(self.mean_clearance_m, 6),
             "poses": self.poses.tolist(),
-            "directions": None if self.motion is None else self.directions.tolist(),
+            "directions": self.directions.tolist() if self._shaped else None,
             "length_poses_m": round(self.length_poses_m, 6),
             "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
             "duration_s": round(self.duration_s, 6),
@@ -377,13 +392,17 @@ def plan(
             raise InvalidInput(msg, field="params")
     through = waypoint_list(waypoints)
     if through:
-        given = analysis
+        given, legs = analysis, list[Plan]()
+        check_waypoint_yaws(p, through)
 
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
-            return plan(
+            if legs:  # on from the waypoint as the robot arrived there
+                a = arrived_as(p, given.frame.resolution, a, legs[-1].poses[-1])
+            legs.append(plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
                 goal_tolerance=tolerance, bounded=False, search_seconds=search_seconds, **params,
-            )  # fmt: skip
+            ))  # fmt: skip
+            return legs[-1]
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
