@@ -11,7 +11,8 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput
-from planner.footprint import Footprint, footprint_of
+from planner.footprint import HEADING_BINS, Footprint, footprint_cells, footprint_of
+from planner.motion.collide import grid_of, poses_free
 from planner.motion.follow import follow
 from planner.motion.hybrid import MotionPath, Robot, drive
 from planner.params import Params
@@ -22,6 +23,7 @@ __all__ = [
     "arrived_as",
     "check_goal_yaw",
     "check_waypoint_yaws",
+    "fits_at",
     "motion_path",
     "robot_of",
 ]
@@ -46,6 +48,29 @@ def robot_of(params: Params, resolution: float) -> Robot | None:
         fp = Footprint(tuple((float(x), float(y)) for x, y in zip(r * np.cos(a), r * np.sin(a),
                                                                      strict=True)))  # fmt: skip
     return Robot(fp, params.motion, params.min_turning_radius or 0.0)
+
+
+def fits_at(
+    analysis: Analysis, params: Params, yaw: float | None
+) -> Callable[[npt.NDArray[np.float64]], npt.NDArray[np.bool_]] | None:
+    """For a robot with a footprint or a car motion, whether its footprint is free at each
+    point ``(n, 2)`` (meters) at ``yaw`` (at some heading, without one); None for a disc
+    turning in place (its analysis says where it stands)."""
+    robot = robot_of(params, analysis.frame.resolution)
+    if robot is None:
+        return None
+    grid = grid_of(analysis)
+    cells = footprint_cells(robot.footprint, grid.frame.resolution, bins=HEADING_BINS)
+    headings = np.arange(HEADING_BINS) * 2 * math.pi / HEADING_BINS if yaw is None else [yaw]
+
+    def fits(points: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
+        xy = np.repeat(np.asarray(points, dtype=np.float64).reshape(-1, 2), len(headings), 0)
+        at = np.column_stack([xy, np.tile(headings, len(xy) // len(headings))])
+        free: npt.NDArray[np.bool_] = poses_free(grid, cells, grid.to_grid(at))
+        out: npt.NDArray[np.bool_] = np.asarray(free.reshape(-1, len(headings)).any(axis=1))
+        return out
+
+    return fits
 
 
 def check_goal_yaw(params: Params, goal_yaw: float | None) -> None:

@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
-from planner.errors import InvalidInput, NoValidPath
+from planner.errors import InvalidInput, NoValidPath, quote
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
 from planner.motion.robots import (
@@ -23,6 +23,7 @@ from planner.motion.robots import (
     arrived_as,
     check_goal_yaw,
     check_waypoint_yaws,
+    fits_at,
     motion_path,
     robot_of,
 )
@@ -421,16 +422,20 @@ def plan(
         return resumable_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
 
     goal_used = None
+    fits = fits_at(analysis, p, goal_yaw) if tolerance > 0 else None  # a footprint's goal
     try:
         g = free_cell(analysis, goal, "goal")
         stand_on(analysis, goal, g, "goal")
+        if fits is not None and not fits(np.array([goal_xy]))[0]:
+            msg = f"the footprint at goal {quote(goal)} holds a blocked cell's center"
+            raise InvalidInput(msg, field="goal", code="GOAL_OCCUPIED")
         wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
     except (InvalidInput, NoValidPath) as error:
         if tolerance <= 0:
             raise
         near = nearest_reachable(
             analysis, s, goal_xy, tolerance,
-            diagonal_cost=p.diagonal_cost, allow_narrow=p.allow_narrow,
+            diagonal_cost=p.diagonal_cost, allow_narrow=p.allow_narrow, fits=fits,
         )  # fmt: skip
         if near is None:
             error.message += (

@@ -55,3 +55,21 @@ def test_a_car_needs_a_yaw_at_every_waypoint(ros: Path) -> None:
     with pytest.raises(planner.InvalidInput) as info:
         planner.plan(depot, start, goal, waypoints=[{"x": 12.0, "y": 4.0}], **CAR)  # type: ignore[arg-type]
     assert info.value.field == "waypoints[0]"
+
+
+def test_goal_tolerance_finds_where_the_footprint_fits() -> None:
+    """A goal by the aisle's wall, facing it: the rectangle does not fit there (its inscribed
+    disc does); within 1 m, the nearest place it fits at that yaw."""
+    bay, start, _ = naive_shapes.parking_bay()
+    goal = {"x": 1.5, "y": 0.75, "yaw": -math.pi / 2}  # its front 0.05 m into the wall
+    plan = planner.plan(bay, start, goal, footprint=RECTANGLE)
+    with pytest.raises(planner.InvalidInput) as info:
+        plan.poses  # noqa: B018
+    assert info.value.code == "GOAL_OCCUPIED"
+    plan = planner.plan(bay, start, goal, footprint=RECTANGLE, goal_tolerance=1.0)
+    assert plan.goal_used is not None
+    assert 0 < math.dist(plan.goal_used, (goal["x"], goal["y"])) <= 1.0
+    poses = plan.poses
+    assert naive_shapes.motion_hits(RECTANGLE, naive_shapes.blocked_centers(bay), poses) == []
+    assert math.dist(poses[-1][:2], plan.goal_used) < 1e-9
+    assert abs(math.remainder(poses[-1][2] - goal["yaw"], 2 * math.pi)) < 1e-9
