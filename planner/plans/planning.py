@@ -25,7 +25,6 @@ from planner.motion.robots import (
     check_waypoint_yaws,
     fits_at,
     motion_path,
-    robot_of,
 )
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
@@ -43,6 +42,7 @@ from planner.plans.metrics import clearance_metrics, path_cost
 from planner.plans.reach import route, wave_to
 from planner.plans.resumable_wave import resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
+from planner.plans.summary import plan_summary
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
 from planner.poses.speed import duration, pose_speeds
@@ -225,11 +225,6 @@ class Plan:
         return np.ones(len(self.poses), np.int8) if m is None else m.direction
 
     @property
-    def _shaped(self) -> bool:
-        """Whether the robot is more than a disc turning in place (its poses carry directions)."""
-        return robot_of(self.params, self.analysis.frame.resolution) is not None
-
-    @property
     def waypoints(self) -> list[tuple[int, int]]:
         """The cells of the waypoints the route passes, in order (none without a route)."""
         return [] if self.route is None else self.route.waypoints
@@ -274,48 +269,8 @@ class Plan:
         return self.analysis.tunnels
 
     def summary(self) -> dict[str, Any]:
-        """The plan as plain JSON-ready data."""
-        return {
-            "start": list(self.start),
-            "goal": list(self.goal),
-            "preset": self.preset,
-            "params": self.params.as_dict(),
-            "path": self.path.tolist(),
-            "length": round(self.length, 6),
-            "arc_cost": round(self.arc_cost, 6),
-            "gates": self.gates,
-            "tunnels": self.tunnels,
-            "sealed": self.analysis.sealed,
-            "narrow_fallback": self.narrow_fallback,
-            "min_clearance": round(self.min_clearance, 4),
-            "mean_clearance": round(self.mean_clearance, 4),
-            "contact_ratio": round(self.contact_ratio, 4),
-            "path_xy": self.path_xy.round(6).tolist(),
-            "length_m": round(self.length_m, 6),
-            "min_clearance_m": round(self.min_clearance_m, 6),
-            "mean_clearance_m": round(self.mean_clearance_m, 6),
-            "poses": self.poses.tolist(),
-            "directions": self.directions.tolist() if self._shaped else None,
-            "length_poses_m": round(self.length_poses_m, 6),
-            "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
-            "duration_s": round(self.duration_s, 6),
-            "goal_used": None if self.goal_used is None else list(self.goal_used),
-            "goal_offset_m": round(self.goal_offset_m, 6),
-            "waypoints": [list(cell) for cell in self.waypoints],
-            "waypoint_indices": self.waypoint_indices,
-            "detour": self._detour(),
-            "analysis_ms": round(self.analysis.elapsed_ms, 3),
-            "wave_ms": round(self.wave.elapsed_ms, 3),
-            "elapsed_ms": round(self.elapsed_ms, 3),
-        }
-
-    def _detour(self) -> dict[str, Any] | None:
-        d, res = self.detour, self.analysis.frame.resolution
-        if d is None:
-            return None
-        ratio = self.length / d.shortest if d.shortest > 0 else 1.0
-        return {"shortest_m": round(d.shortest * res, 6), "ratio": round(ratio, 6),
-                "width_kept": d.width_kept, "tunnels_opened": d.tunnels_opened}  # fmt: skip
+        """The plan as plain JSON-ready data (:func:`~planner.plans.summary.plan_summary`)."""
+        return plan_summary(self)
 
 
 def plan(
