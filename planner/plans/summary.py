@@ -3,17 +3,89 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
+import numpy as np
+import numpy.typing as npt
+
+from planner.analysis.analyse import Analysis
 from planner.motion.robots import robot_of
+from planner.params import Params
+from planner.plans.bounded import Detour
+from planner.plans.whole_wave import Wave
 
-if TYPE_CHECKING:
-    from planner.plans.planning import Plan
-
-__all__ = ["plan_summary"]
+__all__ = ["Summarised", "plan_summary"]
 
 
-def plan_summary(plan: Plan) -> dict[str, Any]:
+class Summarised(Protocol):
+    """What a summary reads of a :class:`~planner.Plan` (this module does not import it:
+    ``planning`` imports this one)."""
+
+    # fmt: off
+    @property
+    def start(self) -> tuple[int, int]: ...
+    @property
+    def goal(self) -> tuple[int, int]: ...
+    @property
+    def preset(self) -> str: ...
+    @property
+    def params(self) -> Params: ...
+    @property
+    def analysis(self) -> Analysis: ...
+    @property
+    def wave(self) -> Wave: ...
+    @property
+    def path(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def path_xy(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def poses(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def directions(self) -> npt.NDArray[np.int8]: ...
+    @property
+    def max_speeds(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def length(self) -> float: ...
+    @property
+    def arc_cost(self) -> float: ...
+    @property
+    def gates(self) -> int: ...
+    @property
+    def tunnels(self) -> int: ...
+    @property
+    def narrow_fallback(self) -> bool: ...
+    @property
+    def min_clearance(self) -> float: ...
+    @property
+    def mean_clearance(self) -> float: ...
+    @property
+    def contact_ratio(self) -> float: ...
+    @property
+    def length_m(self) -> float: ...
+    @property
+    def min_clearance_m(self) -> float: ...
+    @property
+    def mean_clearance_m(self) -> float: ...
+    @property
+    def length_poses_m(self) -> float: ...
+    @property
+    def duration_s(self) -> float: ...
+    @property
+    def goal_used(self) -> tuple[float, float] | None: ...
+    @property
+    def goal_offset_m(self) -> float: ...
+    @property
+    def waypoints(self) -> list[tuple[int, int]]: ...
+    @property
+    def waypoint_indices(self) -> list[int]: ...
+    @property
+    def detour(self) -> Detour | None: ...
+    @property
+    def elapsed_ms(self) -> float: ...
+    # fmt: on
+
+
+def plan_summary(plan: Summarised) -> dict[str, Any]:
     """The plan as plain JSON-ready data: its ends, parameters, path and figures, its poses
     (with their directions for a footprint or a car) and timings."""
     shaped = robot_of(plan.params, plan.analysis.frame.resolution) is not None
@@ -52,7 +124,7 @@ def plan_summary(plan: Plan) -> dict[str, Any]:
     }
 
 
-def _detour(plan: Plan) -> dict[str, Any] | None:
+def _detour(plan: Summarised) -> dict[str, Any] | None:
     d, res = plan.detour, plan.analysis.frame.resolution
     if d is None:
         return None
