@@ -32,11 +32,11 @@ def shaped_ahead(
     here: tuple[float, float],
     yaw: float | None,
 ) -> npt.NDArray[np.float64]:
-    """The poses ahead of ``robot`` (``(m, 3)`` map frame): ``on_plan``,
-    the plan's from the pose nearest ``here`` (the robot's point, with its ``yaw`` if known,
-    put first when the motion from it is free and, for a car, keeps the radius); else ``disc``
-    (the disc's poses ahead). Cut before the first motion that is not free for the footprint,
-    or for this step's ``obstacles`` (cells, with the plan's ``dynamic_margin``), or turns
+    """The poses ahead of ``robot`` (``(m, 3)``, map frame). ``on_plan``: the plan's own, from
+    the one nearest ``here`` to the horizon, the robot's point (with its ``yaw`` if known) put
+    first when the motion from it is free and, for a car, keeps the radius; else ``disc`` (the
+    disc's poses ahead). Cut before the first motion that is not free for the footprint, nor
+    for this step's ``obstacles`` (cells, with the plan's ``dynamic_margin``), or that turns
     tighter than a car can; the first pose always stays (a robot that waits)."""
     a, params = plan.analysis, plan.params
     res = a.frame.resolution
