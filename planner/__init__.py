@@ -70,7 +70,8 @@ from planner.poses import nav_msgs_path, smooth_path
 from planner.poses.speed import profile_time
 from planner.render import render_episode, render_map, render_plan
 from planner.render_live import render_live
-from planner.stepping.session import MOVES, Session, SessionState, Step, detour
+from planner.stepping.replan import detour
+from planner.stepping.session import MOVES, Session, SessionState, Step
 from planner.stepping.simulation import Episode, ObstacleMotion, run_episode, simulate, warm_up
 
 __all__ = [

@@ -87,6 +87,12 @@ def _parser(prog: str) -> argparse.ArgumentParser:
     p.add_argument("--robot-radius", type=float, help="the robot's radius in meters (ROS maps)")
     p.add_argument("--unknown", choices=["blocked", "free"], help="how unknown space counts")
     p.add_argument(
+        "--footprint", metavar="JSON", help='the robot\'s polygon in its frame, meters, in place '
+        'of --robot-radius (ROS maps): "[[0.3, 0.2], [0.3, -0.2], [-0.3, -0.2], [-0.3, 0.2]]"',
+    )  # fmt: skip
+    p.add_argument("--motion", choices=["diff", "car", "car_reverse"], help="how it turns")
+    p.add_argument("--min-turning-radius", type=float, metavar="M", help="a car's, in meters")
+    p.add_argument(
         "--goal-tolerance", type=float, default=0.0, metavar="M",
         help="meters: plan to the nearest reachable cell within M when the goal cannot be used",
     )  # fmt: skip
@@ -176,12 +182,26 @@ PREVIEW_KEYS = (
 )  # fmt: skip
 
 
+def _json_arg(text: str, name: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        msg = f"--{name} must be JSON, such as [[0.3, 0.2], [0.3, -0.2], [-0.3, 0]]; got {text!r}"
+        raise InvalidInput(msg, field=name) from exc
+
+
 def _preview(summary: dict[str, Any]) -> dict[str, Any]:
-    """The API's ``preview`` object: poses as ``{x, y, yaw}``, ``goal_used`` as ``{x, y}``."""
+    """The API's ``preview`` object: poses as ``{x, y, yaw}`` (with ``direction`` for a
+    footprint or a car), ``goal_used`` as ``{x, y}``."""
     used = summary["goal_used"]
+    directions = summary["directions"] or [None] * len(summary["poses"])
+    poses = [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in summary["poses"]]
+    for pose, d in zip(poses, directions, strict=True):
+        if d is not None:
+            pose["direction"] = d
     return {
         **{key: summary[key] for key in PREVIEW_KEYS},
-        "poses": [{"x": x, "y": y, "yaw": yaw} for x, y, yaw in summary["poses"]],
+        "poses": poses,
         "goal_used": None if used is None else {"x": used[0], "y": used[1]},
     }
 
@@ -195,6 +215,12 @@ def _plan(args: argparse.Namespace) -> int:
         params["robot_radius"] = args.robot_radius
     if args.unknown is not None:
         params["unknown"] = args.unknown
+    if args.footprint is not None:
+        params["footprint"] = _json_arg(args.footprint, "footprint")
+    if args.motion is not None:
+        params["motion"] = args.motion
+    if args.min_turning_radius is not None:
+        params["min_turning_radius"] = args.min_turning_radius
     form = args.format or ("json" if args.json else "text")
     tolerance = args.goal_tolerance
     robot_map = None

@@ -24,11 +24,13 @@ from PIL import Image, ImageDraw
 from planner.analysis.analyse import Analysis
 from planner.analysis.passages import Passage
 from planner.errors import InvalidInput, quote
+from planner.motion.robots import robot_of
 from planner.plans.planning import Plan
 from planner.plans.whole_wave import Wave
 from planner.render_axes import known_window, with_axes
 from planner.render_legend import COLOURS, legend_entries, with_legend
 from planner.render_passages import PASSAGE_COLOUR, label_passages, tint_passages
+from planner.render_shapes import draw_footprints
 from planner.render_zones import draw_zone_outlines, paint_zones
 from planner.stepping.session import Session
 from planner.stepping.simulation import Episode
@@ -85,6 +87,8 @@ def draw(
     path_label: str = "path",
     passages: Sequence[Passage] = (),
     crop: bool = False,
+    footprint: Any = None,
+    directions: Any = None,
 ) -> Image.Image:
     """Draw a map's ``analysis`` as an RGB image of ``cell`` x ``cell`` pixels per map cell
     (``None``: :func:`auto_cell`).
@@ -94,7 +98,9 @@ def draw(
     and the ``robot``'s cell are discs. ``field`` tints free cells by ``analysis.clean`` or by
     ``wave.kw`` (``wave`` is then required). ``paths`` are more paths drawn as labelled lines.
     ``poses`` (``(m, 3)`` ``[x, y, yaw]`` in meters, a plan's :attr:`~planner.Plan.poses`) are
-    drawn as a thin blue line over the cells, with the last pose's heading as an arrow.
+    drawn as a thin blue line over the cells, with the last pose's heading as an arrow, and
+    with a ``footprint`` (vertices in the robot's frame, meters) its outline along them, orange
+    where ``directions`` says the robot reverses (:mod:`planner.render_shapes`).
     ``passages`` (:func:`planner.find_passages`) are tinted violet, labelled with their width.
     On a robot map, unknown cells are grey-blue, the configuration space's margin (free cells
     the robot's center cannot reach) pink, the robot's footprint a circle; ``legend`` (default:
@@ -157,6 +163,8 @@ def draw(
         pen.line(points, fill=rgb_, width=max(3, cell // 2), joint="curve")
     if poses is not None:
         draw_poses(image, analysis, poses, cell=cell)
+        if footprint is not None:
+            draw_footprints(image, analysis, poses, footprint, directions=directions, cell=cell)
     label_passages(image, passages, cell=cell)
     radius = cs.robot_radius / cs.resolution * cell if cs is not None else 0.0
     for cells, colour in ((start, "start"), (goal, "goal"), (robot, "robot")):
@@ -226,10 +234,12 @@ def render_plan(
 
     With no ``trajectory`` the preview is drawn as the path (green); with one, the trajectory is
     green and the preview pale green beneath it, and the legend (on robot maps) says so. The
-    plan's poses (unless ``poses`` is false) are a blue line over them; ``passages`` (those it
+    plan's poses (unless ``poses`` is false) are a blue line over them, with a footprint or a
+    car motion the robot's outline along them every 0.3 m; ``passages`` (those it
     crosses, say) are labelled with their width; ``crop`` keeps the known part of the map.
     """
     path, preview, robot = plan.path, None, None
+    shape = robot_of(plan.params, plan.analysis.frame.resolution)
     if trajectory is not None:
         path = _cells(trajectory, plan.analysis.shape, "trajectory")
         if len(path) == 0:
@@ -250,6 +260,8 @@ def render_plan(
         path_label="path" if trajectory is None else "trajectory (so far)",
         passages=passages,
         crop=crop,
+        footprint=None if shape is None else shape.footprint.vertices,
+        directions=plan.directions if poses and shape is not None else None,
     )
     return _png(image)
 

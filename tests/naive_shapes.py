@@ -86,17 +86,19 @@ RECTANGLE = [[0.3, 0.2], [0.3, -0.2], [-0.3, -0.2], [-0.3, 0.2]]
 """The issue's robot: 0.6 m x 0.4 m, its reference point at the middle."""
 
 
-def parking_bay(res: float = 0.05) -> tuple[planner.RobotMap, dict[str, float], dict[str, float]]:
-    """The issue's parking scenario: a 2 m aisle (y 0.5 to 2.5 m, x 0 to 8 m) with a bay 0.8 m
-    wide and 1.2 m deep off its top side (x 3.6 to 4.4 m); a start in the aisle facing along
-    it, a goal in the bay facing out (toward the aisle)."""
-    H, W = round(4.0 / res), round(8.0 / res)
+def parking_bay(
+    res: float = 0.05, length: float = 8.0
+) -> tuple[planner.RobotMap, dict[str, float], dict[str, float]]:
+    """The issue's parking scenario: a 2 m aisle (y 0.5 to 2.5 m, x 0 to ``length`` m) with a
+    bay 0.8 m wide and 1.2 m deep off its top side (x 3.6 to 4.4 m); a start in the aisle
+    facing along it, a goal in the bay facing out (toward the aisle)."""
+    H, W = round(4.0 / res), round(length / res)
     grid = np.ones((H, W), dtype=np.int64)
 
     def free(x0: float, x1: float, y0: float, y1: float) -> None:
         grid[H - round(y1 / res) : H - round(y0 / res), round(x0 / res) : round(x1 / res)] = 0
 
-    free(0.0, 8.0, 0.5, 2.5)
+    free(0.0, length, 0.5, 2.5)
     free(3.6, 4.4, 2.5, 3.7)
     start = {"x": 1.5, "y": 1.5, "yaw": 0.0}
     goal = {"x": 4.0, "y": 3.25, "yaw": -math.pi / 2}

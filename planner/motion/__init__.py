@@ -2,7 +2,14 @@
 Dubins curves, the hybrid search in (x, y, heading) for ``diff``, ``car`` and ``car_reverse``
 motions, shortening that keeps clearance, and the time to drive a path (docs/shapes.md)."""
 
-from planner.motion.collide import Grid, densify, footprint_clearance, grid_of, poses_free
+from planner.motion.collide import (
+    Grid,
+    densify,
+    footprint_clearance,
+    grid_of,
+    motions_free,
+    poses_free,
+)
 from planner.motion.curves import Curve, dubins, reeds_shepp
 from planner.motion.hybrid import MotionPath, Robot, drive
 
@@ -16,6 +23,7 @@ __all__ = [
     "dubins",
     "footprint_clearance",
     "grid_of",
+    "motions_free",
     "poses_free",
     "reeds_shepp",
 ]

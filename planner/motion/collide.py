@@ -25,9 +25,11 @@ from planner.maps.frames import MapFrame
 __all__ = [
     "Grid",
     "clearance_at",
+    "densified",
     "densify",
     "footprint_clearance",
     "grid_of",
+    "motions_free",
     "pose_free_at",
     "poses_free",
 ]
@@ -213,9 +215,33 @@ def densify(poses: Any, step: float, angle: float) -> npt.NDArray[np.float64]:
     """Poses ``[u, v, theta]`` with poses put between each two so that none is more than
     ``step`` (in the poses' unit) or ``angle`` radians from the next: the motion between them
     (straight, the heading turned the short way) as the checks see it."""
+    return densified(poses, step, angle)[0]
+
+
+def motions_free(
+    grid: Grid, cells: FootprintCells, poses: Any, step: float, angle: float
+) -> npt.NDArray[np.bool_]:
+    """Whether the footprint is free along the motion from each grid pose to the next
+    (``(n - 1,)``), checked as :func:`densify` places the poses between, both ends included."""
+    dense, seg = densified(poses, step, angle)
+    if len(seg) == 0:
+        return np.zeros(0, dtype=np.bool_)
+    free = poses_free(grid, cells, dense)
+    # Each motion holds its own poses and the first of the next (its end).
+    out: npt.NDArray[np.bool_] = np.logical_and.reduceat(free[:-1], np.searchsorted(
+        seg, np.arange(seg[-1] + 1)))  # fmt: skip
+    out &= free[np.searchsorted(seg, np.arange(1, seg[-1] + 2))]
+    return out
+
+
+def densified(
+    poses: Any, step: float, angle: float
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]:
+    """:func:`densify`'s poses, and for each but the last the motion it lies on (the index of
+    the given pose it leaves from)."""
     p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
     if len(p) < 2:
-        return p.copy()
+        return p.copy(), np.zeros(0, dtype=np.int64)
     d = np.diff(p, axis=0)
     turn = np.angle(np.exp(1j * d[:, 2]))
     count = np.maximum(
@@ -228,4 +254,4 @@ def densify(poses: Any, step: float, angle: float) -> npt.NDArray[np.float64]:
     out[:-1, :2] = p[seg, :2] + frac[:, None] * d[seg, :2]
     out[:-1, 2] = p[seg, 2] + frac * turn[seg]
     out[-1] = p[-1]
-    return out
+    return out, seg

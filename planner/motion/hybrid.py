@@ -20,16 +20,12 @@ import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis
 from planner.errors import InvalidInput, NoValidPath
-from planner.footprint import HEADING_BINS, Footprint, footprint_cells
-from planner.motion.collide import Grid, footprint_clearance, grid_of, poses_free
+from planner.footprint import HEADING_BINS, Footprint, FootprintCells, footprint_cells
+from planner.motion.collide import Grid, grid_of, poses_free
 from planner.motion.search import MOTIONS, ROTATE, Costs, Found, hybrid_search, primitives
 from planner.motion.shorten import shorten
 
-__all__ = ["MotionPath", "Robot", "drive"]
-
-EXPANSIONS_PER_SECOND = {"diff": 60_000, "car": 35_000, "car_reverse": 35_000}
-"""Nodes the search expands a second, about, by motion (it is given a budget of nodes, not of
-time: a numba kernel reads no clock)."""
+__all__ = ["MotionPath", "Robot", "check_spacing", "drive"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,6 +48,8 @@ class MotionPath:
     direction: npt.NDArray[np.int8]
     expansions: int
     elapsed_ms: float
+    search_s: float = 0.0
+    """How long its searches ran (their kernels' compiling left out)."""
 
     @property
     def cusps(self) -> int:
@@ -74,7 +72,8 @@ def drive(
     on ``analysis``, with ``kw`` the goal wave's wide cost-to-go on it (the search's
     heuristic; the analysis is the configuration space of the footprint's inscribed disc).
     The wall term is ``wide``'s (``wide_weight``, ``wide_distance`` meters) of the footprint's
-    clearance. The search stops after about ``seconds``: then ``NO_VALID_PATH``."""
+    clearance. The search stops after about ``seconds`` of its own (compiling left out): then
+    ``NO_VALID_PATH``."""
     t0 = time.perf_counter()
     if robot.motion not in MOTIONS:
         msg = f"motion must be one of {', '.join(MOTIONS)}; got {robot.motion!r}"
@@ -89,22 +88,19 @@ def drive(
     grid = grid_of(analysis)
     res = grid.frame.resolution
     cells = footprint_cells(robot.footprint, res, bins=HEADING_BINS)
-    # Checked this often, each pose's table covers the motion to the next (with a margin for
-    # a pose's chord off its arc: the answer's poses are a cell apart at most).
-    step = 2 * cells.pad - 0.05
-    angle = 2 * cells.pad_angle
+    step, angle = check_spacing(cells)
     radius = robot.min_turning_radius / res if car else 0.0
     seeds = _ends(grid, cells, start, "start")
     goals = _ends(grid, cells, goal, "goal")
     moves = primitives(robot.motion, radius, HEADING_BINS, check_step=step, check_angle=angle)
     costs = Costs(wall_weight=wide_weight, wall_distance=wide_distance / res)
-    budget = max(1000, int(seconds * EXPANSIONS_PER_SECOND[robot.motion]))
     found = hybrid_search(
         grid, cells, kw, moves, seeds, tuple(goals[0]), goal_yaw=goal[2] is not None,
-        motion=robot.motion, radius=radius, costs=costs, budget=budget, step=step, angle=angle,
+        motion=robot.motion, radius=radius, costs=costs, step=step, angle=angle,
+        seconds=seconds,
     )  # fmt: skip
     if not found.found:
-        why = "the search ran out of time" if found.expansions > budget else "no way fits"
+        why = f"the search ran out of its {seconds:.3g} s" if found.stopped else "no way fits"
         msg = (
             f"the footprint cannot drive from start to goal with motion {robot.motion} ({why} "
             f"after {found.expansions} nodes)"
@@ -118,7 +114,14 @@ def drive(
     if goal[2] is not None:
         out_poses[-1, 2] = math.remainder(goal[2], 2 * math.pi)
     elapsed = (time.perf_counter() - t0) * 1e3
-    return MotionPath(out_poses, direction, found.expansions, elapsed)
+    return MotionPath(out_poses, direction, found.expansions, elapsed, found.seconds)
+
+
+def check_spacing(cells: FootprintCells) -> tuple[float, float]:
+    """How far apart (cells, radians) poses are checked: then each pose's table covers the
+    motion to the next (with a margin for a pose's chord off its arc: the answer's poses are a
+    cell apart at most)."""
+    return 2 * cells.pad - 0.05, 2 * cells.pad_angle
 
 
 def _ends(
@@ -192,13 +195,3 @@ def _poses(
     keep = np.ones(len(poses), dtype=bool)
     keep[1:] = np.abs(np.diff(poses, axis=0)).max(axis=1) > 1e-9
     return poses[keep], direction[keep]
-
-
-def clearance_along(
-    analysis: Analysis, footprint: Footprint, poses: npt.NDArray[np.float64]
-) -> npt.NDArray[np.float64]:
-    """Meters from the footprint's outline to the nearest blocked cell's center at each pose
-    (map frame)."""
-    grid = grid_of(analysis)
-    cells = footprint_cells(footprint, grid.frame.resolution, bins=HEADING_BINS)
-    return footprint_clearance(grid, cells, grid.to_grid(poses))

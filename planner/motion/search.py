@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import heapq
 import math
+import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +33,7 @@ MOTIONS = ("diff", "car", "car_reverse")
 """The motions: ``diff`` (turns in place), ``car`` (forward arcs), ``car_reverse`` (both)."""
 
 STRAIGHT, ARC, ROTATE = 0, 1, 2
+EXHAUSTED, FOUND, STOPPED = 0, 1, 2  # how a search ended
 
 HEURISTIC_WEIGHT = 1.5
 """The heuristic's weight (weighted A*: a path at most this much dearer than the best, found
@@ -130,6 +133,10 @@ class Found:
     tail: npt.NDArray[np.float64]
     tail_direction: npt.NDArray[np.int8]
     expansions: int
+    stopped: bool = False
+    """Whether the search ran out of time (else, not found: no way fits)."""
+    seconds: float = 0.0
+    """How long the search ran (its kernel's compiling left out)."""
 
     @property
     def found(self) -> bool:
@@ -190,7 +197,7 @@ def _search(
     reach: float, outside_blocked: bool, edge: np.ndarray, edge_starts: np.ndarray,
     kw: np.ndarray, moves: np.ndarray, samples: np.ndarray, sample_starts: np.ndarray,
     seeds: np.ndarray, goal: np.ndarray, has_yaw: bool, motion: int, radius: float,
-    costs: np.ndarray, max_expansions: int, step: float, angle: float,
+    costs: np.ndarray, stop: np.ndarray, step: float, angle: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, int]:  # fmt: skip
     H, W = blocked.shape
     bins = starts.shape[0] - 1
@@ -218,13 +225,15 @@ def _search(
         n += 1
     empty = np.empty((0, 3))
     expansions = 0
+    status = EXHAUSTED
     while heap:
         f, i = heapq.heappop(heap)
         if closed[i] or f > f_of[i] + 1e-9:
             continue
         closed[i] = True
         expansions += 1
-        if expansions > max_expansions:
+        if (expansions & 63) == 0 and stop[0] != 0:  # the caller's clock ran out
+            status = STOPPED
             break
         x, y, t = pose[i, 0], pose[i, 1], pose[i, 2]
         here = -1.0 if parent[i] < 0 else moves[move[i], 4]
@@ -276,7 +285,7 @@ def _search(
                     out_pose[m] = pose[j]
                     out_move[m] = move[j]
                     j = parent[j]
-                return out_pose, out_move, tail, 1, tail_dir, tail, expansions
+                return out_pose, out_move, tail, FOUND, tail_dir, tail, expansions
         c, s = math.cos(t), math.sin(t)
         for p in range(moves.shape[0]):
             kind = int(moves[p, 5])
@@ -345,7 +354,7 @@ def _search(
         empty,
         np.empty(0, dtype=np.int64),
         empty,
-        0,
+        status,
         np.empty(0, dtype=np.int8),
         empty,
         expansions,
@@ -392,13 +401,14 @@ def hybrid_search(
     motion: str,
     radius: float,
     costs: Costs,
-    budget: int,
+    seconds: float,
     step: float,
     angle: float,
 ) -> Found:
     """Search from any of the grid poses ``seeds`` (``(k, 3)``, cost 0) to the grid pose
     ``goal`` (its heading free unless ``goal_yaw``) for ``motion`` with ``moves`` and a turning
-    ``radius`` (cells), expanding at most ``budget`` nodes; an analytic path is checked every
+    ``radius`` (cells), for at most about ``seconds`` (a clock: the kernel stops at the next
+    64 nodes after a timer thread raises its flag); an analytic path is checked every
     ``step`` cells and ``angle`` radians."""
     if motion not in MOTIONS:
         raise InvalidInput(f"motion must be one of {', '.join(MOTIONS)}; got {motion!r}",
@@ -409,12 +419,26 @@ def hybrid_search(
     if motion != "diff" and not radius > 0:
         raise InvalidInput(f"a car's radius must be > 0 cells; got {radius!r}",
                            field="min_turning_radius")  # fmt: skip
-    out = _search(
+    if not seconds > 0:
+        raise InvalidInput(f"seconds must be > 0; got {seconds!r}", field="seconds")
+    stop = np.zeros(1, dtype=np.uint8)
+    args = (
         grid.blocked, grid.distance, cells.offsets, cells.starts, cells.reach,
         grid.outside_blocked, cells.edge, cells.edge_starts,
         np.ascontiguousarray(kw, dtype=np.float64), moves.moves, moves.samples,
         moves.sample_starts, np.ascontiguousarray(seeds, dtype=np.float64),
         np.array(goal, dtype=np.float64), goal_yaw, MOTIONS.index(motion), float(radius),
-        costs.as_array(), int(budget), float(step), float(angle),
+        costs.as_array(), stop, float(step), float(angle),
     )  # fmt: skip
-    return Found(out[0], out[1], out[2], out[4], out[6])
+    # A call with no seed first returns at once, compiled (or loaded) for these arrays' types:
+    # the clock is then the search's alone.
+    _search(*args[:12], np.empty((0, 3)), *args[13:])
+    timer = threading.Timer(seconds, stop.fill, (1,))
+    t0 = time.perf_counter()
+    timer.start()
+    try:
+        out = _search(*args)
+    finally:
+        timer.cancel()
+    took = time.perf_counter() - t0
+    return Found(out[0], out[1], out[2], out[4], out[6], stopped=out[3] == STOPPED, seconds=took)

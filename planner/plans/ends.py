@@ -4,10 +4,11 @@ can stand on an off-center point, and the goal used within a ``goal_tolerance``.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 from scipy import ndimage
 
 from planner.analysis.analyse import Analysis
@@ -195,11 +196,13 @@ def nearest_reachable(
     *,
     diagonal_cost: float,
     allow_narrow: bool,
+    fits: Callable[[npt.NDArray[np.float64]], npt.NDArray[np.bool_]] | None = None,
 ) -> tuple[int, int] | None:
     """The traversable cell whose center is nearest to ``goal_xy`` (ties: row, then column),
     within ``tolerance`` meters, that the robot at ``start`` can reach (over the sealed grid, or
-    through tight tunnels when ``allow_narrow``); None when there is none. ``diagonal_cost``
-    does not change what is reached."""
+    through tight tunnels when ``allow_narrow``), and where ``fits`` (given the centers, meters:
+    a footprint's check) if given; None when there is none. ``diagonal_cost`` does not change
+    what is reached."""
     frame = analysis.frame
     H, W = analysis.shape
     res = frame.resolution
@@ -231,6 +234,9 @@ def nearest_reachable(
         labels, _ = ndimage.label(passable)
         reached |= labels[r0:r1, c0:c1] == labels[start]
     dist[~reached] = np.inf
+    if fits is not None:
+        near = np.argwhere(np.isfinite(dist))
+        dist[tuple(near[~fits(frame.centers(near + np.array([r0, c0])))].T)] = np.inf
     best = float(dist.min())
     if not math.isfinite(best):
         return None

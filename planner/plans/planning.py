@@ -14,10 +14,18 @@ import numpy as np
 import numpy.typing as npt
 
 from planner.analysis.analyse import Analysis, analyse, analyse_map, params_key
-from planner.errors import InvalidInput, NoValidPath
+from planner.errors import InvalidInput, NoValidPath, quote
 from planner.maps.grids import as_grid
 from planner.maps.robot_maps import RobotMap, grid_map
-from planner.motion.robots import MotionPath, check_goal_yaw, motion_path
+from planner.motion.robots import (
+    SEARCH_SECONDS,
+    MotionPath,
+    arrived_as,
+    check_goal_yaw,
+    check_waypoint_yaws,
+    fits_at,
+    motion_path,
+)
 from planner.params import PARAMETER_RANGES, Params, resolve_params
 from planner.plans.bounded import Detour, bound_detour
 from planner.plans.decide import Rule
@@ -34,6 +42,7 @@ from planner.plans.metrics import clearance_metrics, path_cost
 from planner.plans.reach import route, wave_to
 from planner.plans.resumable_wave import resumable_wave
 from planner.plans.route import Route, plan_route, waypoint_list
+from planner.plans.summary import plan_summary
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
 from planner.poses.speed import duration, pose_speeds
@@ -82,6 +91,8 @@ class Plan:
     None."""
     detour: Detour | None = None
     """How the ``wide`` route compares with the shortest (``params.max_detour``), else None."""
+    search_seconds: float = SEARCH_SECONDS
+    """How long a footprint's or a car's search may run (then ``NO_VALID_PATH``)."""
 
     @cached_property
     def path(self) -> npt.NDArray[np.int64]:
@@ -164,8 +175,12 @@ class Plan:
         joined (:func:`~planner.plans.route.join_poses`)."""
         if self.route is not None:
             return self.route.poses
-        if self.motion is not None:
-            return self.motion.poses
+        return self._smoothed if self.motion is None else self.motion.poses
+
+    @cached_property
+    def _smoothed(self) -> npt.NDArray[np.float64]:
+        """The grid path smoothed for the analysis's disc (a footprint turning in place follows
+        it where it fits)."""
         a = self.analysis
         cs = a.cspace
         start = self.start_point
@@ -198,11 +213,14 @@ class Plan:
             self.analysis, self.wave, self.params,
             (self.start_point or self._center(self.start), self.start_yaw),
             (goal or self._center(self.goal), self.goal_yaw),
+            guide=lambda: self._smoothed, seconds=self.search_seconds,
         )  # fmt: skip
 
     @property
     def directions(self) -> npt.NDArray[np.int8]:
         """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        if self.route is not None:
+            return self.route.directions
         m = self.motion
         return np.ones(len(self.poses), np.int8) if m is None else m.direction
 
@@ -251,48 +269,8 @@ class Plan:
         return self.analysis.tunnels
 
     def summary(self) -> dict[str, Any]:
-        """The plan as plain JSON-ready data."""
-        return {
-            "start": list(self.start),
-            "goal": list(self.goal),
-            "preset": self.preset,
-            "params": self.params.as_dict(),
-            "path": self.path.tolist(),
-            "length": round(self.length, 6),
-            "arc_cost": round(self.arc_cost, 6),
-            "gates": self.gates,
-            "tunnels": self.tunnels,
-            "sealed": self.analysis.sealed,
-            "narrow_fallback": self.narrow_fallback,
-            "min_clearance": round(self.min_clearance, 4),
-            "mean_clearance": round(self.mean_clearance, 4),
-            "contact_ratio": round(self.contact_ratio, 4),
-            "path_xy": self.path_xy.round(6).tolist(),
-            "length_m": round(self.length_m, 6),
-            "min_clearance_m": round(self.min_clearance_m, 6),
-            "mean_clearance_m": round(self.mean_clearance_m, 6),
-            "poses": self.poses.tolist(),
-            "directions": None if self.motion is None else self.directions.tolist(),
-            "length_poses_m": round(self.length_poses_m, 6),
-            "max_speeds": [None if math.isinf(v) else v for v in self.max_speeds.tolist()],
-            "duration_s": round(self.duration_s, 6),
-            "goal_used": None if self.goal_used is None else list(self.goal_used),
-            "goal_offset_m": round(self.goal_offset_m, 6),
-            "waypoints": [list(cell) for cell in self.waypoints],
-            "waypoint_indices": self.waypoint_indices,
-            "detour": self._detour(),
-            "analysis_ms": round(self.analysis.elapsed_ms, 3),
-            "wave_ms": round(self.wave.elapsed_ms, 3),
-            "elapsed_ms": round(self.elapsed_ms, 3),
-        }
-
-    def _detour(self) -> dict[str, Any] | None:
-        d, res = self.detour, self.analysis.frame.resolution
-        if d is None:
-            return None
-        ratio = self.length / d.shortest if d.shortest > 0 else 1.0
-        return {"shortest_m": round(d.shortest * res, 6), "ratio": round(ratio, 6),
-                "width_kept": d.width_kept, "tunnels_opened": d.tunnels_opened}  # fmt: skip
+        """The plan as plain JSON-ready data (:func:`~planner.plans.summary.plan_summary`)."""
+        return plan_summary(self)
 
 
 def plan(
@@ -307,6 +285,7 @@ def plan(
     goal_tolerance: Any = 0.0,
     waypoints: Any = None,
     bounded: bool = True,
+    search_seconds: float = SEARCH_SECONDS,
     **params: Any,
 ) -> Plan:
     """Plan from ``start`` to ``goal`` on a 0/1 occupancy ``grid`` or a :class:`RobotMap`.
@@ -320,7 +299,8 @@ def plan(
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
     passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
     plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
-    a route's legs: one set of effective parameters holds for the whole route.
+    a route's legs: one set of effective parameters holds for the whole route. A footprint's
+    or a car's search runs for at most about ``search_seconds`` (a request's time left).
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
     ``params`` override it one by one (see :class:`planner.Params`), among them
@@ -368,13 +348,17 @@ def plan(
             raise InvalidInput(msg, field="params")
     through = waypoint_list(waypoints)
     if through:
-        given = analysis
+        given, legs = analysis, list[Plan]()
+        check_waypoint_yaws(p, through)
 
         def leg(a: Any, b: Any, tolerance: Any) -> Plan:
-            return plan(
+            if legs:  # on from the waypoint as the robot arrived there
+                a = arrived_as(p, given.frame.resolution, a, legs[-1].poses[-1])
+            legs.append(plan(
                 None, a, b, preset=preset, analysis=given, waves=waves, whole=whole,
-                goal_tolerance=tolerance, bounded=False, **params,
-            )  # fmt: skip
+                goal_tolerance=tolerance, bounded=False, search_seconds=search_seconds, **params,
+            ))  # fmt: skip
+            return legs[-1]
 
         return plan_route(analysis, start, through, goal, leg, goal_tolerance)
     s = free_cell(analysis, start, "start")
@@ -393,16 +377,20 @@ def plan(
         return resumable_wave(analysis, g, diagonal_cost=p.diagonal_cost, narrow=narrow)
 
     goal_used = None
+    fits = fits_at(analysis, p, goal_yaw) if tolerance > 0 else None  # a footprint's goal
     try:
         g = free_cell(analysis, goal, "goal")
         stand_on(analysis, goal, g, "goal")
+        if fits is not None and not fits(np.array([goal_xy]))[0]:
+            msg = f"the footprint at goal {quote(goal)} holds a blocked cell's center"
+            raise InvalidInput(msg, field="goal", code="GOAL_OCCUPIED")
         wave, narrow = wave_to(analysis, s, g, p.allow_narrow, wave_for)
     except (InvalidInput, NoValidPath) as error:
         if tolerance <= 0:
             raise
         near = nearest_reachable(
             analysis, s, goal_xy, tolerance,
-            diagonal_cost=p.diagonal_cost, allow_narrow=p.allow_narrow,
+            diagonal_cost=p.diagonal_cost, allow_narrow=p.allow_narrow, fits=fits,
         )  # fmt: skip
         if near is None:
             error.message += (
@@ -431,6 +419,7 @@ def plan(
         goal_yaw=goal_yaw,
         goal_used=goal_used,
         goal_tolerance=tolerance,
+        search_seconds=search_seconds,
     )
     if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
         return bound_detour(result, whole=whole, t0=t0)

@@ -52,6 +52,8 @@ class Leg(Protocol):
     @property
     def poses(self) -> npt.NDArray[np.float64]: ...
     @property
+    def directions(self) -> npt.NDArray[np.int8]: ...
+    @property
     def length(self) -> float: ...
     @property
     def arc_cost(self) -> float: ...
@@ -112,9 +114,14 @@ class Route(Generic[L]):
         return join_poses(self.legs)
 
     @property
+    def directions(self) -> npt.NDArray[np.int8]:
+        """The direction (1 forward, -1 reverse) of the motion reaching each of :attr:`poses`."""
+        return self._joined[0][:, 3].astype(np.int8)
+
+    @property
     def poses(self) -> npt.NDArray[np.float64]:
         """The legs' poses end to end (see :func:`join_poses`)."""
-        return self._joined[0]
+        return self._joined[0][:, :3]
 
     @property
     def waypoint_indices(self) -> tuple[int, ...]:
@@ -208,12 +215,13 @@ def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int,
     has it). At one without, the heading there is halfway between the way in and the way out:
     one pose when the turns from the pose before and to the pose after stay within 15 degrees,
     else a turn in place from the way in, through that heading, to the way out. No two
-    consecutive poses are alike."""
+    consecutive poses are alike. Each pose carries the direction of the motion reaching it
+    (``[x, y, yaw, direction]``)."""
     out: list[list[float]] = []
     loose = True  # whether the last pose's yaw says nothing yet (a leg that does not move)
     indices: list[int] = []
     for k, leg in enumerate(legs):
-        nxt: list[list[float]] = leg.poses.tolist()
+        nxt: list[list[float]] = np.column_stack([leg.poses, leg.directions]).tolist()
         idle = leg.start_yaw is None and leg.goal_yaw is None
         idle = idle and all(q[0] == nxt[0][0] and q[1] == nxt[0][1] for q in nxt)
         if k == 0:
@@ -227,13 +235,13 @@ def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int,
         a, d = out[-1][2], nxt[0][2]
         turn = wrap_angle(d - a)
         if loose or legs[k - 1].goal_yaw is not None or turn == 0.0:
-            out[-1] = nxt[0]
+            out[-1] = [*nxt[0][:3], out[-1][3]]
             indices.append(len(out) - 1)
             out += nxt[1:]
             loose = False
             continue
         h = wrap_angle(a + turn / 2)
-        merged = [x, y, h]
+        merged = [x, y, h, 1.0]
         prior = out[-2] if len(out) > 1 else None
         after = nxt[1] if len(nxt) > 1 else None
         if (prior is None or _passes(prior, merged)) and (after is None or _passes(merged, after)):
@@ -242,13 +250,13 @@ def join_poses(legs: Sequence[Leg]) -> tuple[npt.NDArray[np.float64], tuple[int,
             out += nxt[1:]
             continue
         n = math.ceil(abs(turn / 2) / _TURN_STEP)
-        out += [[x, y, wrap_angle(a + turn / 2 * q / n)] for q in range(1, n + 1)]
+        out += [[x, y, wrap_angle(a + turn / 2 * q / n), 1.0] for q in range(1, n + 1)]
         indices.append(len(out) - 1)
-        out += [[x, y, wrap_angle(h + turn / 2 * q / n)] for q in range(1, n)]
+        out += [[x, y, wrap_angle(h + turn / 2 * q / n), 1.0] for q in range(1, n)]
         out += nxt
-    poses = np.array(out, dtype=np.float64).reshape(-1, 3)
+    poses = np.array(out, dtype=np.float64).reshape(-1, 4)
     keep = np.ones(len(poses), dtype=bool)
-    keep[1:] = (poses[1:] != poses[:-1]).any(axis=1)
+    keep[1:] = (poses[1:, :3] != poses[:-1, :3]).any(axis=1)
     shift = np.cumsum(~keep)
     joined = tuple(int(i - shift[i]) for i in indices)
     out_poses: npt.NDArray[np.float64] = poses[keep]

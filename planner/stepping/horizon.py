@@ -10,9 +10,11 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from planner.motion.robots import robot_of
 from planner.plans.planning import Plan
 from planner.poses.route_poses import poses_ahead
 from planner.stepping.ahead import horizon_cells, route_ahead
+from planner.stepping.shaped import shaped_ahead
 from planner.stepping.state import Pose, SessionState, Step
 
 __all__ = ["path_ahead"]
@@ -69,6 +71,13 @@ def path_ahead(
         if not short or length >= p.horizon_m:
             break
         steps *= 2
+    robot = robot_of(p, res)
+    if robot is not None:  # a footprint or a car: its own poses, checked (docs/shapes.md)
+        x, y = point if point is not None else frame.centers([first])[0]
+        on_plan = not state.detour and len(poses) > 1
+        poses = shaped_ahead(
+            plan, robot, poses, obstacles, on_plan=on_plan, here=(float(x), float(y)), yaw=yaw
+        )
     end_flat = int(route[n - 1])
     remaining_m = None
     if step.remaining is not None:

@@ -11,25 +11,22 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from planner.analysis.analyse import Analysis
-from planner.analysis.cells import BLOCKED_CELL
 from planner.errors import InvalidInput, SequenceConflict, quote
 from planner.maps.frames import point_xy
-from planner.maps.grids import as_cell
-from planner.params import PARAMETER_RANGES, SQRT2
+from planner.params import SQRT2
 from planner.plans.decide import BLOCKED, EVADE, MODE_PAPER, MOVE, WAIT, Rule, cost_here, decide
-from planner.plans.detour import detour_cells
 from planner.plans.ends import cell_of, end_yaw, free_cell
-from planner.plans.moves import DC, DR, OPEN_UNSEALED
+from planner.plans.moves import DC, DR
 from planner.plans.planning import Plan
 from planner.plans.reach import route
 from planner.stepping.ahead import blocked_ahead, window_cells
 from planner.stepping.horizon import path_ahead
 from planner.stepping.legs import go_on, last_leg, later_cost, leg_of
 from planner.stepping.obstacles import blocked_cells, obstacle_cells
+from planner.stepping.replan import unsealed_detour
 from planner.stepping.state import MOVES, SessionState, Status, Step
 
-__all__ = ["MOVES", "Session", "SessionState", "Status", "Step", "detour"]
+__all__ = ["MOVES", "Session", "SessionState", "Status", "Step"]
 
 
 class Session:
@@ -331,13 +328,13 @@ class Session:
             return (np.empty(0, dtype=np.int64), False) if on_plan else None
         # Over the unsealed grid with the octile heuristic: the wave's fields are not read (a
         # resumable wave stays resumable).
-        cells = _unsealed_detour(a, start, goal, obstacles, p.dynamic_margin, p.diagonal_cost)
+        cells = unsealed_detour(a, start, goal, obstacles, p.dynamic_margin, p.diagonal_cost)
         if cells.size:
             sealed = ~wave.on_grid(np.append(cells, start))
             return cells, bool(sealed.any())
         if not on_plan:
             none = np.empty((0, 2), dtype=np.int64)
-            way = _unsealed_detour(a, start, goal, none, 0, p.diagonal_cost)
+            way = unsealed_detour(a, start, goal, none, 0, p.diagonal_cost)
             if way.size == 0:
                 return None
         return np.empty(0, dtype=np.int64), False
@@ -424,48 +421,6 @@ class Session:
         return None
 
 
-def detour(
-    plan: Plan,
-    cell: Any,
-    dynamic_obstacles: Any = (),
-    *,
-    margin: int | None = None,
-    narrow: bool = False,
-) -> npt.NDArray[np.int64]:
-    """The replan a stepping robot makes: the cheapest way (length + clean) from ``cell`` to the
-    plan's goal with every cell within ``margin`` (default: the plan's ``dynamic_margin``) of a
-    dynamic obstacle blocked, over the plan's grid or, with ``narrow``, the unsealed one.
-
-    Returns the ``(n, 2)`` cells after ``cell`` up to the goal; no rows when there is no way.
-
-    >>> from planner import plan
-    >>> p = plan([[0, 0, 0], [0, 0, 0], [0, 0, 0]], [0, 0], [0, 2], preset="shortest")
-    >>> detour(p, [0, 0], [[0, 1]], margin=0).tolist()   # round it, cutting no corner of it
-    [[1, 0], [1, 1], [1, 2], [0, 2]]
-    >>> detour(p, [0, 0], [[0, 1]], margin=1).tolist()
-    []
-    """
-    a, wave, params = plan.analysis, plan.wave, plan.params
-    r, c = as_cell(cell, a.shape, name="cell")
-    if a.state[r, c] == BLOCKED_CELL:
-        raise InvalidInput(f"cell [{r}, {c}] is on an obstacle", field="cell")
-    obstacles = obstacle_cells(dynamic_obstacles, a.shape)
-    if margin is None:
-        margin = params.dynamic_margin
-    low, high = PARAMETER_RANGES["dynamic_margin"]
-    if isinstance(margin, bool) or not isinstance(margin, int) or not low <= margin <= high:
-        msg = f"margin must be an integer in [{low}, {high}]; got {margin!r}"
-        raise InvalidInput(msg, field="margin")
-    W = a.shape[1]
-    if not narrow or wave.narrow or not a.sealed:  # over the wave's grid (a resumable one's own)
-        cells = wave.detour(r * W + c, obstacles, a.clean, margin)
-    else:
-        goal = plan.goal[0] * W + plan.goal[1]
-        cells = _unsealed_detour(a, r * W + c, goal, obstacles, margin, params.diagonal_cost)
-    out: npt.NDArray[np.int64] = np.stack(np.divmod(cells, W), axis=1).reshape(-1, 2)
-    return out
-
-
 def _pose(position: Any) -> tuple[tuple[float, float] | None, float | None]:
     """A reported point and its heading, if the position is a point (a cell has neither)."""
     if not isinstance(position, Mapping):
@@ -479,20 +434,3 @@ def _move_name(a: tuple[int, int], b: tuple[int, int]) -> str:
         if int(DR[i]) == dr and int(DC[i]) == dc:
             return MOVES[i]
     raise AssertionError(f"{a} -> {b} is not a move")
-
-
-def _unsealed_detour(
-    a: Analysis,
-    start: int,
-    goal: int,
-    obstacles: npt.NDArray[np.int64],
-    margin: int,
-    diagonal_cost: float,
-) -> npt.NDArray[np.int64]:
-    """The detour over the unsealed grid, with the octile heuristic: no wave ran over it (a
-    resumable wave stays resumable)."""
-    cells, _ = detour_cells(
-        a.state, OPEN_UNSEALED, goal, a.clean, start, obstacles, margin=margin,
-        diagonal_cost=diagonal_cost,
-    )  # fmt: skip
-    return cells

@@ -294,3 +294,8 @@ def warm_up() -> None:
     # A limit far above the solve's: one hit while compiling would skip the search's kernels,
     # left uncompiled (and out of numba's cache) for the next start to compile.
     solve(roadmap, [0, roadmap.nodes - 1], [roadmap.nodes - 1, 0], time_limit_s=3600.0)
+    # Robot shapes: a footprint turning in place, and a car searched for, on a robot map.
+    box = [[0.1, 0.05], [0.1, -0.05], [-0.1, -0.05], [-0.1, 0.05]]
+    ends = {"x": 0.25, "y": 0.25, "yaw": 0.0}, {"x": 1.25, "y": 0.25, "yaw": 0.0}
+    plan(on_map, *ends, footprint=box).poses  # noqa: B018
+    plan(on_map, *ends, footprint=box, motion="car", min_turning_radius=0.2).poses  # noqa: B018

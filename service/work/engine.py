@@ -31,6 +31,7 @@ import numpy as np
 
 import planner
 from planner import Unsettled, params_key
+from planner.motion.robots import SEARCH_SECONDS
 from planner.render import auto_cell
 from service.config import Settings
 from service.errors import TooLarge
@@ -149,6 +150,13 @@ class Engine:
         with self._plans_lock:
             for k in [k for k, (plan, _) in self._plans.items() if over(plan)]:
                 del self._plans[k]
+
+    @property
+    def search_seconds(self) -> float:
+        """How long a plan's footprint or car search may run: its own bound, and half the
+        request's timeout (the analysis, the goal wave and the answer have the rest): out of
+        time, a ``422`` ``NO_VALID_PATH`` that says so, not a ``504``."""
+        return min(SEARCH_SECONDS, 0.5 * self.settings.request_timeout_seconds)
 
     def _remember_plan(self, key: Hashable, map_id: str, plan: planner.Plan) -> None:
         wave = plan.wave
@@ -314,7 +322,8 @@ class Engine:
 
         plan = planner.plan(
             None, start, goal, preset=preset, analysis=analysis, waves=wave,
-            goal_tolerance=goal_tolerance, waypoints=waypoints, **params.as_dict(),
+            goal_tolerance=goal_tolerance, waypoints=waypoints,
+            search_seconds=self.search_seconds, **params.as_dict(),
         )  # fmt: skip
         if preview:  # the preview, now in the pool: responses are built on the event loop
             plan.summary()
@@ -393,7 +402,7 @@ class Engine:
         """A plan (or a route's leg) from its record, over the cached analysis and wave."""
         map_id, goal, narrow = record["map_id"], record["goal"], record["narrow_fallback"]
         wave = self._wave(map_id, params, analysis, goal, narrow)
-        return plan_of_record(record, params, analysis, wave)
+        return plan_of_record(record, params, analysis, wave, self.search_seconds)
 
     async def step(
         self, session: planner.Session, obstacles: Any, *, position: Any, seq: int | None

@@ -68,9 +68,14 @@ def plan_legs(plan: planner.Plan) -> list[dict[str, Any]] | None:
 
 
 def plan_of_record(
-    record: PlanRecord, params: planner.Params, analysis: planner.Analysis, wave: planner.Wave
+    record: PlanRecord,
+    params: planner.Params,
+    analysis: planner.Analysis,
+    wave: planner.Wave,
+    search_seconds: float,
 ) -> planner.Plan:
-    """A plan (or a route's leg) from its record, over its analysis and goal wave."""
+    """A plan (or a route's leg) from its record, over its analysis and goal wave, its
+    footprint's search given ``search_seconds``."""
     goal = record["goal"]
     ends = record.get("ends") or {}  # a record from before poses: the cells' centers
 
@@ -93,4 +98,5 @@ def plan_of_record(
         goal_yaw=ends.get("goal_yaw"),
         goal_used=point("goal_used"),
         goal_tolerance=float(ends.get("goal_tolerance", 0.0)),
+        search_seconds=search_seconds,
     )

@@ -6,6 +6,7 @@ trapezoid duration against a closed form."""
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +77,20 @@ def test_a_car_reverses_into_a_bay_with_a_cusp() -> None:
     )
     with pytest.raises(planner.NoValidPath):  # forward only, it cannot end facing out
         forward.poses  # noqa: B018
+
+
+def test_a_search_out_of_time_ends_then_and_says_so() -> None:
+    """Forward only, no way ends in the bay facing out: along a 24 m aisle the search would
+    take about a minute to find none; given 0.3 s, it stops then."""
+    bay, start, goal = naive_shapes.parking_bay(length=24.0)
+    car: dict[str, Any] = {"footprint": RECTANGLE, "motion": "car", "min_turning_radius": 0.5}
+    ahead = {"x": 3.0, "y": 1.5, "yaw": 0.0}
+    planner.plan(bay, start, ahead, **car).poses  # noqa: B018 - the kernels compiled first
+    plan = planner.plan(bay, start, goal, search_seconds=0.3, **car)
+    t0 = time.perf_counter()
+    with pytest.raises(planner.NoValidPath, match=r"ran out of its 0\.3 s"):
+        plan.poses  # noqa: B018
+    assert time.perf_counter() - t0 < 3.0  # not a speed target: the clock's bound, loosely
 
 
 @pytest.mark.parametrize(

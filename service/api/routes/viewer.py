@@ -14,6 +14,7 @@ from fastapi.responses import HTMLResponse, StreamingResponse
 from starlette.background import BackgroundTask
 
 import planner
+from planner.motion.robots import robot_of
 from schemas import ErrorPublic
 from service.api.deps import EngineDep
 from service.errors import responses
@@ -37,7 +38,9 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     """An HTML page drawing the plan's map, its planned path, the robot (`#robot`, its cell in
     `data-cell`), the dynamic obstacles of the latest step (`.dynamic-obstacle`), its path
     ahead (`#ahead`, a polyline through its poses) and heading (`#heading`, the first pose's
-    yaw in `data-yaw`), and on a zoned map its zones (`.keepout` polygons hatched red,
+    yaw in `data-yaw`), a robot with a footprint or a car motion outlined along its path ahead
+    every 0.3 m (`.outline`; the picture beneath outlines it along the plan's poses), and on a
+    zoned map its zones (`.keepout` polygons hatched red,
     `.speed-zone` polygons labelled by `.speed-label` with their max speed), updated
     live from `/plan/{plan_id}/events` as steps arrive; on a robot map, the map's narrow
     passages for the plan's robot (`.passage`, from `/maps/{map_id}/passages`: a dot and its
@@ -45,6 +48,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
     each second). Everything it loads comes from the service."""
     view_ = await plans.get_plan(engine, plan_id)
     height, width = view_.plan.analysis.shape
+    robot = robot_of(view_.plan.params, view_.plan.analysis.frame.resolution)
     zones = view_.plan.analysis.zones
     passages = live = None
     if not view_.plan.analysis.plain:  # relative to the page: /maps/{map_id}/passages
@@ -65,6 +69,7 @@ async def view(plan_id: str, engine: EngineDep) -> HTMLResponse:
         "zones": None if zones is None else zones.as_dict(),
         "passages_url": passages,
         "live_url": live,
+        "footprint": None if robot is None else [list(v) for v in robot.footprint.vertices],
     }
     # Inside <script>: "</" must not close it.
     embedded = orjson.dumps(data).decode().replace("</", "<\\/")
