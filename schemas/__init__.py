@@ -4,6 +4,7 @@ Pure pydantic: nothing here imports the planner, so clients can reuse these mode
 """
 
 from schemas.errors import ErrorPublic
+from schemas.examples import EXAMPLE_MAP, EXAMPLE_MAP_ID
 from schemas.fleet_names import PlanCreate
 from schemas.fleets import FleetPublic, FleetRobotPublic, FleetSolvePublic
 from schemas.mapf import MapfAgent, MapfCreate, MapfPublic, PlanGoalUpdate
@@ -12,8 +13,6 @@ from schemas.ops import LivePublic, PoolStats, ReadyPublic
 from schemas.passages import NarrowestPublic, PassagePublic, PassagesPublic
 from schemas.paths import FRAME_ID_MAX, FRAME_ID_PATTERN, NavPath
 from schemas.plans import (
-    EXAMPLE_MAP,
-    EXAMPLE_MAP_ID,
     PRESET_NAMES,
     AnalysisPublic,
     DetourPublic,

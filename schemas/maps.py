@@ -6,12 +6,10 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from schemas.examples import EXAMPLE_MAP, EXAMPLE_MAP_ID, EXAMPLE_PLAN
 from schemas.fleet_names import FleetName
 from schemas.parts import MapParts, multipart_form
 from schemas.plans import (
-    EXAMPLE_MAP,
-    EXAMPLE_MAP_ID,
-    EXAMPLE_PLAN,
     PlanName,
     PlanOptions,
     PlanPublic,

@@ -16,7 +16,8 @@ from planner import quote
 from schemas import LaserScan, Point, ScanPose, StepCreate
 from service.stores.live import Seen
 from service.tenants import scoped
-from service.work.engine import Engine, cell_size, frame_map
+from service.work.engine import Engine
+from service.work.pictures import cell_size, frame_map
 
 __all__ = [
     "MARKS_ON_LOOP",

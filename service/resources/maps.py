@@ -11,7 +11,8 @@ import planner
 from schemas import MapCreate, PlanCreate
 from service.errors import TooLarge
 from service.resources import passages, plans
-from service.work.engine import Engine, cell_size
+from service.work.engine import Engine
+from service.work.pictures import cell_size
 
 __all__ = ["MapView", "add_map", "get_map", "json_cells_message", "render_map"]
 

@@ -24,7 +24,8 @@ from service.resources import fleets, live, passages
 from service.resources.bodies import overrides, where
 from service.stores import PlanRecord
 from service.stores.base import Event, FleetRecord, Update, unknown_map
-from service.work.engine import Engine, cell_size, frame_map
+from service.work.engine import Engine
+from service.work.pictures import cell_size, frame_map
 from service.work.records import plan_ends, plan_legs
 
 __all__ = [

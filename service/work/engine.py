@@ -19,7 +19,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
-import math
 import threading
 import weakref
 from collections import OrderedDict
@@ -27,14 +26,10 @@ from collections.abc import Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 import planner
 from planner import Unsettled, params_key
 from planner.motion.robots import SEARCH_SECONDS
-from planner.render import auto_cell
 from service.config import Settings
-from service.errors import TooLarge
 from service.stores import PlanRecord, Store
 from service.stores.base import unknown_map
 from service.tenants import scoped
@@ -43,20 +38,10 @@ from service.work.pool import Pool
 from service.work.records import plan_ends, plan_key, plan_legs, plan_of_record
 
 __all__ = [
-    "MAX_IMAGE_PIXELS",
-    "MAX_IMAGE_SIDE",
     "Engine",
     "analysis_key",
-    "cell_size",
-    "frame_map",
     "wave_key",
 ]
-
-MAX_IMAGE_SIDE = 8192
-"""Pixels on a picture's longer side at most (the picture must also hold at most
-``MAX_IMAGE_PIXELS``: a 4096 x 4096 map at 1 pixel a cell)."""
-MAX_IMAGE_PIXELS = 4096 * 4096
-"""Pixels of a picture at most (a few seconds to draw and compress, ~50 MB while drawn)."""
 
 OBSTACLES_ON_LOOP = 4096
 """Blocked cells a step may have and still be decided on the event loop (circles covering a
@@ -86,35 +71,6 @@ def wave_key(
 PLAN_MEMO = 1024
 """Plans the engine keeps built (their arrays are the cache's: a plan adds its path and a few
 numbers), so that a warm step finds its plan with one look-up."""
-
-
-def frame_map(frame: planner.MapFrame) -> planner.RobotMap:
-    """A map of ``frame`` with no content: what :func:`planner.circle_cells` reads (the frame
-    only), without the stored map. The occupancy is a zero-copy broadcast view."""
-    return planner.RobotMap(np.broadcast_to(np.int8(0), frame.shape), frame)
-
-
-def cell_size(shape: tuple[int, int], cell: int | None) -> int:
-    """Pixels per cell of a picture: the caller's, within the image limit, or the planner's
-    legible default (:func:`planner.render.auto_cell`)."""
-    side = max(shape)
-    if cell is None:
-        return auto_cell(shape)
-    if side * cell > MAX_IMAGE_SIDE:
-        msg = (
-            f"cell {cell} would draw the {shape[0]} x {shape[1]} map {side * cell} pixels wide; "
-            f"the limit is {MAX_IMAGE_SIDE} (use cell <= {max(1, MAX_IMAGE_SIDE // side)})"
-        )
-        raise planner.InvalidInput(msg, field="cell")
-    pixels = shape[0] * shape[1] * cell * cell
-    if pixels > MAX_IMAGE_PIXELS:
-        fits = max(1, math.isqrt(MAX_IMAGE_PIXELS // (shape[0] * shape[1])))
-        msg = (
-            f"cell {cell} would draw the {shape[0]} x {shape[1]} map in {pixels} pixels; the "
-            f"limit is {MAX_IMAGE_PIXELS} (use cell <= {fits})"
-        )
-        raise TooLarge(msg, field="cell")
-    return cell
 
 
 @dataclass(slots=True)

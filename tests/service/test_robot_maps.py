@@ -22,7 +22,7 @@ from PIL import Image
 import planner
 from service.client import PlannerClient
 from service.config import Settings
-from service.work.engine import MAX_IMAGE_SIDE
+from service.work.pictures import MAX_IMAGE_SIDE
 from tests import naive
 from tests.conftest import ROS_MAP_NAMES
 
