@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
@@ -21,7 +22,7 @@ from planner.params import Params
 from planner.plans.resumable_wave import resumable_wave
 from planner.plans.whole_wave import Wave, goal_wave
 
-__all__ = ["SCALES", "Detour", "bound_detour"]
+__all__ = ["SCALES", "Detour", "bound_detour", "bound_route"]
 
 #: The shares of the wall term tried, in order, until the route is within the bound.
 SCALES = (0.5, 0.25, 0.125, 0.0625, 0.0)
@@ -88,6 +89,43 @@ def bound_detour(result: Plan, *, whole: bool = False, t0: float | None = None) 
                 low = middle + 1
     elapsed = chosen.elapsed_ms if t0 is None else (time.perf_counter() - t0) * 1e3
     return _keeping_path(chosen, detour=detour, elapsed_ms=elapsed)
+
+
+def bound_route(
+    legs: Sequence[Plan],
+    join: Callable[[list[Plan]], Plan],
+    *,
+    whole: bool = False,
+    t0: float | None = None,
+) -> Plan:
+    """A route through waypoints (its ``legs``, joined by ``join``) within ``max_detour`` times
+    the shortest route through the same waypoints (the sum of each leg's shortest), with its
+    :class:`Detour`. One share of the wall term holds for every leg, the widest within the bound
+    on the whole route (a leg may then be longer than the bound on its own, another shorter),
+    so that the route keeps one set of effective ``params``; the last resort opens every leg's
+    tunnels."""
+    p = legs[0].params
+    shortest_legs = [_scaled(leg, 0.0, narrow=True, whole=whole) for leg in legs]
+    shortest = sum(leg.length for leg in shortest_legs)
+    bound = p.max_detour * shortest * (1 + _SLACK)
+    chosen, detour = list(legs), Detour(shortest)
+    if shortest > 0 and sum(leg.length for leg in legs) > bound:
+        chosen, detour = shortest_legs, Detour(shortest, width_kept=0.0, tunnels_opened=True)
+        low, high = 0, len(SCALES)
+        while low < high:  # as bound_detour's bisection, the share the same on every leg
+            middle = (low + high) // 2
+            trial = [
+                _scaled(leg, SCALES[middle], narrow=leg.narrow_fallback, whole=whole)
+                for leg in legs
+            ]
+            if sum(leg.length for leg in trial) <= bound:
+                chosen, detour = trial, Detour(shortest, width_kept=SCALES[middle])
+                high = middle
+            else:
+                low = middle + 1
+    route = join(chosen)
+    elapsed = route.elapsed_ms if t0 is None else (time.perf_counter() - t0) * 1e3
+    return _keeping_path(route, detour=detour, elapsed_ms=elapsed)
 
 
 def _keeping_path(plan: Plan, **changes: Any) -> Plan:

@@ -27,7 +27,7 @@ from planner.motion.robots import (
     motion_path,
 )
 from planner.params import PARAMETER_RANGES, Params, resolve_params
-from planner.plans.bounded import Detour, bound_detour
+from planner.plans.bounded import Detour, bound_detour, bound_route
 from planner.plans.decide import Rule
 from planner.plans.ends import (
     cell_of,
@@ -41,7 +41,7 @@ from planner.plans.ends import (
 from planner.plans.metrics import clearance_metrics, path_cost
 from planner.plans.reach import route, wave_to
 from planner.plans.resumable_wave import resumable_wave
-from planner.plans.route import Route, plan_route, waypoint_list
+from planner.plans.route import Route, plan_route, route_of, waypoint_list
 from planner.plans.summary import plan_summary
 from planner.plans.whole_wave import Wave, goal_wave
 from planner.poses.smooth import smooth_path
@@ -298,8 +298,9 @@ def plan(
     the reachable traversable cell nearest to it within the tolerance (``Plan.goal_used``).
     ``waypoints`` (at most 64 cells or points, a point with an optional ``yaw``): the path
     passes through each in order, each leg planned on its own (``Plan.route``). A ``wide``
-    plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false, as for
-    a route's legs: one set of effective parameters holds for the whole route. A footprint's
+    plan keeps to ``params.max_detour`` (``Plan.detour``) unless ``bounded`` is false; a route
+    as a whole, its legs planned unbounded first (one share of the wall term for every leg: one
+    set of effective parameters holds for the whole route). A footprint's
     or a car's search runs for at most about ``search_seconds`` (a request's time left).
 
     ``preset`` is one of ``wide`` (default), ``wfs-mmas``, ``mmas``, ``shortest``; keyword
@@ -360,7 +361,10 @@ def plan(
             ))  # fmt: skip
             return legs[-1]
 
-        return plan_route(analysis, start, through, goal, leg, goal_tolerance)
+        joined = plan_route(analysis, start, through, goal, leg, goal_tolerance)
+        if bounded and p.decision == "wide" and (analysis.penalised or analysis.sealed):
+            return bound_route(legs, route_of, whole=whole, t0=t0)
+        return joined
     s = free_cell(analysis, start, "start")
     start_yaw, goal_yaw = end_yaw(start, "start"), end_yaw(goal, "goal")
     check_goal_yaw(p, goal_yaw)

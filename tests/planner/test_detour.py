@@ -3,6 +3,7 @@ shortest route on the same configuration space; it gives up width first, and say
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -130,6 +131,77 @@ def test_never_longer_than_max_detour_times_the_shortest(
     assert p.length <= max_detour * short.length * (1 + 1e-9) + 1e-9
     assert p.detour is not None
     assert p.detour.shortest == pytest.approx(short.length)
+
+
+@pytest.mark.parametrize("max_detour", [1.0, 1.3, 2.0])
+def test_a_route_through_waypoints_stays_within_the_bound_as_a_whole(max_detour: float) -> None:
+    """Through a waypoint on the far side of the fence and back, the route is at most
+    ``max_detour`` times the shortest route through the same waypoint (each leg's shortest,
+    summed), with one share of the wall term for every leg."""
+    robot_map, via = fence(), [{"x": 4.5, "y": 5.0}]
+    free = planner.plan(robot_map, START, GOAL, waypoints=via, robot_radius=0.22, max_detour=100)
+    legs = [  # the shortest legs: start -> waypoint -> goal
+        planner.plan(robot_map, a, b, preset="shortest", robot_radius=0.22)
+        for a, b in ((START, via[0]), (via[0], GOAL))
+    ]
+    short = sum(leg.length for leg in legs)
+    assert free.length > 2 * short  # unbounded, wide goes round the fence
+    p = planner.plan(
+        robot_map, START, GOAL, waypoints=via, robot_radius=0.22, max_detour=max_detour
+    )
+    assert p.route is not None
+    assert len(p.route.legs) == 2
+    assert p.length <= max_detour * short * (1 + 1e-9)
+    assert sum(leg.length for leg in p.route.legs) == pytest.approx(p.length)
+    detour = p.summary()["detour"]
+    assert detour["shortest_m"] == pytest.approx(short * RES)
+    assert detour["width_kept"] < 1
+    assert {leg.params.wide_weight for leg in p.route.legs} == {p.params.wide_weight}
+    assert p.params.wide_weight == 80.0 * detour["width_kept"]
+    for leg in p.route.legs:  # each leg planned again from the route's params: the same path
+        again = planner.plan(
+            robot_map, leg.start, leg.goal, **{**p.params.as_dict(), "max_detour": 100.0}
+        )
+        if not leg.narrow_fallback:
+            np.testing.assert_array_equal(again.path, leg.path)
+
+
+def test_a_route_within_the_bound_gives_nothing_up() -> None:
+    via = [{"x": 1.5, "y": 3.0}]
+    p = planner.plan(fence(), {"x": 1.5, "y": 1.0}, {"x": 4.5, "y": 1.0}, waypoints=via,
+                     robot_radius=0.22)  # fmt: skip
+    assert p.detour is not None
+    assert p.detour.width_kept == 1.0
+    assert p.params.wide_weight == 80.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(6, 20), st.integers(6, 20), st.floats(1.0, 2.0))
+def test_routes_through_waypoints_on_random_maps(
+    seed: int, H: int, W: int, max_detour: float
+) -> None:
+    """On random maps, a ``wide`` route through 1-3 waypoints is at most ``max_detour`` times
+    the sum of its legs' shortest routes."""
+    rng = np.random.default_rng(seed)
+    grid = (rng.random((H, W)) < 0.3).astype(np.int8)
+    free = np.argwhere(grid == 0)
+    count = int(rng.integers(1, 4))
+    assume(len(free) >= count + 2)
+    ends = [free[i].tolist() for i in rng.choice(len(free), count + 2, replace=False)]
+    try:
+        short = sum(
+            planner.plan(grid, a, b, preset="shortest").length for a, b in itertools.pairwise(ends)
+        )
+    except NoValidPath:
+        assume(False)
+        return
+    p = planner.plan(
+        grid, ends[0], ends[-1], waypoints=ends[1:-1], clean_weight=8.0,
+        diagonal_cost=math.sqrt(2), max_detour=max_detour,
+    )  # fmt: skip
+    assert p.length <= max_detour * short * (1 + 1e-9) + 1e-9
+    assert p.detour is not None
+    assert p.detour.shortest == pytest.approx(short)
 
 
 def test_among_tb3_sandboxs_pillars(ros: Path) -> None:

@@ -227,3 +227,35 @@ def test_the_client_sends_waypoints() -> None:
     with PlannerClient("http://planner", transport=httpx.MockTransport(handler)) as client:
         client.plan("m", [0, 0], [4, 5], waypoints=waypoints)
     assert seen[0]["waypoints"] == [[1, 2], {"x": 1.5, "y": 2.5, "yaw": 0.5}]
+
+
+async def test_a_route_through_waypoints_keeps_to_max_detour_over_http(
+    client: httpx.AsyncClient,
+) -> None:
+    """The route as a whole within ``max_detour`` times the shortest through the same waypoint,
+    as the planner plans it; the preview says what was given up, and the robot steps it."""
+    from tests.planner.test_detour import GOAL, START, fence
+
+    robot_map, via = fence(), [{"x": 4.5, "y": 5.0}]
+    r = await client.post("/maps", json={"occupancy_grid": robot_map.to_occupancy_grid()})
+    assert r.status_code in (200, 201), r.text
+    body = {
+        "map_id": r.json()["map_id"], "start": START, "goal": GOAL, "waypoints": via,
+        "robot_radius": RADIUS, "params": {"max_detour": 1.3},
+    }  # fmt: skip
+    r = await client.post("/plan", json=body)
+    assert r.status_code == 201, r.text
+    plan = r.json()
+    detour = plan["preview"]["detour"]
+    assert detour["ratio"] <= 1.3 + 1e-9
+    assert detour["width_kept"] < 1
+    assert plan["params"]["wide_weight"] == 80.0 * detour["width_kept"]
+    same = planner.plan(robot_map, START, GOAL, waypoints=via, robot_radius=RADIUS)
+    assert plan["preview"]["path"] == same.path.tolist()
+    assert same.detour is not None
+    assert detour["shortest_m"] == pytest.approx(same.detour.shortest * 0.05, abs=1e-6)
+    plan_id = plan["plan_id"]
+    for seq in range(5):
+        r = await client.post(f"/plan/{plan_id}/step", json={"seq": seq, "dynamic_obstacles": []})
+        assert r.status_code == 200, r.text
+        assert r.json()["status"] == "moving"
