@@ -28,6 +28,7 @@ __all__ = [
     "MULTIPART_PARTS",
     "PNG_ROUTE",
     "CellQuery",
+    "CropQuery",
     "EngineDep",
     "MapRoute",
     "OrjsonRoute",
@@ -49,6 +50,13 @@ async def get_engine(request: Request) -> Engine:
 
 EngineDep = Annotated[Engine, Depends(get_engine)]
 
+CropQuery = Annotated[
+    bool,
+    Query(
+        description="Draw only the known part of the map, its axes in meters (default); false: "
+        "the whole map, unknown margins included, cell (0, 0) at the picture's top left.",
+    ),
+]
 CellQuery = Annotated[
     int | None,
     Query(

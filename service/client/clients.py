@@ -209,11 +209,12 @@ class PlannerClient(_Client[httpx.BaseTransport, httpx.Client]):
         return self._call(endpoints.render(f"/maps/{map_id}/live.png", query))
 
     def render_map(self, map_id: str, **query: Any) -> bytes:
-        """The map and its analysis as PNG bytes (``preset=``, ``field=``, ``cell=``)."""
+        """The map and its analysis as PNG bytes (``preset=``, ``field=``, ``cell=``, ``crop=``)."""
         return self._call(endpoints.render(f"/maps/{map_id}/render.png", query))
 
     def render_plan(self, plan_id: str, **query: Any) -> bytes:
-        """The plan and the robot's trajectory so far as PNG bytes (``field=``, ``cell=``)."""
+        """The plan and the robot's trajectory so far as PNG bytes (``field=``, ``cell=``,
+        ``crop=``)."""
         return self._call(endpoints.render(f"/plan/{plan_id}/render.png", query))
 
 

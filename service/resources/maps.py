@@ -56,6 +56,7 @@ async def render_map(
     cell: int | None,
     overrides: dict[str, Any],
     with_passages: bool = False,
+    crop: bool = True,
 ) -> bytes:
     await engine.require_map(map_id)
     params = planner.resolve_params(preset, **overrides)
@@ -65,7 +66,7 @@ async def render_map(
     if with_passages:
         found = (await passages.map_passages(engine, map_id, params.robot_radius)).passages
     return await engine.pool.run(
-        planner.render_map, analysis, field=field, cell=size, passages=found
+        planner.render_map, analysis, field=field, cell=size, passages=found, crop=crop
     )
 
 

@@ -289,7 +289,11 @@ def _obstacle_cells(plan: planner.Plan, given: list[Any]) -> Obstacles:
 
 
 async def render_plan(
-    engine: Engine, plan_id: str, field: planner.render.Field | None, cell: int | None
+    engine: Engine,
+    plan_id: str,
+    field: planner.render.Field | None,
+    cell: int | None,
+    crop: bool = True,
 ) -> bytes:
     record = await _record(engine, plan_id)
     plan = await engine.plan_of(record)
@@ -297,8 +301,9 @@ async def render_plan(
     size = cell_size(plan.analysis.shape, cell)
     crossed = await passages.crossed(engine, record, plan)
     return await engine.pool.run(
-        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size, passages=crossed
-    )
+        planner.render_plan, plan, trajectory=trajectory, field=field, cell=size,
+        passages=crossed, crop=crop,
+    )  # fmt: skip
 
 
 async def plan_path(engine: Engine, plan_id: str) -> planner.Plan:

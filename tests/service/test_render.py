@@ -3,14 +3,25 @@
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import httpx
 import pytest
 from PIL import Image
 
+import planner
+from planner.render_axes import known_window
 from planner.render_legend import COLOURS
+from service.config import Settings
+from tests.service.test_robot_maps import traversable_pairs
 
 pytestmark = pytest.mark.anyio
+
+
+@pytest.fixture
+def settings() -> Settings:
+    return Settings(pool_size=2)  # the default limits: a ROS map as JSON
+
 
 # A one-cell corridor in row 2 (sealed by `wide`), and an obstacle block.
 ROWS = [
@@ -110,3 +121,32 @@ async def test_pictures_are_documented_as_png(client: httpx.AsyncClient) -> None
         operation = spec["paths"][path]["get"]
         assert "image/png" in operation["responses"]["200"]["content"]
         assert operation["summary"]
+
+
+async def test_a_ros_maps_pictures_hold_its_known_part_unless_crop_is_false(
+    client: httpx.AsyncClient, ros: Path
+) -> None:
+    """On a real scan (mostly grey unknown space) the map's and a plan's pictures are cropped
+    to the known part with axes in meters, as ``planner render`` draws them; ``crop=false``
+    (the viewers' background) draws the whole map, cell (0, 0) at the top left."""
+    m = planner.read_ros_map(ros / "tb3_sandbox.yaml")
+    r = await client.post("/maps", json={"occupancy_grid": m.to_occupancy_grid()})
+    assert r.status_code in (200, 201), r.text
+    map_id = r.json()["map_id"]
+    analysis = planner.analyse_map(m, planner.resolve_params("wide"))
+    query = {"cell": 2}
+    cropped = await client.get(f"/maps/{map_id}/render.png", params=query)
+    whole = await client.get(f"/maps/{map_id}/render.png", params={**query, "crop": "false"})
+    assert cropped.content == planner.render_map(analysis, cell=2, crop=True)
+    assert whole.content == planner.render_map(analysis, cell=2)
+    (r0, r1, c0, c1), (H, W) = known_window(analysis), m.shape
+    assert (r1 - r0) * (c1 - c0) < 0.8 * H * W  # the scan's unknown margins are cut
+    assert picture(cropped).size[0] < picture(whole).size[0]
+    start, goal = traversable_pairs(m, 1, seed=1)[0]
+    body = {"map_id": map_id, "start": start, "goal": goal}
+    plan_id = (await client.post("/plan", json=body)).json()["plan_id"]
+    plan = planner.plan(m, start, goal)
+    drawn = await client.get(f"/plan/{plan_id}/render.png", params=query)
+    assert drawn.content == planner.render_plan(plan, trajectory=[plan.start], cell=2, crop=True)
+    assert picture(drawn).size[0] == picture(cropped).size[0]  # the legends differ
+    assert (await client.get(f"/plan/{plan_id}/render.png?crop=nope")).status_code == 422

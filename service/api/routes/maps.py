@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, Response, status
 from schemas import MULTIPART_FIELDS, MapCreate, MapPublic, PassagesPublic, Preset
 from schemas.plans import Unknown
 from service.api import present
-from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, MapRoute
+from service.api.deps import PNG_ROUTE, CellQuery, CropQuery, EngineDep, MapRoute
 from service.errors import responses
 from service.resources import maps
 from service.resources import passages as passage_sets
@@ -77,16 +77,17 @@ async def render_map(
         bool,
         Query(description="Draw the narrow passages for `robot_radius`, labelled with width."),
     ] = False,
+    crop: CropQuery = True,
 ) -> Response:
     """The map as the paper draws it: obstacles black, tight-tunnel cells orange (when the
     preset seals them), gates red; with `field=clean`, free cells tinted by their penalty. On a
     robot map, unknown cells grey-blue, the configuration space's margin for `robot_radius`
     pink, with a legend and a scale bar in meters. With `passages=true`, the narrow passages
     (as `GET /maps/{map_id}/passages` for `robot_radius`) violet, each labelled with its id and
-    width."""
+    width. The picture holds the known part of the map (`crop=false`: all of it)."""
     overrides = {"robot_radius": robot_radius, "unknown": unknown}
     given = {name: value for name, value in overrides.items() if value is not None}
-    png = await maps.render_map(engine, map_id, preset, field, cell, given, passages)
+    png = await maps.render_map(engine, map_id, preset, field, cell, given, passages, crop)
     return Response(png, media_type="image/png")
 
 

@@ -21,7 +21,7 @@ from schemas import (
     StepPublic,
 )
 from service.api import present
-from service.api.deps import PNG_ROUTE, CellQuery, EngineDep, OrjsonRoute, StepBody
+from service.api.deps import PNG_ROUTE, CellQuery, CropQuery, EngineDep, OrjsonRoute, StepBody
 from service.errors import responses
 from service.resources import plans
 from service.viewer.events import BusDep, EventBus, channel
@@ -194,10 +194,12 @@ async def render_plan(
         Query(description="Tint free cells by their clean penalty or wide cost-to-go `kw`."),
     ] = None,
     cell: CellQuery = None,
+    crop: CropQuery = True,
 ) -> Response:
     """The plan's map with its analysis, the `preview` path (pale green), the robot's
     trajectory so far (green) and its cell, the start (magenta) and the goal (gold), and the
     `preview.poses` the robot drives (a blue line, the goal's heading an arrow), and the narrow
-    passages it crosses (`preview.passages`: violet, labelled with their id and width)."""
-    png = await plans.render_plan(engine, plan_id, field, cell)
+    passages it crosses (`preview.passages`: violet, labelled with their id and width). The
+    picture holds the known part of the map (`crop=false`: all of it)."""
+    png = await plans.render_plan(engine, plan_id, field, cell, crop)
     return Response(png, media_type="image/png")
