@@ -111,7 +111,7 @@ class Costs:
     wall_weight: float
     wall_distance: float
     arc_penalty: float = 1.05
-    reverse_penalty: float = 1.5
+    reverse_penalty: float = 2.0
     cusp_penalty: float = 20.0
     rotate_cost: float = 4.0
 
