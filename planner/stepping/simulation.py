@@ -248,12 +248,13 @@ def move_obstacles(
     _move_obstacles(grid, occupied, obstacles, robot[0], robot[1], u)
 
 
-def warm_up() -> None:
+def warm_up(served: Callable[[], None] | None = None) -> None:
     """Compile (or load from numba's cache) every kernel, so no later call pays for it.
 
     A service's kernels first (the plans and steps of robot maps, whose arrays are read-only:
-    numba compiles apart for those), then the rest: plain grids of both kinds, the paper's
-    presets, episodes, passages and fleets.
+    numba compiles apart for those), then ``served()`` if given (a service may answer from
+    then on), then the rest: plain grids of both kinds, the paper's presets, episodes,
+    passages, fleets and robot shapes.
     """
     # Steps among cells given as an array (as a fleet's are): the path ahead meeting a robot,
     # and held up until the robot searches its way round.
@@ -266,6 +267,8 @@ def warm_up() -> None:
             session = Session(p)
             for _ in range(3):
                 session.step(np.array(cells, dtype=np.int64))
+    if served is not None:
+        served()
     for writeable in (False, True):
         grid = np.zeros((6, 6), dtype=np.uint8)
         grid[2, 1:5] = 1

@@ -142,28 +142,34 @@ class Engine:
 
     async def warm(self, wait_seconds: float) -> asyncio.Future[None] | None:
         """Compile (or load from numba's cache) every kernel, the kernels of a service's plans
-        and steps first, on a thread of its own; wait for it ``wait_seconds`` at most. None when
-        done (no request pays for a kernel), else the warm-up still running: meanwhile a
-        request waits for the kernels it needs, and steps run on step workers (a kernel
-        compiled on the event loop would hold every request)."""
+        and steps first, on a thread of its own; wait for those (``wait_seconds`` at most). None
+        when every kernel is done (no request pays for one), else the warm-up still running:
+        meanwhile a request waits for the kernels it needs, and steps run on step workers (a
+        kernel compiled on the event loop would hold every request)."""
         loop = asyncio.get_running_loop()
+        served: asyncio.Future[None] = loop.create_future()
         done: asyncio.Future[None] = loop.create_future()
+
+        def tell(future: asyncio.Future[None], failure: BaseException | None = None) -> None:
+            with contextlib.suppress(RuntimeError):  # the service stopped meanwhile
+                loop.call_soon_threadsafe(_settle, future, failure)
 
         def warm_up() -> None:
             failure: BaseException | None = None
             try:
-                planner.warm_up()
-            except BaseException as exc:  # handed to the waiter
+                planner.warm_up(served=lambda: tell(served))
+            except BaseException as exc:  # handed to the waiters
                 failure = exc
-            with contextlib.suppress(RuntimeError):  # the service stopped meanwhile
-                loop.call_soon_threadsafe(_settle, done, failure)
+            tell(served, failure)
+            tell(done, failure)
 
         # A daemon thread: a service stopped while compiling does not wait for the compiler.
         threading.Thread(target=warm_up, name="warm-up", daemon=True).start()
-        try:
-            await asyncio.wait_for(asyncio.shield(done), timeout=wait_seconds)
-        except TimeoutError:
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(asyncio.shield(served), timeout=wait_seconds)
+        if not done.done():
             return done
+        done.result()  # a failure raised here, as before
         self.pool.warm = True
         return None
 
@@ -396,6 +402,8 @@ class Engine:
 
 
 def _settle(done: asyncio.Future[None], exc: BaseException | None) -> None:
+    if done.done():  # told twice: the first word stands
+        return
     if exc is None:
         done.set_result(None)
     else:

@@ -14,6 +14,7 @@ from collections.abc import AsyncIterator, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import anyio
 import httpx
 import numpy as np
 import pytest
@@ -49,6 +50,13 @@ def app(settings: Settings) -> FastAPI:
 @pytest.fixture
 async def client(app: FastAPI) -> AsyncIterator[httpx.AsyncClient]:
     async with app.router.lifespan_context(app):
+        # Ready once a service's kernels are loaded; the rest loads in the background: tests
+        # start once every kernel is (steps decided on the event loop, as a warm service's),
+        # unless they asked not to wait.
+        pool, deadline = app.state.engine.pool, time.monotonic() + 600
+        while not pool.warm and app.state.engine.settings.warmup_wait_seconds > 0:
+            assert time.monotonic() < deadline, "the background warm-up never ended"
+            await anyio.sleep(0.01)
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c
