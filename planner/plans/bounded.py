@@ -103,29 +103,47 @@ def bound_route(
     :class:`Detour`. One share of the wall term holds for every leg, the widest within the bound
     on the whole route (a leg may then be longer than the bound on its own, another shorter),
     so that the route keeps one set of effective ``params``; the last resort opens every leg's
-    tunnels."""
+    tunnels. The legs share their map's analysis, so each share's is made once; each shortest
+    leg is measured and let go (a route may have 65 legs)."""
     p = legs[0].params
-    shortest_legs = [_scaled(leg, 0.0, narrow=True, whole=whole) for leg in legs]
-    shortest = sum(leg.length for leg in shortest_legs)
+    scaled = _Shares(legs[0])
+    shortest = sum(scaled.leg(leg, 0.0, narrow=True, whole=whole).length for leg in legs)
     bound = p.max_detour * shortest * (1 + _SLACK)
     chosen, detour = list(legs), Detour(shortest)
     if shortest > 0 and sum(leg.length for leg in legs) > bound:
-        chosen, detour = shortest_legs, Detour(shortest, width_kept=0.0, tunnels_opened=True)
+        chosen, detour = [], Detour(shortest, width_kept=0.0, tunnels_opened=True)
         low, high = 0, len(SCALES)
         while low < high:  # as bound_detour's bisection, the share the same on every leg
             middle = (low + high) // 2
+            share = SCALES[middle]
             trial = [
-                _scaled(leg, SCALES[middle], narrow=leg.narrow_fallback, whole=whole)
-                for leg in legs
+                scaled.leg(leg, share, narrow=leg.narrow_fallback, whole=whole) for leg in legs
             ]
             if sum(leg.length for leg in trial) <= bound:
-                chosen, detour = trial, Detour(shortest, width_kept=SCALES[middle])
+                chosen, detour = trial, Detour(shortest, width_kept=share)
                 high = middle
             else:
                 low = middle + 1
+        if not chosen:  # even the sealed grid's shortest is over: every leg's tunnels open
+            chosen = [scaled.leg(leg, 0.0, narrow=True, whole=whole) for leg in legs]
     route = join(chosen)
     elapsed = route.elapsed_ms if t0 is None else (time.perf_counter() - t0) * 1e3
     return _keeping_path(route, detour=detour, elapsed_ms=elapsed)
+
+
+class _Shares:
+    """The analyses of one plan's wall term scaled by each share, made once each."""
+
+    def __init__(self, plan: Bounded) -> None:
+        self.plan = plan
+        self.made: dict[float, tuple[Params, Analysis]] = {}
+
+    def leg(self, leg: Plan, scale: float, *, narrow: bool, whole: bool) -> Plan:
+        """``leg`` (on the plan's analysis) planned again with the wall term times ``scale``."""
+        if scale not in self.made:
+            params = _scaled_params(self.plan.params, scale)
+            self.made[scale] = params, scaled_analysis(self.plan.analysis, params, scale)
+        return _scaled(leg, scale, narrow=narrow, whole=whole, made=self.made[scale])
 
 
 def _keeping_path(plan: Plan, **changes: Any) -> Plan:
@@ -135,14 +153,27 @@ def _keeping_path(plan: Plan, **changes: Any) -> Plan:
     return out
 
 
-def _scaled(result: Plan, scale: float, *, narrow: bool, whole: bool) -> Plan:
-    """``result`` planned again with its wall term's weights times ``scale`` (``narrow``: over
-    the unsealed grid)."""
-    p = result.params
-    params = dataclasses.replace(
+def _scaled_params(p: Params, scale: float) -> Params:
+    return dataclasses.replace(
         p, clean_weight=p.clean_weight * scale, wide_weight=p.wide_weight * scale
     )
-    analysis = scaled_analysis(result.analysis, params, scale)
+
+
+def _scaled(
+    result: Plan,
+    scale: float,
+    *,
+    narrow: bool,
+    whole: bool,
+    made: tuple[Params, Analysis] | None = None,
+) -> Plan:
+    """``result`` planned again with its wall term's weights times ``scale`` (``narrow``: over
+    the unsealed grid); ``made``: those params and their analysis, made already."""
+    p = result.params
+    if made is None:
+        params = _scaled_params(p, scale)
+        made = params, scaled_analysis(result.analysis, params, scale)
+    params, analysis = made
     new = goal_wave if whole else resumable_wave
     wave: Wave = new(analysis, result.goal, diagonal_cost=p.diagonal_cost, narrow=narrow)
     out: Plan = dataclasses.replace(  # type: ignore[type-var]

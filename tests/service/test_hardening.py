@@ -13,6 +13,7 @@ from contextlib import asynccontextmanager
 import httpx
 import numpy as np
 import pytest
+import redis.asyncio as redis
 from pydantic import SecretStr
 from starlette.types import Message
 
@@ -26,7 +27,7 @@ from service.stores.memory import MAP_OVERHEAD_BYTES
 from service.tenants import TENANT
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
-from tests.service.conftest import SMALL, random_map
+from tests.service.conftest import SMALL, RedisServer, random_map
 
 pytestmark = pytest.mark.anyio
 
@@ -421,6 +422,39 @@ async def test_every_route_under_a_map_is_404_once_the_map_is_gone() -> None:
         second = {"grid": random_map(40, 40, 0.2, 2).tolist()}
         assert (await client.post("/maps", json=second)).status_code == 201
         assert (await client.get(f"/maps/{map_id}")).status_code == 404
+        for method, path, body in routes:
+            gone = await client.request(method, path, json=body)
+            assert gone.status_code == 404, (path, gone.text)
+            assert gone.json()["field"] == "map_id"
+
+
+async def test_every_route_under_a_map_is_404_once_it_left_redis(
+    redis_server: RedisServer,
+) -> None:
+    """On the Redis store a map unused for ``PLANNER_MAP_TTL_SECONDS`` leaves Redis; this
+    replica's cached analysis and passages outlive it, but no route answers for it any more."""
+    settings = SMALL.model_copy(
+        update={"store_url": redis_server.url, "map_ttl_seconds": 1.0, "max_map_cells": 10_000}
+    )
+    async with serving(settings) as client:
+        first = {"grid": random_map(40, 40, 0.2, 1).tolist()}
+        map_id = (await client.post("/maps", json=first)).json()["map_id"]
+        routes = [
+            ("GET", f"/maps/{map_id}", None),
+            ("GET", f"/maps/{map_id}/render.png", None),
+            ("GET", f"/maps/{map_id}/passages?robot_radius=0", None),
+            ("POST", f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [39, 39]}),
+            ("POST", f"/maps/{map_id}/mapf", {"agents": [{"start": [0, 0], "goal": [0, 1]}]}),
+        ]
+        for method, path, body in routes:  # computed and cached while the map is there
+            assert (await client.request(method, path, json=body)).status_code == 200, path
+        deadline, watcher = time.monotonic() + 30, redis.Redis.from_url(redis_server.url)
+        try:
+            while await watcher.exists(f"planner:map:{map_id}"):
+                assert time.monotonic() < deadline, "the map never left Redis"
+                await asyncio.sleep(0.1)
+        finally:
+            await watcher.aclose()
         for method, path, body in routes:
             gone = await client.request(method, path, json=body)
             assert gone.status_code == 404, (path, gone.text)
