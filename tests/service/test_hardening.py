@@ -9,6 +9,7 @@ import threading
 import time
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
+from typing import Any
 
 import httpx
 import numpy as np
@@ -404,6 +405,26 @@ async def test_a_simulation_whose_client_went_away_is_cancelled() -> None:
         assert engine.pool.busy == 0
 
 
+def _map_routes(map_id: str) -> list[tuple[str, str, Any]]:
+    """A request on each route under ``/maps/{map_id}`` that computes and caches something."""
+    return [
+        ("GET", f"/maps/{map_id}", None),
+        ("GET", f"/maps/{map_id}/render.png", None),
+        ("GET", f"/maps/{map_id}/passages?robot_radius=0", None),
+        ("POST", f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [39, 39]}),
+        ("POST", f"/maps/{map_id}/mapf", {"agents": [{"start": [0, 0], "goal": [0, 1]}]}),
+    ]
+
+
+async def _answered(client: httpx.AsyncClient, map_id: str, status: int) -> None:
+    """Every route of :func:`_map_routes` answers ``status`` (a 404 naming ``map_id``)."""
+    for method, path, body in _map_routes(map_id):
+        r = await client.request(method, path, json=body)
+        assert r.status_code == status, (path, r.text)
+        if status == 404:
+            assert r.json()["field"] == "map_id"
+
+
 async def test_every_route_under_a_map_is_404_once_the_map_is_gone() -> None:
     """An idle map evicted from the memory store by a newer one: its cached analysis and
     passages outlive it, but no route answers for it any more (they answered 200)."""
@@ -411,21 +432,10 @@ async def test_every_route_under_a_map_is_404_once_the_map_is_gone() -> None:
     async with serving(settings) as client:
         first = {"grid": random_map(40, 40, 0.2, 1).tolist()}
         map_id = (await client.post("/maps", json=first)).json()["map_id"]
-        routes = [
-            ("GET", f"/maps/{map_id}/render.png", None),
-            ("GET", f"/maps/{map_id}/passages?robot_radius=0", None),
-            ("POST", f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [39, 39]}),
-            ("POST", f"/maps/{map_id}/mapf", {"agents": [{"start": [0, 0], "goal": [0, 1]}]}),
-        ]
-        for method, path, body in routes:  # computed and cached while the map is there
-            assert (await client.request(method, path, json=body)).status_code == 200, path
+        await _answered(client, map_id, 200)  # computed and cached while the map is there
         second = {"grid": random_map(40, 40, 0.2, 2).tolist()}
         assert (await client.post("/maps", json=second)).status_code == 201
-        assert (await client.get(f"/maps/{map_id}")).status_code == 404
-        for method, path, body in routes:
-            gone = await client.request(method, path, json=body)
-            assert gone.status_code == 404, (path, gone.text)
-            assert gone.json()["field"] == "map_id"
+        await _answered(client, map_id, 404)
 
 
 async def test_every_route_under_a_map_is_404_once_it_left_redis(
@@ -439,15 +449,7 @@ async def test_every_route_under_a_map_is_404_once_it_left_redis(
     async with serving(settings) as client:
         first = {"grid": random_map(40, 40, 0.2, 1).tolist()}
         map_id = (await client.post("/maps", json=first)).json()["map_id"]
-        routes = [
-            ("GET", f"/maps/{map_id}", None),
-            ("GET", f"/maps/{map_id}/render.png", None),
-            ("GET", f"/maps/{map_id}/passages?robot_radius=0", None),
-            ("POST", f"/maps/{map_id}/simulate", {"start": [0, 0], "goal": [39, 39]}),
-            ("POST", f"/maps/{map_id}/mapf", {"agents": [{"start": [0, 0], "goal": [0, 1]}]}),
-        ]
-        for method, path, body in routes:  # computed and cached while the map is there
-            assert (await client.request(method, path, json=body)).status_code == 200, path
+        await _answered(client, map_id, 200)
         deadline, watcher = time.monotonic() + 30, redis.Redis.from_url(redis_server.url)
         try:
             while await watcher.exists(f"planner:map:{map_id}"):
@@ -455,7 +457,4 @@ async def test_every_route_under_a_map_is_404_once_it_left_redis(
                 await asyncio.sleep(0.1)
         finally:
             await watcher.aclose()
-        for method, path, body in routes:
-            gone = await client.request(method, path, json=body)
-            assert gone.status_code == 404, (path, gone.text)
-            assert gone.json()["field"] == "map_id"
+        await _answered(client, map_id, 404)
