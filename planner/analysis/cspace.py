@@ -97,9 +97,10 @@ def configuration_space(
     # at the radius is not traversable whatever the rounding of radius / resolution.
     limit = (robot_radius / robot_map.resolution) ** 2
     traversable = open_ & (squared > limit + 1e-9 * max(1.0, limit))
+    np.sqrt(squared, out=squared)  # in place: a 4096 x 4096 map's float64 copy is 128 MB
     arrays = (
         blocked.astype(np.uint8),
-        np.sqrt(squared).astype(np.float32),
+        squared.astype(np.float32),
         traversable.astype(np.uint8),
         (occ < 0).astype(np.uint8),
     )
@@ -132,6 +133,10 @@ def wide_clean(cspace: CSpace, *, weight: float, wide_distance: float) -> npt.ND
     )
 
 
+WALL_TERM_BAND = 1 << 18
+"""Cells of :func:`wall_term`'s float64 work at a time (2 MB an array)."""
+
+
 def wall_term(
     distance: npt.NDArray[np.float32],
     traversable: npt.NDArray[np.uint8],
@@ -142,10 +147,16 @@ def wall_term(
     wide_distance: float,
 ) -> npt.NDArray[np.float32]:
     """:func:`wide_clean` of any window of a configuration space: its ``distance`` (cells) and
-    ``traversable`` there."""
-    s = distance.astype(np.float64) * resolution - robot_radius
-    share = np.clip(1.0 - s / wide_distance, 0.0, 1.0) if wide_distance > 0 else np.zeros_like(s)
-    out = (weight * share**WIDE_EXPONENT).astype(np.float32)
+    ``traversable`` there. Computed in float64 a band of rows at a time (the same values as
+    all at once; a 4096 x 4096 map's float64 temporaries would be 128 MB each)."""
+    out = np.empty(distance.shape, dtype=np.float32)
+    rows = max(1, WALL_TERM_BAND // max(1, math.prod(distance.shape[1:])))
+    for r0 in range(0, distance.shape[0], rows):
+        s = distance[r0 : r0 + rows].astype(np.float64) * resolution - robot_radius
+        share = (
+            np.clip(1.0 - s / wide_distance, 0.0, 1.0) if wide_distance > 0 else np.zeros_like(s)
+        )
+        out[r0 : r0 + rows] = weight * share**WIDE_EXPONENT
     out[traversable == 0] = 0.0
     return out
 
