@@ -105,9 +105,16 @@ def bound_route(
     so that the route keeps one set of effective ``params``; the last resort opens every leg's
     tunnels. The legs share their map's analysis, so each share's is made once; each shortest
     leg is measured and let go (a route may have 65 legs)."""
-    p = legs[0].params
-    scaled = _Shares(legs[0])
-    shortest = sum(scaled.leg(leg, 0.0, narrow=True, whole=whole).length for leg in legs)
+    p, analysis = legs[0].params, legs[0].analysis
+    made: dict[float, tuple[Params, Analysis]] = {}
+
+    def again(leg: Plan, share: float, narrow: bool) -> Plan:
+        if share not in made:  # one analysis a share, for every leg
+            params = _scaled_params(p, share)
+            made[share] = params, scaled_analysis(analysis, params, share)
+        return _scaled(leg, share, narrow=narrow, whole=whole, made=made[share])
+
+    shortest = sum(again(leg, 0.0, True).length for leg in legs)
     bound = p.max_detour * shortest * (1 + _SLACK)
     chosen, detour = list(legs), Detour(shortest)
     if shortest > 0 and sum(leg.length for leg in legs) > bound:
@@ -116,34 +123,17 @@ def bound_route(
         while low < high:  # as bound_detour's bisection, the share the same on every leg
             middle = (low + high) // 2
             share = SCALES[middle]
-            trial = [
-                scaled.leg(leg, share, narrow=leg.narrow_fallback, whole=whole) for leg in legs
-            ]
+            trial = [again(leg, share, leg.narrow_fallback) for leg in legs]
             if sum(leg.length for leg in trial) <= bound:
                 chosen, detour = trial, Detour(shortest, width_kept=share)
                 high = middle
             else:
                 low = middle + 1
         if not chosen:  # even the sealed grid's shortest is over: every leg's tunnels open
-            chosen = [scaled.leg(leg, 0.0, narrow=True, whole=whole) for leg in legs]
+            chosen = [again(leg, 0.0, True) for leg in legs]
     route = join(chosen)
     elapsed = route.elapsed_ms if t0 is None else (time.perf_counter() - t0) * 1e3
     return _keeping_path(route, detour=detour, elapsed_ms=elapsed)
-
-
-class _Shares:
-    """The analyses of one plan's wall term scaled by each share, made once each."""
-
-    def __init__(self, plan: Bounded) -> None:
-        self.plan = plan
-        self.made: dict[float, tuple[Params, Analysis]] = {}
-
-    def leg(self, leg: Plan, scale: float, *, narrow: bool, whole: bool) -> Plan:
-        """``leg`` (on the plan's analysis) planned again with the wall term times ``scale``."""
-        if scale not in self.made:
-            params = _scaled_params(self.plan.params, scale)
-            self.made[scale] = params, scaled_analysis(self.plan.analysis, params, scale)
-        return _scaled(leg, scale, narrow=narrow, whole=whole, made=self.made[scale])
 
 
 def _keeping_path(plan: Plan, **changes: Any) -> Plan:
