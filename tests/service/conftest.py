@@ -11,7 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import AsyncIterator, Iterator
-from contextlib import contextmanager
+from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
 
 import anyio
@@ -47,16 +47,23 @@ def app(settings: Settings) -> FastAPI:
     return create_app(settings)
 
 
-@pytest.fixture
-async def client(app: FastAPI) -> AsyncIterator[httpx.AsyncClient]:
+@asynccontextmanager
+async def running(app: FastAPI) -> AsyncIterator[None]:
+    """The app's lifespan, entered once every kernel is loaded. A service is ready once its
+    own kernels are, the rest loading in the background: a test starts as a warm service runs
+    (steps decided on the event loop, ``pool_warm`` still), unless its settings ask for no
+    wait (``warmup_wait_seconds`` 0)."""
     async with app.router.lifespan_context(app):
-        # Ready once a service's kernels are loaded; the rest loads in the background: tests
-        # start once every kernel is (steps decided on the event loop, as a warm service's),
-        # unless they asked not to wait.
         pool, deadline = app.state.engine.pool, time.monotonic() + 600
         while not pool.warm and app.state.engine.settings.warmup_wait_seconds > 0:
             assert time.monotonic() < deadline, "the background warm-up never ended"
             await anyio.sleep(0.01)
+        yield
+
+
+@pytest.fixture
+async def client(app: FastAPI) -> AsyncIterator[httpx.AsyncClient]:
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c

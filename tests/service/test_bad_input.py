@@ -12,7 +12,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from schemas import StepCreate
 from schemas.points import STRICT, Obstacle
 from service.main import create_app
-from tests.service.conftest import SMALL
+from tests.service.conftest import SMALL, running
 
 pytestmark = pytest.mark.anyio
 
@@ -26,7 +26,7 @@ def anyio_backend() -> str:
 async def client() -> AsyncIterator[httpx.AsyncClient]:
     """One app for the whole table: no case changes what another case sees."""
     app = create_app(SMALL)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c
@@ -394,7 +394,7 @@ async def test_constraint_errors_name_the_exact_path_in_words() -> None:
     from service.main import create_app
 
     app = create_app(Settings(pool_size=1))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as c:
             made = await c.post("/maps", json={"rows": ["....", "....", "...."]})

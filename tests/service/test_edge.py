@@ -24,7 +24,7 @@ from service.api.routes import plans
 from service.main import create_app
 from service.viewer.events import BusDep
 from service.work.engine import Engine
-from tests.service.conftest import SMALL
+from tests.service.conftest import SMALL, running
 
 pytestmark = pytest.mark.anyio
 
@@ -68,7 +68,7 @@ def _with_a_body_parameter(app: FastAPI) -> FastAPI:
 
 
 async def _answers(app: FastAPI) -> list[tuple[int, Any, str | None]]:
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
@@ -107,7 +107,7 @@ async def _guarded_answers(
     """Steps refused before their body is read (no key, a wrong key, too long by
     Content-Length) or while it is (too long as it streams), served with the plan's key, and
     unknown with another."""
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             keyed = {"X-API-Key": "k1"}
@@ -177,7 +177,7 @@ async def test_the_step_is_a_plain_fastapi_route() -> None:
         await app(scope, receive, send)
         served.append(scope.get("route"))  # as the router left it
 
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=probe)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
@@ -199,7 +199,7 @@ async def _timed_answers(
     app: FastAPI, monkeypatch: pytest.MonkeyPatch
 ) -> list[tuple[int, Any, str | None]]:
     """A body that stalls (408, the connection closed) and a step that runs long (504)."""
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]
@@ -246,7 +246,7 @@ async def test_an_unexpected_error_in_a_step_is_a_500_counted_under_its_route(
         raise RuntimeError("a bug")
 
     for app in (create_app(SMALL),):
-        async with app.router.lifespan_context(app):
+        async with running(app):
             transport = httpx.ASGITransport(app=app, raise_app_exceptions=False)
             async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
                 map_id = (await client.post("/maps", json={"rows": ROWS})).json()["map_id"]

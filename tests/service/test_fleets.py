@@ -19,6 +19,7 @@ from service.config import Settings
 from service.main import create_app
 from service.resources import fleets
 from tests.scripts import load_benchmark
+from tests.service.conftest import running
 
 F = load_benchmark("fleet")
 S = load_benchmark("fleet_scenarios")
@@ -35,7 +36,7 @@ def room(side: int = 30, resolution: float = 0.1) -> planner.RobotMap:
 @pytest.fixture
 async def client() -> Any:
     app = create_app(SETTINGS)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c
@@ -133,7 +134,7 @@ async def test_a_silent_robot_is_planned_around_after_its_lease() -> None:
     """A robot that stops stepping in the corridor: past the lease the other is solved again
     around it (it stands where it last was) and gets by, or waits naming it when it cannot."""
     app = create_app(SETTINGS.model_copy(update={"fleet_lease_seconds": 0.3}))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
             map_id = await _map(client, room(60))
@@ -260,7 +261,7 @@ async def test_bad_fleet_names_are_refused(client: httpx.AsyncClient, name: Any)
 async def test_two_tenants_fleets_of_one_name_never_see_each_other() -> None:
     settings = SETTINGS.model_copy(update={"api_keys": SecretStr("key-a,key-b")})
     app = create_app(settings)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         clients = [
             httpx.AsyncClient(transport=transport, base_url="http://s", headers={"X-API-Key": k})
@@ -313,7 +314,7 @@ async def test_a_replayed_step_answers_the_same_and_moves_nobody(client: httpx.A
 def test_store_keeps_no_lock_after_fleet_steps() -> None:
     async def main() -> None:
         app = create_app(SETTINGS)
-        async with app.router.lifespan_context(app):
+        async with running(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(transport=transport, base_url="http://s") as c:
                 scenario = F.Scenario("cross", room(), 0.25, (((15, 3), (15, 28)),))
@@ -328,7 +329,7 @@ async def test_a_step_never_writes_over_another_maps_fleet_of_its_name() -> None
     map: its step is a 422 FLEET_MAP_MISMATCH saying what to do, and the other map's fleet is
     left as it was (not replaced by a new fleet on the plan's map)."""
     app = create_app(SETTINGS)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             one, two = await _map(client, room(20)), await _map(client, room(24))

@@ -28,7 +28,7 @@ from service.stores.memory import MAP_OVERHEAD_BYTES
 from service.tenants import TENANT
 from service.work.cache import ByteLRU
 from service.work.pool import Pool
-from tests.service.conftest import SMALL, RedisServer, random_map
+from tests.service.conftest import SMALL, RedisServer, random_map, running
 
 pytestmark = pytest.mark.anyio
 
@@ -38,7 +38,7 @@ ROWS = ["......", ".@@...", "......", "...@..", "......"]
 @asynccontextmanager
 async def serving(settings: Settings) -> AsyncIterator[httpx.AsyncClient]:
     app = create_app(settings)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             c.app = app  # type: ignore[attr-defined]
@@ -340,14 +340,14 @@ async def test_heavy_jobs_beyond_the_queue_are_refused_and_steps_still_run() -> 
     pool = Pool(1, step_size=1, max_queued=1)
     gate = threading.Event()
     try:
-        running = [asyncio.ensure_future(pool.run(gate.wait, 10)) for _ in range(2)]
+        held = [asyncio.ensure_future(pool.run(gate.wait, 10)) for _ in range(2)]
         await asyncio.sleep(0.05)
         with pytest.raises(Busy, match="PLANNER_MAX_QUEUED_JOBS is 1") as caught:
             await pool.run(time.sleep, 0)
         assert caught.value.status == 503
         assert await pool.run_step(lambda: 42) == 42  # not behind the heavy queue
         gate.set()
-        await asyncio.gather(*running)
+        await asyncio.gather(*held)
         assert pool.jobs == 0
     finally:
         gate.set()
@@ -363,7 +363,7 @@ async def test_a_simulation_whose_client_went_away_is_cancelled() -> None:
         }
     )
     app = create_app(settings)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             r = await client.post("/maps", json={"rows": serpentine(301, 300)})

@@ -17,6 +17,7 @@ import planner
 from service.config import Settings
 from service.main import create_app
 from tests.scripts import load_benchmark
+from tests.service.conftest import running
 
 world = load_benchmark("live_world")
 
@@ -200,7 +201,7 @@ async def test_a_fleet_robot_takes_the_marks_as_obstacles(client: httpx.AsyncCli
 @pytest.mark.anyio
 async def test_marks_lapse_after_the_persistence_setting() -> None:
     app = create_app(Settings(pool_size=1, obstacle_persistence_seconds=0.4))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             map_id = await _map(c, {})

@@ -13,6 +13,7 @@ import pytest
 import planner
 from planner.fleets import grid_graph
 from tests.naive_mapf import check_solution
+from tests.service.conftest import running
 from tests.service.test_fleets import SETTINGS, _map, _plan, client, room
 
 pytestmark = pytest.mark.anyio
@@ -114,7 +115,7 @@ async def test_a_fleet_is_bounded_in_robots() -> None:
     from service.main import create_app
 
     app = create_app(SETTINGS.model_copy(update={"max_fleet_robots": 3}))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as c:
             map_id = await _map(c, room(40))

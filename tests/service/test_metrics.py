@@ -18,7 +18,7 @@ from service.config import Settings
 from service.main import create_app
 from service.ops.metrics import UNMATCHED, Metrics
 from service.stores import RedisStore
-from tests.service.conftest import RedisServer, random_map
+from tests.service.conftest import RedisServer, random_map, running
 
 pytestmark = pytest.mark.anyio
 
@@ -113,7 +113,7 @@ async def test_maps_and_live_plans_are_counted_exactly(client: httpx.AsyncClient
 @pytest.fixture
 async def one_worker() -> AsyncIterator[httpx.AsyncClient]:
     app = create_app(Settings(pool_size=1))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c
@@ -164,7 +164,7 @@ async def test_metrics_answer_and_say_so_while_redis_is_down(tmp_path: Path) -> 
     server.start()
     app = create_app(Settings(pool_size=1, store_url=server.url))
     try:
-        async with app.router.lifespan_context(app):
+        async with running(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
                 assert value((await scrape(client))["planner_store_up"], "planner_store_up") == 1

@@ -18,6 +18,7 @@ from service.client import PlannerClient, ValidationError
 from service.config import Settings
 from service.main import create_app
 from tests.doors import ORIGIN, RESOLUTION, doors_grid, doors_map
+from tests.service.conftest import running
 
 SETTINGS = Settings(pool_size=2, max_map_cells=100_000)
 RADIUS = 0.2
@@ -70,7 +71,7 @@ async def test_the_doors_narrower_than_max_width(
 
 @pytest.mark.anyio
 async def test_computed_once_per_map_radius_and_max_width(app: FastAPI) -> None:
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             map_id = await upload_doors(client)
@@ -124,7 +125,7 @@ async def test_an_unknown_map_is_404(client: httpx.AsyncClient) -> None:
 @pytest.mark.anyio
 async def test_another_tenants_map_is_404() -> None:
     app = create_app(SETTINGS.model_copy(update={"api_keys": SecretStr("k1,k2")}))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as client:
             map_id = await upload_doors(client, **{"X-API-Key": "k1"})

@@ -11,7 +11,7 @@ import pytest
 from service.config import Settings
 from service.main import create_app
 from service.work.engine import Engine
-from tests.service.conftest import random_map
+from tests.service.conftest import random_map, running
 
 pytestmark = pytest.mark.anyio
 
@@ -20,7 +20,7 @@ pytestmark = pytest.mark.anyio
 async def big() -> AsyncIterator[tuple[httpx.AsyncClient, Engine]]:
     settings = Settings(pool_size=4)
     app = create_app(settings)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c, app.state.engine

@@ -21,7 +21,7 @@ from service.config import Settings
 from service.main import create_app
 from tests import naive_poses
 from tests.conftest import ROS_MAP_NAMES
-from tests.service.conftest import RedisServer
+from tests.service.conftest import RedisServer, running
 
 pytestmark = pytest.mark.anyio
 
@@ -106,7 +106,7 @@ async def test_redis_records_keep_the_ends(redis_server: RedisServer) -> None:
     previews: list[dict[str, Any]] = []
     for _ in range(2):  # a second service on the same store rebuilds the plan from its record
         app = create_app(settings)
-        async with app.router.lifespan_context(app):
+        async with running(app):
             transport = httpx.ASGITransport(app=app)
             async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
                 if not previews:

@@ -17,7 +17,7 @@ from redis.asyncio.connection import AbstractConnection
 
 from service.config import Settings
 from service.main import create_app
-from tests.service.conftest import RedisServer
+from tests.service.conftest import RedisServer, running
 from tests.service.test_live import BOX, MAP, PLAN, RADIUS, _crosses, _scan
 
 pytestmark = pytest.mark.anyio
@@ -36,7 +36,7 @@ async def two(redis_server: RedisServer) -> AsyncIterator[list[httpx.AsyncClient
         clients = []
         for _ in range(2):
             app = create_app(settings)
-            await stack.enter_async_context(app.router.lifespan_context(app))
+            await stack.enter_async_context(running(app))
             transport = httpx.ASGITransport(app=app)
             client = httpx.AsyncClient(transport=transport, base_url="http://service")
             clients.append(await stack.enter_async_context(client))

@@ -25,6 +25,7 @@ from service.config import Settings
 from service.work.pictures import MAX_IMAGE_SIDE
 from tests import naive
 from tests.conftest import ROS_MAP_NAMES
+from tests.service.conftest import running
 
 RADIUS = 0.22
 
@@ -226,7 +227,7 @@ def settings() -> Settings:
 
 @pytest.fixture
 async def small(app: FastAPI) -> AsyncIterator[httpx.AsyncClient]:
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c

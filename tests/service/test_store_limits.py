@@ -27,7 +27,7 @@ from service.config import Settings
 from service.errors import InsufficientStorage
 from service.main import create_app
 from service.stores import MemoryStore
-from tests.service.conftest import SMALL, RedisServer, replicas
+from tests.service.conftest import SMALL, RedisServer, replicas, running
 
 ROWS = ["......", ".@@...", "......", "...@..", "......"]
 PLAN = {"start": [0, 0], "goal": [4, 5]}
@@ -36,7 +36,7 @@ PLAN = {"start": [0, 0], "goal": [4, 5]}
 @asynccontextmanager
 async def serving(settings: Settings) -> AsyncIterator[httpx.AsyncClient]:
     app = create_app(settings)
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://service") as c:
             yield c

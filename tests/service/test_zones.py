@@ -21,7 +21,7 @@ from pydantic import SecretStr
 import planner
 from planner.maps.polygons import polygon_cells
 from service.config import Settings
-from tests.service.conftest import SMALL
+from tests.service.conftest import SMALL, running
 from tests.service.test_robot_maps import multipart, ros_files
 
 pytestmark = pytest.mark.anyio
@@ -247,7 +247,7 @@ async def test_zones_are_tenant_scoped() -> None:
     app = create_app(settings)
     a = {"Authorization": "Bearer alpha-key"}
     b = {"Authorization": "Bearer beta-key"}
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
             grid = [[0] * 8 for _ in range(8)]
@@ -406,7 +406,7 @@ async def test_a_polygon_of_many_points_is_not_refused_by_the_key_limit() -> Non
     from service.main import create_app
 
     app = create_app(SMALL.model_copy(update={"max_dynamic_obstacles": 100}))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
             grid = [[0] * 40 for _ in range(40)]
@@ -428,7 +428,7 @@ async def test_a_keepout_mask_may_be_as_large_as_a_map_upload(ros: Path) -> None
     from service.main import create_app
 
     app = create_app(BIG.model_copy(update={"max_step_body_bytes": 1024}))
-    async with app.router.lifespan_context(app):
+    async with running(app):
         transport = httpx.ASGITransport(app=app)
         async with httpx.AsyncClient(transport=transport, base_url="http://s") as client:
             r = await client.post("/maps", **multipart(*ros_files(ros, "depot")))
