@@ -166,7 +166,8 @@ def _passages(
     walls = find_walls(robot_map.occupancy, res, min_wall, cspace.occupied_threshold)
     free = np.ascontiguousarray(~walls.obstacles)
     # The outside of the map counts as blocked, for the distances and for the skeleton.
-    distance = np.sqrt(squared_distances(free, outside_blocked=True))
+    distance = squared_distances(free, outside_blocked=True)
+    np.sqrt(distance, out=distance)  # in place: no second float64 array of the map
     skeleton = medial_axis(free, distance)
     limit = max_width / res / 2  # in cells, as a distance
     tolerance = 1e-9 * max(1.0, limit)

@@ -58,10 +58,10 @@ def _locked(
     return wrapper
 
 
-# A search that has settled 1/64 of the map (at least 4096 cells) hands over to the whole-map
-# wave: per cell, A* with its binary heap costs about five times the whole wave's bucket queue
-# (benchmarks/RESULTS.md), so a far goal costs at most ~20 % more than the whole wave would.
-_BUDGET_SHARE = 64
+# A search that has settled 1/64 of the map (4096 cells at least) goes on to 1/8 if its headway
+# says it is done by then, else hands over to the whole-map wave (a fifth of A*'s cost a cell).
+_PROBE_SHARE = 64
+_BUDGET_SHARE = 8
 _BUDGET_LEAST = 4096
 
 
@@ -114,7 +114,9 @@ class ResumableWave(Wave):
         self._last_view: tuple[tuple[int, int], WaveView] | None = None
         H = analysis.shape[0]
         self.budget = max(_BUDGET_LEAST, H * W // _BUDGET_SHARE)
-        """Cells one search may settle before the wave turns into the whole-map one."""
+        """Cells one search may settle before the wave turns into the whole-map one, and
+        (:attr:`probe`) before it checks its headway (``GoalSearch.settle_paced``)."""
+        self.probe = max(_BUDGET_LEAST, H * W // _PROBE_SHARE)
         self.elapsed_ms = (time.perf_counter() - t0) * 1e3
 
     # -- the searches ------------------------------------------------------------------------
@@ -170,10 +172,10 @@ class ResumableWave(Wave):
             return
         self._searching()
         t0 = time.perf_counter()
-        before = self.nbytes
-        within = self._k_search.settle(targets, aim, slack, self.budget)
+        before = self.nbytes  # ``kw`` first: the looser heuristic's search, the one to run over
+        within = self._kw_search.settle_paced(targets, aim, slack, self.probe, self.budget)
         if within and self._kw_search is not self._k_search:
-            within = self._kw_search.settle(targets, aim, slack, self.budget)
+            within = self._k_search.settle_paced(targets, aim, slack, self.probe, self.budget)
         self.elapsed_ms += (time.perf_counter() - t0) * 1e3
         if not within:
             self.whole()
@@ -256,19 +258,19 @@ class ResumableWave(Wave):
         within: int | None = None,
     ) -> Cells:
         """The replan over what the searches have settled (:mod:`planner.plans.detour`); past
-        the budget of expansions, or on a map no larger than the budget (whose whole-map wave
-        takes no more memory than the searches may), over the whole-map wave. With ``within``,
-        bounded to that window round ``start`` (see :meth:`Wave.detour`)."""
+        :attr:`probe` expansions, or on a map no larger (whose whole-map wave takes no more
+        memory than the searches may), over the whole-map wave. With ``within``, bounded to
+        that window round ``start`` (see :meth:`Wave.detour`)."""
         H, W = self.analysis.shape
         if self._whole is None:
             self._searching()
-        if self._whole is None and self.budget < H * W:
+        if self._whole is None and self.probe < H * W:
             kw = self._kw_search
             out: npt.NDArray[np.int64]
             out, gave_up = detour_cells(
                 self.analysis.state, self._open, self._flat_goal, self.analysis.clean, start,
                 obstacles, margin=margin, diagonal_cost=self.diagonal_cost,
-                tiles=(kw.tile_of, kw.g, kw.status), exhausted=kw.exhausted, limit=self.budget,
+                tiles=(kw.tile_of, kw.g, kw.status), exhausted=kw.exhausted, limit=self.probe,
                 within=within,
             )  # fmt: skip
             if not gave_up:
@@ -393,8 +395,6 @@ class ResumableWave(Wave):
             return rest
         return np.concatenate([np.array(path[:-1], dtype=np.int64), rest])
 
-    # -- the whole-map fields, on demand -----------------------------------------------------
-
     @_locked
     def whole(self) -> Wave:
         """The whole-map wave of the same goal and grid (computed on first use, then kept in
@@ -402,13 +402,13 @@ class ResumableWave(Wave):
         if self._whole is None:
             self._searching()
             t0 = time.perf_counter()
+            self._k_search.release()  # first: their memory is not held beside the new fields
+            self._kw_search.release()
+            self._pockets.clear()
             self._whole = goal_wave(
                 self.analysis, self.goal, diagonal_cost=self.diagonal_cost, narrow=self.narrow
             )
             self.elapsed_ms += (time.perf_counter() - t0) * 1e3
-            self._k_search.release()
-            self._kw_search.release()
-            self._pockets.clear()
             self._resized()
         return self._whole
 

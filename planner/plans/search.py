@@ -347,6 +347,35 @@ class GoalSearch:
             self.exhausted = outcome == EXHAUSTED
             return outcome != OVER_BUDGET
 
+    def settle_paced(
+        self,
+        targets: npt.NDArray[np.int64],
+        aim: tuple[int, int],
+        slack: float,
+        probe: int,
+        limit: int,
+    ) -> bool:
+        """:meth:`settle` up to ``probe`` cells, then on to ``limit`` only if at the pace of its
+        :meth:`headway` the search would be done by then; False past either (the caller may
+        prefer the whole-map wave)."""
+        if self.settle(targets, aim, slack, min(probe, limit)):
+            return True
+        if probe >= limit or int(self.meta[SETTLED_COUNT]) > self.headway() * limit:
+            return False
+        return self.settle(targets, aim, slack, limit)
+
+    def headway(self) -> float:
+        """How much of the way from the goal to the cells aimed at the search's front has gone
+        (0 to 1): one less the least heuristic on its open list over the goal's."""
+        tr, tc = self.aim
+        gr, gc = divmod(self.goal, self.width)
+        whole = _heuristic(gr, gc, tr, tc, self.diagonal_cost, self.slack)
+        size = int(self.meta[HEAP_SIZE])
+        if whole <= 0.0 or size == 0:
+            return 1.0
+        left = float(np.min(self.keys[:size, 0] - self.keys[:size, 1]))
+        return max(0.0, 1.0 - left / whole)
+
     def release(self) -> None:
         """Drop the memory: the whole-map wave answers from now on."""
         self.tile_of = np.empty(0, dtype=np.int32)

@@ -67,9 +67,10 @@ def _wave(
 
     Every move costs at least 1, so cells whose cost-to-go has the same integer part cannot
     improve one another: a bucket queue of width 1 may settle each bucket's cells in any order
-    and still gives exactly Dijkstra's result, with O(1) pushes, pops and decrease-keys. The
-    buckets are doubly linked lists threaded through two arrays, in a ring of a power of two
-    (larger than the largest move cost) indexed by ``floor(cost)``.
+    and still gives exactly Dijkstra's result, with O(1) pushes and pops. The buckets are a ring
+    of a power of two (larger than the largest move cost) indexed by ``floor(cost)``, each a
+    singly linked list of entries drawn from a pool that grows with the wave's front, not with
+    the map (:func:`_front`): the wave holds one float64 a cell, the costs it returns.
     """
     H, W = masks.shape
     n = H * W
@@ -85,31 +86,65 @@ def _wave(
     ring = 1
     while ring < int(largest) + 2:
         ring *= 2
-    wrap = ring - 1
     offset = np.empty(8, dtype=np.int64)
     step = np.empty(8, dtype=np.float64)
     for i in range(8):
         offset[i] = DR[i] * W + DC[i]
         step[i] = diagonal_cost if i & 1 else 1.0
-    head = np.full(ring, -1, dtype=np.int32)
-    nxt = np.empty(n, dtype=np.int32)
-    prv = np.empty(n, dtype=np.int32)
+    head = np.full(ring, -1, dtype=np.int64)
+    cell = np.empty(1024, dtype=np.int64)
+    nxt = np.empty(1024, dtype=np.int64)
     dist = np.full(n, np.inf)
     dist[goal] = 0.0
-    head[0] = goal
-    nxt[goal] = -1
-    prv[goal] = -1
-    queued = 1
-    bucket = 0
+    cell[0] = goal
+    nxt[0] = -1
+    head[0] = 0
+    state = np.array([0, -1, 1, 1], dtype=np.int64)  # bucket, free, used, queued
+    while not _front(moves, pen, use_clean, offset, step, dist, head, cell, nxt, state):
+        size = cell.size  # the front outgrew the pool: double it and go on
+        cell = np.concatenate((cell, np.empty(size, dtype=np.int64)))
+        nxt = np.concatenate((nxt, np.empty(size, dtype=np.int64)))
+    return dist.reshape(H, W)
+
+
+@njit(cache=True, nogil=True)
+def _front(
+    moves: np.ndarray,
+    pen: np.ndarray,
+    use_clean: bool,
+    offset: np.ndarray,
+    step: np.ndarray,
+    dist: np.ndarray,
+    head: np.ndarray,
+    cell: np.ndarray,
+    nxt: np.ndarray,
+    state: np.ndarray,
+) -> bool:
+    """:func:`_wave`'s bucket queue, run until it is empty (True) or its pool of entries
+    (``cell`` and ``nxt``) may lack room for a cell's eight moves (False: the caller grows it
+    and calls again; ``state`` holds the bucket, the free list, the entries used and queued).
+
+    A cell whose cost drops to a lower bucket is pushed again and the entry it leaves behind is
+    skipped when its bucket comes (lazy deletion); one whose cost drops within its bucket stays
+    where it is. Kept apart from :func:`_wave` so that the pool's arrays are never rebound
+    inside the loop (numba then reloads them at every access: twice the time)."""
+    wrap = head.size - 1
+    bucket, free, used, queued = state[0], state[1], state[2], state[3]
+    done = True
     while queued > 0:
         b = bucket & wrap
-        y = head[b]
-        while y != -1:
-            q = nxt[y]
-            head[b] = q
-            if q != -1:
-                prv[q] = -1
+        while head[b] != -1:  # moves cost at least 1: nothing joins the bucket being emptied
+            if cell.size - queued < 8:
+                done = False
+                break
+            e = head[b]
+            head[b] = nxt[e]
+            y = cell[e]
+            nxt[e] = free
+            free = e
             queued -= 1
+            if int(dist[y]) != bucket:  # left behind: the cell went to a lower bucket
+                continue
             base = dist[y] + pen[y] if use_clean else dist[y]
             m = moves[y]
             for i in range(8):
@@ -119,28 +154,26 @@ def _wave(
                 nd = base + step[i]
                 # A settled cell's cost is below every cost offered to it later: no state needed.
                 if nd < dist[x]:
-                    if dist[x] < np.inf:  # queued: unlink from its old bucket
-                        p = prv[x]
-                        q = nxt[x]
-                        if p == -1:
-                            head[int(dist[x]) & wrap] = q
-                        else:
-                            nxt[p] = q
-                        if q != -1:
-                            prv[q] = p
-                    else:
-                        queued += 1
+                    old = dist[x]
                     dist[x] = nd
-                    t = int(nd) & wrap
-                    q = head[t]
-                    nxt[x] = q
-                    prv[x] = -1
-                    if q != -1:
-                        prv[q] = x
-                    head[t] = x
-            y = head[b]
+                    t = int(nd)
+                    if old < np.inf and int(old) == t:
+                        continue  # queued in that bucket already
+                    if free != -1:
+                        f = free
+                        free = nxt[f]
+                    else:
+                        f = used
+                        used += 1
+                    cell[f] = x
+                    nxt[f] = head[t & wrap]
+                    head[t & wrap] = f
+                    queued += 1
+        if not done:
+            break
         bucket += 1
-    return dist.reshape(H, W)
+    state[0], state[1], state[2], state[3] = bucket, free, used, queued
+    return done
 
 
 class WaveView(NamedTuple):

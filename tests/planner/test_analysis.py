@@ -157,3 +157,17 @@ def test_bad_goal_is_named() -> None:
         planner.goal_wave(a, (2, 0))
     with pytest.raises(planner.InvalidInput, match=r"goal \[9, 9\] is outside the 5 x 8 map"):
         planner.goal_wave(a, (9, 9))
+
+
+def test_a_wave_whose_front_outgrows_its_first_pool_stays_exact() -> None:
+    """A goal in the middle of a 400 x 400 grid: the front (~1,600 cells, some queued twice)
+    outgrows the bucket queue's first pool of 1,024 entries, which grows as the wave goes on."""
+    rng = np.random.default_rng(7)
+    grid = (rng.random((400, 400)) < 0.05).astype(np.uint8)
+    grid[200, 200] = 0
+    a = planner.analyse(grid, seal_tunnels=False, clean_weight=2.0)
+    w = planner.goal_wave(a, (200, 200))
+    passable = a.passable(narrow=False)
+    passable[200, 200] = 1
+    np.testing.assert_allclose(w.k, naive.wave(passable, (200, 200), math.sqrt(2), None))
+    np.testing.assert_allclose(w.kw, naive.wave(passable, (200, 200), math.sqrt(2), a.clean))

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import planner
 from planner import InvalidInput, NoValidPath
-from planner.plans.bounded import SCALES, scaled_analysis
+from planner.plans.bounded import SCALES, Detour, scaled_analysis
 
 RES = 0.05
 START, GOAL = {"x": 1.5, "y": 6.0}, {"x": 4.5, "y": 6.2}
@@ -107,12 +107,15 @@ def test_max_detour_is_checked(value: object, words: str) -> None:
     st.floats(0.0, 0.45),
     st.floats(1.0, 2.0),
     st.sampled_from(["wide", "wfs-mmas"]),
+    st.booleans(),
 )
 def test_never_longer_than_max_detour_times_the_shortest(
-    seed: int, H: int, W: int, density: float, max_detour: float, preset: str
+    seed: int, H: int, W: int, density: float, max_detour: float, preset: str, whole: bool
 ) -> None:
     """On random maps, the ``wide`` route is at most ``max_detour`` times the shortest route
-    (the ``shortest`` preset: tunnels open, no wall term), whatever the weights given."""
+    (the ``shortest`` preset: tunnels open, no wall term), whatever the weights given. With
+    whole-map waves, the shortest route is read off the plan's own wave where its grid is the
+    unsealed one (no tunnel sealed, or the narrow fallback): the same length."""
     rng = np.random.default_rng(seed)
     grid = (rng.random((H, W)) < density).astype(np.int8)
     free = np.argwhere(grid == 0)
@@ -126,7 +129,7 @@ def test_never_longer_than_max_detour_times_the_shortest(
         return
     p = planner.plan(  # wfs-mmas: the paper's sealing and weights, with the wide decision
         grid, start, goal, preset=preset, decision="wide", clean_weight=weight,
-        diagonal_cost=math.sqrt(2), max_detour=max_detour,
+        diagonal_cost=math.sqrt(2), max_detour=max_detour, whole=whole,
     )  # fmt: skip
     assert p.length <= max_detour * short.length * (1 + 1e-9) + 1e-9
     assert p.detour is not None
@@ -234,3 +237,18 @@ def test_a_scaled_wall_term_is_the_analysis_of_the_scaled_weight(robot_radius: f
         assert mine.clean.tobytes() == theirs.clean.tobytes()
         assert mine.params_key == theirs.params_key
         assert mine.penalised == theirs.penalised
+
+
+@pytest.mark.parametrize("whole", [False, True])
+def test_the_bound_measures_the_shortest_route_through_sealed_tunnels(whole: bool) -> None:
+    """A wall with a one-cell corridor (sealed) and a wide way round below it: the shortest
+    route runs through the corridor, so the wide one round (1.6 times longer) is over the bound
+    and the plan opens the tunnel. The whole-map wave of the sealed grid must not stand in for
+    the shortest route's (it reuses the plan's wave only on the same grid)."""
+    grid = np.zeros((17, 21), dtype=np.uint8)
+    grid[:13, 9:12] = 1
+    grid[3, 9:12] = 0
+    assert planner.analyse(grid).sealed == 3
+    p = planner.plan(grid, [3, 0], [3, 20], preset="wide", whole=whole, max_detour=1.3)
+    assert p.detour == Detour(20.0, width_kept=0.0, tunnels_opened=True)
+    assert p.length == 20.0

@@ -15,7 +15,9 @@ from hypothesis import strategies as st
 import planner
 from planner.analysis.cells import FREE, TUNNEL
 from planner.plans.decide import cost_here
+from planner.plans.moves import OPEN_UNSEALED
 from planner.plans.resumable_wave import ResumableWave, resumable_wave
+from planner.plans.search import SETTLED_COUNT, GoalSearch
 from tests import naive
 
 Case = tuple[np.ndarray, tuple[int, int], tuple[int, int]]
@@ -100,7 +102,7 @@ def test_settled_values_are_the_whole_map_waves_to_the_bit(ros: Path, name: str)
     for goal in free[rng.integers(len(free), size=4)]:
         whole = planner.goal_wave(a, goal, diagonal_cost=p.diagonal_cost)
         w = resumable_wave(a, goal, diagonal_cost=p.diagonal_cost)
-        w.budget = a.state.size  # searched to anywhere, never handed over
+        w.budget = w.probe = a.state.size  # searched to anywhere, never handed over
         for r, c in free[rng.integers(len(free), size=6)]:
             w.ensure(int(r), int(c))
         assert w.resumable
@@ -257,6 +259,28 @@ def test_a_near_goal_settles_few_cells_on_a_large_map() -> None:
     assert all(divmod(x, 1024) not in map(tuple, wall) for x in replanned.state.detour)
 
 
+def test_a_route_through_64_waypoints_keeps_its_legs_waves_small() -> None:
+    """Issue 36's M1: 64 waypoints spread over a free map, each leg a few hundred cells long.
+    Each leg's search settles a few tens of thousands of cells; at a budget of 1/64 of the map
+    most legs handed over to whole-map waves (17 bytes a cell each, all held until the route
+    was built: +900 MB on a 1024 x 1024 map in the service)."""
+    side = 512
+    a = planner.analyse_map(
+        planner.grid_map(np.zeros((side, side), dtype=np.uint8), resolution=0.05),
+        planner.resolve_params("wide"),
+    )
+    through = np.random.default_rng(36).integers(0, side, (64, 2)).tolist()
+    p = planner.plan(None, [0, 0], [side - 1] * 2, analysis=a, waypoints=through, bounded=False)
+    assert p.route is not None
+    assert len(p.route.legs) == 65
+    waves = {id(leg.wave): leg.wave for leg in p.route.legs}.values()
+    held = sum(w.nbytes for w in waves)
+    whole = 17 * side * side
+    handed_over = [w for w in waves if not (isinstance(w, ResumableWave) and w.resumable)]
+    assert len(handed_over) <= 12  # 9 (46 at 1/64)
+    assert held < 0.4 * len(waves) * whole, (held, len(waves) * whole)  # 0.27 (0.74 at 1/64)
+
+
 def test_a_far_goal_hands_over_to_the_whole_map_wave() -> None:
     grid = np.zeros((200, 200), dtype=np.uint8)
     a = planner.analyse(grid, seal_tunnels=False, clean_weight=0.5, clean_radius=2)
@@ -361,3 +385,32 @@ def test_the_narrow_fallback_and_detour_keep_the_wave_resumable() -> None:
     wide = planner.detour(p, (70, 20), [[71, 21]], margin=0)
     assert wide[-1].tolist() == [90, 80]
     assert p.wave.resumable
+
+
+def _search_toward(grid: np.ndarray, aim: tuple[int, int]) -> tuple[GoalSearch, bool]:
+    """A ``kw`` search from the corner (0, 0) toward ``aim``, checking its headway after 2,000
+    cells with room for 100,000; whether it settled ``aim``."""
+    a = planner.analyse(grid, seal_tunnels=False, clean_weight=0.5, clean_radius=2)
+    search = GoalSearch(a, 0, open_=OPEN_UNSEALED, use_clean=True, diagonal_cost=SQRT2)
+    target = np.array([aim[0] * grid.shape[1] + aim[1]], dtype=np.int64)
+    return search, search.settle_paced(target, aim, 0.0, 2_000, 100_000)
+
+
+def test_a_search_making_headway_goes_on_past_its_probe() -> None:
+    """Open space, a target ~200 cells away: past the probe the front has covered much of the
+    way, so the search goes on and settles the target (more than the probe's cells)."""
+    search, done = _search_toward(np.zeros((300, 300), dtype=np.uint8), (200, 150))
+    assert done
+    assert search.meta[SETTLED_COUNT] > 2_000
+
+
+def test_a_search_making_little_headway_stops_at_its_probe() -> None:
+    """A wall across the way with its gap at the far end: the front fills the near side first,
+    barely nearer the target, so the search stops at the probe (the whole-map wave takes over)
+    instead of running on to its limit."""
+    grid = np.zeros((300, 300), dtype=np.uint8)
+    grid[20, :290] = 1
+    search, done = _search_toward(grid, (290, 10))
+    assert not done
+    assert 2_000 <= search.meta[SETTLED_COUNT] < 2_100
+    assert search.headway() * 100_000 < search.meta[SETTLED_COUNT]

@@ -13,14 +13,16 @@ import pytest
 from tests.service.conftest import Replica, replicas
 
 SIDE = 1024
-"""A free 1024 x 1024 map at 0.05 m: each leg's wave settles much of it (~12 MB), so that 64
-legs overflow the default cache (512 MB) and evict the first route's waves."""
+"""A free 1024 x 1024 map at 0.05 m: a leg's wave settles up to 1/8 of it (the whole map's,
+~17 MB, past that), so that 64 legs overflow a cache of 48 MB and evict the first route's
+waves."""
 
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Replica]:
     directory = tmp_path_factory.mktemp("waypoints")
-    with replicas("memory://", directory, 1, main=True) as (replica,):
+    env = {"PLANNER_CACHE_BYTES": str(48 << 20)}
+    with replicas("memory://", directory, 1, env, main=True) as (replica,):
         yield replica
 
 

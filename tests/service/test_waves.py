@@ -296,7 +296,7 @@ async def test_concurrent_steps_of_plans_sharing_a_wave_match_sequential_ones(
     assert plans[0].wave is plans[1].wave  # one goal, one wave
     shared = plans[0].wave
     assert isinstance(shared, planner.ResumableWave)
-    shared.budget = grid.size  # resumed by both threads to the end, never handed over
+    shared.budget = shared.probe = grid.size  # resumed by both threads, never handed over
     assert len(cached_waves(engine)) == 1
     sessions = [planner.Session(p) for p in plans]
     refs = [reference(grid, s, GOAL, patience=1, max_detour=100) for s in starts]
