@@ -42,6 +42,6 @@ def test_healthz_answers_while_a_first_plan_analyses_the_largest_map(server: Rep
         with Healthz(server.url) as health:
             r = c.post("/plan", json=ends)
         assert r.status_code == 201, r.text[:300]
-    assert r.json()["analysis"]["analysis_ms"] > 1000  # the whole map was analysed meanwhile
+    assert not r.json()["analysis"]["cache_hit"]  # the whole map was analysed meanwhile
     assert not health.failures, health.failures
     assert health.stall <= STALL_SECONDS, health.stall
