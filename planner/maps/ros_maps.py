@@ -177,9 +177,7 @@ def image_size(data: bytes, *, name: str = "image") -> tuple[int, int]:
 
 def _open_image(data: bytes, name: str) -> Image.Image:
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-            return Image.open(io.BytesIO(data))
+        return Image.open(io.BytesIO(data))
     except Image.DecompressionBombError:
         # Pillow's refusal from the header, before any pixel is decoded (its message states
         # the pixels and the limit): the image is too large, not malformed.
@@ -204,6 +202,13 @@ def _reason(exc: object) -> str:
 
 _OBJECT_REPR = re.compile(r"<[^<>]*? at 0x[0-9a-fA-F]+>")
 
+# Pillow warns of images past its pixel limit (89 M pixels; it refuses those past twice that,
+# ``TOO_LARGE`` above): a map that large is a map, not a decompression bomb, and the service
+# sizes every image from its header against its own limit before decoding. A filter set once,
+# not ``warnings.catch_warnings()`` round each decode: that saves and restores the process's
+# filters from worker threads, undoing another thread's (FastAPI's) meanwhile.
+warnings.filterwarnings("ignore", category=Image.DecompressionBombWarning)
+
 
 def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> RobotMap:
     """Decode an occupancy image as ``map_server`` does, in numpy: a pixel's shade is the mean
@@ -214,8 +219,7 @@ def decode_map_image(data: bytes, meta: MapYaml, *, name: str = "image") -> Robo
     ``round(shade * 255)`` if it is in 0..100, else -1."""
     fields = ("yaml.resolution", "yaml.origin")
     try:
-        with _open_image(data, name) as image, warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        with _open_image(data, name) as image:
             frame = framed((image.height, image.width), meta.resolution, meta.origin, fields=fields)
             scaled = _netpbm_scaled(data, image, name)
             if scaled is None:
