@@ -365,8 +365,8 @@ class GoalSearch:
         return self.settle(targets, aim, slack, limit)
 
     def headway(self) -> float:
-        """How much of the way from the goal to the cells aimed at the search's front has gone
-        (0 to 1): one less the least heuristic on its open list over the goal's."""
+        """The share of the way from the goal to the cell aimed at that the search's front has
+        covered (0 to 1): one less the least heuristic on its open list over the goal's."""
         tr, tc = self.aim
         gr, gc = divmod(self.goal, self.width)
         whole = _heuristic(gr, gc, tr, tc, self.diagonal_cost, self.slack)
